@@ -1,0 +1,228 @@
+"""Typed configuration and presets.
+
+A run is described by one `Config`: data, field, sampler and training settings, each a
+small dataclass. Presets are complete `Config`s; the CLI starts from a preset and
+overrides single knobs (`--preset seed --max-steps 5000`). The resolved config is saved
+as JSON in the run folder so `eval`, `render` and `--resume` rebuild the same model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from nerfkit.errors import ConfigError
+
+
+@dataclass
+class DataConfig:
+    """Which images to load and how."""
+
+    train_split: str = "train"
+    """Frames to train on: comma-separated `split` or `split[a:b]`, e.g. "train,val[0:50]"."""
+    val_split: str = "val"
+    """Frames for periodic validation, same syntax as --train-split."""
+    downscale: int | None = None
+    """Shrink images by this integer factor (area resampling). Overrides --target-width."""
+    target_width: int | None = None
+    """Pick the downscale factor that gives this image width (must divide the width)."""
+    background: Literal["white", "black"] = "white"
+    """Colour RGBA images are composited on, and the colour rendered behind the field."""
+
+
+@dataclass
+class FieldConfig:
+    """The radiance field F(x, d) -> (rgb, sigma)."""
+
+    kind: Literal["mlp", "ngp"] = "mlp"
+    """mlp: positional-encoded MLP of the original NeRF. ngp: hash grid + tiny MLPs."""
+    depth: int = 8
+    """MLP trunk layers D; the encoded input is concatenated back in after layer D/2."""
+    width: int = 256
+    """MLP trunk width W."""
+    pe: bool = True
+    """Positional encoding of position and direction; --no-pe feeds raw coordinates."""
+    l_xyz: int = 10
+    """Number of positional-encoding frequencies for positions."""
+    l_dir: int = 4
+    """Number of positional-encoding frequencies for view directions."""
+    viewdirs: bool = True
+    """Condition colour on the view direction."""
+
+
+@dataclass
+class SamplerConfig:
+    """How points are placed along rays."""
+
+    n_samples: int = 64
+    """Stratified samples per ray (coarse samples when hierarchical sampling is on)."""
+    n_importance: int = 0
+    """Extra fine samples from the coarse weights (inverse CDF); 0 disables the fine network."""
+    near: float = 2.0
+    """Near bound of the ray interval, in z-depth (units of the camera's viewing axis)."""
+    far: float = 6.0
+    """Far bound of the ray interval."""
+    perturb: bool = True
+    """Jitter samples within their bins while training (stratified); eval uses bin midpoints."""
+
+
+@dataclass
+class TrainConfig:
+    """Optimisation, logging and checkpointing."""
+
+    max_steps: int = 200_000
+    """Train until this step (in total, also with --resume)."""
+    max_minutes: float | None = None
+    """Stop after this many minutes of wall time (compile included), whichever comes first."""
+    batch_rays: int = 1024
+    """Rays per step, drawn at random across all training images."""
+    lr: float = 5e-4
+    """Adam learning rate at step 0."""
+    lr_decay_steps: int = 250_000
+    """lr(step) = lr * decay_rate ** (step / lr_decay_steps)."""
+    lr_decay_rate: float = 0.1
+    """See --lr-decay-steps."""
+    seed: int = 0
+    """Seeds initialisation and every step's randomness (runs are reproducible)."""
+    precrop_steps: int = 0
+    """For the first N steps draw rays only from the image centre (helps white-background scenes start)."""
+    precrop_frac: float = 0.5
+    """Fraction of the image side used during the centre-crop warm-up."""
+    val_every: int = 2500
+    """Validate every N steps (and at the end)."""
+    val_views: int = 4
+    """Number of validation views rendered at each validation (evenly spread over the val split)."""
+    ckpt_every: int = 5000
+    """Write a checkpoint every N steps (and at the end or on interrupt)."""
+    keep_ckpts: int = 3
+    """Checkpoints kept; older ones are deleted once a newer one is safely on disk."""
+    log_every: int = 50
+    """Append a metrics.jsonl row every N steps."""
+    chunk: int = 4096
+    """Rays rendered at once in full-image rendering; bounds memory."""
+    max_bad_steps: int = 5
+    """Stop the run after this many consecutive non-finite losses or gradients."""
+
+
+@dataclass
+class Config:
+    """A complete nerfkit run."""
+
+    data: DataConfig = dataclasses.field(default_factory=DataConfig)
+    field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
+    sampler: SamplerConfig = dataclasses.field(default_factory=SamplerConfig)
+    train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2)
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> "Config":
+        try:
+            return Config(
+                data=DataConfig(**d["data"]),
+                field=FieldConfig(**d["field"]),
+                sampler=SamplerConfig(**d["sampler"]),
+                train=TrainConfig(**d["train"]),
+            )
+        except (KeyError, TypeError) as e:
+            raise ConfigError(f"config is not a nerfkit config ({e})") from None
+
+
+def validate(cfg: Config) -> Config:
+    """Raise ConfigError naming the first bad value; return cfg unchanged otherwise."""
+    s, t, f, d = cfg.sampler, cfg.train, cfg.field, cfg.data
+
+    def need(ok: bool, msg: str) -> None:
+        if not ok:
+            raise ConfigError(msg)
+
+    need(math.isfinite(s.near) and math.isfinite(s.far), "--near and --far must be finite numbers")
+    need(s.near >= 0, f"--near must be >= 0 (got {s.near})")
+    need(s.near < s.far, f"--near must be smaller than --far (got near={s.near}, far={s.far})")
+    need(s.n_samples >= 2, f"--n-samples must be at least 2 (got {s.n_samples})")
+    need(s.n_importance >= 0, f"--n-importance must be >= 0 (got {s.n_importance})")
+    need(t.max_steps >= 0, f"--max-steps must be >= 0 (got {t.max_steps})")
+    need(t.max_minutes is None or t.max_minutes > 0, f"--max-minutes must be positive (got {t.max_minutes})")
+    need(t.batch_rays >= 1, f"--batch-rays must be >= 1 (got {t.batch_rays})")
+    need(t.lr > 0 and math.isfinite(t.lr), f"--lr must be a positive number (got {t.lr})")
+    need(t.lr_decay_steps > 0, f"--lr-decay-steps must be positive (got {t.lr_decay_steps})")
+    need(0 < t.lr_decay_rate <= 1, f"--lr-decay-rate must be in (0, 1] (got {t.lr_decay_rate})")
+    need(0 < t.precrop_frac <= 1, f"--precrop-frac must be in (0, 1] (got {t.precrop_frac})")
+    need(t.precrop_steps >= 0, f"--precrop-steps must be >= 0 (got {t.precrop_steps})")
+    for name in ("val_every", "ckpt_every", "log_every", "chunk", "val_views", "keep_ckpts", "max_bad_steps"):
+        v = getattr(t, name)
+        need(v >= 1, f"--{name.replace('_', '-')} must be >= 1 (got {v})")
+    need(f.depth >= 1, f"--depth must be >= 1 (got {f.depth})")
+    need(f.width >= 1, f"--width must be >= 1 (got {f.width})")
+    need(f.l_xyz >= 0 and f.l_dir >= 0, f"--l-xyz and --l-dir must be >= 0 (got {f.l_xyz}, {f.l_dir})")
+    need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
+    need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")
+    return cfg
+
+
+def _seed() -> Config:
+    # The reference report's Model-1: D=4, W=128, L=10/4, 64 stratified samples, near 0,
+    # far 5, 1024 rays/step, lr 5e-4 * 0.1^(step/250k), seed protocol at 200x200.
+    return Config(
+        data=DataConfig(train_split="train,val[0:50]", val_split="val[50:100]", target_width=200),
+        field=FieldConfig(depth=4, width=128, l_xyz=10, l_dir=4),
+        sampler=SamplerConfig(n_samples=64, n_importance=0, near=0.0, far=5.0),
+        train=TrainConfig(val_every=1000, ckpt_every=1000, val_views=4),
+    )
+
+
+def _nerf() -> Config:
+    # Mildenhall et al. 2020, Blender scenes: D=8, W=256, 64 coarse + 128 fine samples,
+    # near 2, far 6, 1024 rays, centre-crop warm-up of 500 steps, lr decay over 500k steps.
+    return Config(
+        field=FieldConfig(depth=8, width=256),
+        sampler=SamplerConfig(n_samples=64, n_importance=128, near=2.0, far=6.0),
+        train=TrainConfig(lr_decay_steps=500_000, precrop_steps=500, precrop_frac=0.5),
+    )
+
+
+def _demo() -> Config:
+    # Sized for the embedded procedural scene (camera radius 4, geometry within 1.2 of the
+    # origin, 64 px) so `nerfkit demo` trains, evaluates and renders in a few minutes.
+    return Config(
+        field=FieldConfig(depth=4, width=128, l_xyz=8, l_dir=4),
+        sampler=SamplerConfig(n_samples=48, near=2.0, far=6.0),
+        train=TrainConfig(
+            max_steps=3000, batch_rays=1024, lr=5e-4, lr_decay_steps=250_000, val_every=1000,
+            ckpt_every=1000, val_views=3, log_every=25,
+        ),
+    )
+
+
+def _tiny() -> Config:
+    # Smallest sensible model: used by the test-suite and smoke tests.
+    return Config(
+        field=FieldConfig(depth=2, width=32, l_xyz=4, l_dir=2),
+        sampler=SamplerConfig(n_samples=16, near=2.0, far=6.0),
+        train=TrainConfig(
+            max_steps=50, batch_rays=256, lr=5e-3, val_every=25, ckpt_every=25, val_views=1, log_every=5,
+            chunk=1024,
+        ),
+    )
+
+
+PRESETS = {"seed": _seed, "nerf": _nerf, "demo": _demo, "tiny": _tiny}
+PRESET_HELP = {
+    "seed": "the reference report's Model-1 (D=4, W=128, 64 samples, near 0, far 5, seed protocol, 200x200)",
+    "nerf": "the original NeRF (D=8, W=256, 64 coarse + 128 fine, near 2, far 6)",
+    "demo": "small model for the embedded procedural scene",
+    "tiny": "smallest model, for tests",
+}
+
+
+def preset(name: str) -> Config:
+    if name not in PRESETS:
+        raise ConfigError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
+    return PRESETS[name]()

@@ -1,0 +1,24 @@
+"""Image quality metrics."""
+
+from __future__ import annotations
+
+import numpy as np
+from skimage.metrics import structural_similarity
+
+
+def mse_to_psnr(mse):
+    """PSNR in dB of images in [0, 1]: -10 log10(MSE)."""
+    return -10.0 * np.log10(np.maximum(mse, 1e-12))
+
+
+def psnr(pred: np.ndarray, target: np.ndarray) -> float:
+    return float(mse_to_psnr(np.mean((np.asarray(pred, np.float64) - np.asarray(target, np.float64)) ** 2)))
+
+
+def ssim(pred: np.ndarray, target: np.ndarray) -> float:
+    """SSIM of [H, W, 3] images in [0, 1]: 11x11 Gaussian window, sigma 1.5 (Wang et al. 2004),
+    the variant reported by NeRF papers."""
+    return float(structural_similarity(
+        np.asarray(pred, np.float64), np.asarray(target, np.float64), data_range=1.0, channel_axis=-1,
+        gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
+    ))

@@ -1,0 +1,93 @@
+"""Volume rendering: the discrete render equation of NeRF (Max 1995; Mildenhall et al. 2020).
+
+Samples t_1 < ... < t_N along a ray o + t d with densities sigma_i and colours c_i:
+
+    delta_i = (t_{i+1} - t_i) |d|          (world-space length of sample i's interval)
+    alpha_i = 1 - exp(-sigma_i delta_i)
+    T_i     = prod_{j<i} (1 - alpha_j) = exp(-sum_{j<i} sigma_j delta_j)
+    w_i     = T_i alpha_i
+    colour  = sum_i w_i c_i + (1 - sum_i w_i) * background
+    depth   = sum_i w_i t_i                 (z-depth, see cameras.py)
+    opacity = sum_i w_i  (= 1 - T_{N+1} <= 1)
+
+The last sample's interval is the nominal bin width (far - near) / N rather than the
+original NeRF's 1e10: with 1e10 every ray becomes opaque at its last sample, which
+makes opacity meaningless and forces the field to paint the background; with a finite
+interval, rays through empty space keep opacity ~0 and show the background colour.
+Both a dense form ([R, N] samples per ray) and a packed form (a flat list of samples with
+ray indices, for fields that skip empty space) are provided.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+
+def sample_intervals(t: jnp.ndarray, last_interval: float) -> jnp.ndarray:
+    """Interval lengths in t [..., N]: t_{i+1} - t_i, and `last_interval` for the last sample."""
+    last = jnp.full_like(t[..., :1], last_interval)
+    return jnp.concatenate([t[..., 1:] - t[..., :-1], last], axis=-1)
+
+
+def compositing_weights(sigma: jnp.ndarray, delta: jnp.ndarray) -> jnp.ndarray:
+    """w_i = T_i (1 - exp(-sigma_i delta_i)) for densities and interval lengths [..., N]."""
+    tau = sigma * delta  # optical depth of each interval
+    alpha = 1.0 - jnp.exp(-tau)
+    trans = jnp.exp(-jnp.concatenate([jnp.zeros_like(tau[..., :1]), jnp.cumsum(tau[..., :-1], axis=-1)], axis=-1))
+    return trans * alpha
+
+
+def composite(weights: jnp.ndarray, rgb: jnp.ndarray, t: jnp.ndarray, background: jnp.ndarray) -> dict:
+    """Accumulate per-sample weights [..., N], colours [..., N, 3], distances [..., N].
+
+    Returns rgb [..., 3] (on `background` [3]), depth [...] (sum w t), opacity [...],
+    and depth_normalized [...] = depth / opacity (the expected depth given a hit; far
+    where the ray hits nothing, which cannot be told apart from the opacity alone).
+    """
+    opacity = jnp.sum(weights, axis=-1)
+    color = jnp.sum(weights[..., None] * rgb, axis=-2) + (1.0 - opacity[..., None]) * background
+    depth = jnp.sum(weights * t, axis=-1)
+    depth_norm = jnp.where(opacity > 1e-6, depth / jnp.maximum(opacity, 1e-6), t[..., -1])
+    return {"rgb": color, "depth": depth, "opacity": opacity, "depth_normalized": depth_norm}
+
+
+def volume_render(sigma, rgb, t, dir_norm, last_interval, background) -> dict:
+    """Dense render of samples [R, N] (sigma, t), [R, N, 3] (rgb) for rays with |d| [R].
+
+    Returns composite(...) plus the weights [R, N] (hierarchical sampling needs them).
+    """
+    delta = sample_intervals(t, last_interval) * dir_norm[..., None]
+    w = compositing_weights(sigma, delta)
+    out = composite(w, rgb, t, background)
+    out["weights"] = w
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# Packed form: S samples in one flat list, sorted by ray then t; ray_idx [S] names the ray.
+
+
+def packed_compositing_weights(sigma, delta, ray_idx, valid, n_rays: int, min_transmittance: float = 0.0):
+    """w_i of packed samples [S]; invalid samples get weight 0 and no optical depth.
+
+    T_i = exp(-(C_{i} - C_{start(ray_i)})) with C the exclusive running sum of sigma delta
+    over the whole list, so each ray's sum starts at zero. Samples whose transmittance is
+    already below `min_transmittance` get weight 0 (early ray termination).
+    """
+    tau = jnp.where(valid, sigma * delta, 0.0)
+    csum = jnp.cumsum(tau) - tau  # exclusive
+    first = jax.ops.segment_min(jnp.where(valid, jnp.arange(tau.shape[0]), tau.shape[0]), ray_idx, n_rays)
+    start = jnp.take(jnp.concatenate([csum, jnp.zeros(1, csum.dtype)]), jnp.clip(first, 0, tau.shape[0]))[ray_idx]
+    trans = jnp.exp(-(csum - start))
+    w = trans * (1.0 - jnp.exp(-tau))
+    return jnp.where(valid & (trans >= min_transmittance), w, 0.0)
+
+
+def packed_composite(weights, rgb, t, ray_idx, n_rays: int, background) -> dict:
+    """Per-ray rgb [n_rays, 3], depth, opacity and depth_normalized from packed samples [S]."""
+    opacity = jax.ops.segment_sum(weights, ray_idx, n_rays)
+    color = jax.ops.segment_sum(weights[:, None] * rgb, ray_idx, n_rays) + (1.0 - opacity[:, None]) * background
+    depth = jax.ops.segment_sum(weights * t, ray_idx, n_rays)
+    depth_norm = depth / jnp.maximum(opacity, 1e-6)
+    return {"rgb": color, "depth": depth, "opacity": opacity, "depth_normalized": depth_norm}

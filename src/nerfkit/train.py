@@ -1,0 +1,334 @@
+"""Training: the jit-compiled step, and the run loop that writes the run folder.
+
+Run folder layout (see README):
+
+    config.json          resolved config          scene.json      camera/image facts
+    metrics.jsonl        step, loss, psnr, lr, elapsed (train)
+    val_metrics.jsonl    step, psnr, elapsed, per-view PSNR (validation)
+    plots/               train_loss.png, train_psnr.png, val_psnr.png
+    val/step_XXXXXXX/    view_K.png (ground truth | render | depth), view_K_depth.npy
+    checkpoints/         ckpt_XXXXXXXX.msgpack (the newest `keep_ckpts`)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from tqdm.auto import tqdm
+
+from nerfkit import checkpoint as ckpt_lib
+from nerfkit.cameras import rays_from_pixels
+from nerfkit.config import Config, validate
+from nerfkit.data.blender import SceneData, load_blender
+from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.inference import Renderer
+from nerfkit.metrics import psnr as psnr_np
+from nerfkit.model import build_model
+from nerfkit.viz import (colorize_depth, depth_range, plot_curves, read_jsonl, save_png, side_by_side)
+
+
+def make_optimizer(cfg: Config):
+    """Adam with lr(step) = lr * decay_rate ** (step / decay_steps), continuous decay."""
+    t = cfg.train
+    schedule = optax.exponential_decay(t.lr, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
+    return optax.adam(schedule), schedule
+
+
+def make_train_step(model, optimizer, data: SceneData, cfg: Config):
+    """A jitted step(state, step, images, poses) -> (state, metrics).
+
+    Each step draws `batch_rays` pixels uniformly over all training images (inside the
+    centre crop while step < precrop_steps), renders them and applies one Adam update.
+    The randomness of step s is fold_in(PRNGKey(seed), s), so a resumed run repeats
+    exactly. A step whose loss or gradients are not finite is not applied.
+    """
+    t = cfg.train
+    h, w, focal = data.height, data.width, data.focal
+    base_key = jax.random.PRNGKey(t.seed)
+    crop_h = max(1, int(round(h * t.precrop_frac)))
+    crop_w = max(1, int(round(w * t.precrop_frac)))
+
+    def step_fn(state, step, images, poses):
+        key = jax.random.fold_in(base_key, step)
+        k_img, k_i, k_j, k_render, k_aux = jax.random.split(key, 5)
+        n = images.shape[0]
+        b = t.batch_rays
+        img = jax.random.randint(k_img, (b,), 0, n)
+        cropping = step < t.precrop_steps
+        hh = jnp.where(cropping, crop_h, h)
+        ww = jnp.where(cropping, crop_w, w)
+        i = (h - hh) // 2 + jnp.floor(jax.random.uniform(k_i, (b,)) * hh).astype(jnp.int32)
+        j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
+        o, d = rays_from_pixels(poses[img], i.astype(jnp.float32), j.astype(jnp.float32), h, w, focal)
+        target = images[img, i, j]
+        params, aux = state["params"], state["aux"]
+        aux = model.update_aux(params, aux, step, k_aux)
+
+        def loss_fn(p):
+            out = model.render_rays(p, aux, o, d, k_render, train=True)
+            loss, parts = model.losses(out, target)
+            return loss, (parts, out)
+
+        (loss, (parts, out)), grads = jax.value_and_grad(loss_fn, has_aux=True)(params)
+        updates, opt_state = optimizer.update(grads, state["opt_state"], params)
+        new_params = optax.apply_updates(params, updates)
+        finite = jnp.isfinite(loss)
+        for g in jax.tree_util.tree_leaves(grads):
+            finite = finite & jnp.all(jnp.isfinite(g))
+        keep = lambda new, old: jnp.where(finite, new, old)  # noqa: E731
+        new_state = {
+            "params": jax.tree_util.tree_map(keep, new_params, params),
+            "opt_state": jax.tree_util.tree_map(keep, opt_state, state["opt_state"]),
+            "aux": aux,
+        }
+        metrics = {"loss": loss, "mse": parts["mse"], "finite": finite}
+        if hasattr(model, "step_metrics"):
+            metrics.update(model.step_metrics(out))
+        return new_state, metrics
+
+    return jax.jit(step_fn, donate_argnums=(0,))
+
+
+@dataclass
+class TrainResult:
+    run_dir: Path
+    step: int
+    val_psnr: float | None
+    steps_per_second: float
+    interrupted: bool
+
+
+class _StopFlag:
+    """SIGINT / SIGTERM ask the loop to stop after the current step; a second SIGINT aborts."""
+
+    def __init__(self):
+        self.signal_name: str | None = None
+        self._old = {}
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._old[sig] = signal.signal(sig, self._handle)
+            except ValueError:  # not the main thread: no signal handling
+                pass
+        return self
+
+    def _handle(self, signum, frame):
+        if self.signal_name is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.signal_name = signal.Signals(signum).name
+        tqdm.write(f"{self.signal_name} received: finishing this step, saving a checkpoint (Ctrl-C again to abort)")
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+
+
+def load_run_config(run_dir: Path) -> Config:
+    path = Path(run_dir) / "config.json"
+    if not path.is_file():
+        raise ConfigError(f"{path}: missing; is {run_dir} a nerfkit run folder?")
+    try:
+        return Config.from_dict(json.loads(path.read_text()))
+    except json.JSONDecodeError as e:
+        raise ConfigError(f"{path}: not valid JSON ({e})") from None
+
+
+def init_state(model, optimizer, seed: int):
+    params, aux = model.init(jax.random.PRNGKey(seed))
+    return {"params": params, "opt_state": optimizer.init(params), "aux": aux}
+
+
+def load_trained(run_dir: Path):
+    """(cfg, model, params, aux, step) of the newest checkpoint in a run folder."""
+    run_dir = Path(run_dir)
+    cfg = load_run_config(run_dir)
+    model = build_model(cfg)
+    optimizer, _ = make_optimizer(cfg)
+    path = ckpt_lib.latest_checkpoint(run_dir / "checkpoints")
+    if path is None:
+        raise NerfkitError(f"{run_dir / 'checkpoints'}: no checkpoint yet; train first")
+    step, state = ckpt_lib.restore_checkpoint(path, init_state(model, optimizer, cfg.train.seed), cfg.to_dict()["field"])
+    return cfg, model, state["params"], state["aux"], step
+
+
+def evenly_spaced(n: int, k: int) -> list[int]:
+    k = min(k, n)
+    return sorted({int(round(x)) for x in np.linspace(0, n - 1, k)})
+
+
+class Trainer:
+    def __init__(self, data_dir: str | Path, run_dir: str | Path, cfg: Config, resume: bool = False,
+                 progress: bool = True):
+        self.cfg = validate(cfg)
+        self.data_dir = Path(data_dir)
+        self.run_dir = Path(run_dir)
+        self.resume = resume
+        self.progress = progress
+        self.ckpt_dir = self.run_dir / "checkpoints"
+        if not resume and ckpt_lib.list_checkpoints(self.ckpt_dir):
+            raise NerfkitError(f"{self.run_dir}: already holds a run; pass --resume to continue it or pick a new --out")
+        d = cfg.data
+        self.train_data = load_blender(self.data_dir, d.train_split, downscale=d.downscale,
+                                       target_width=d.target_width, background=d.background)
+        self.val_data = load_blender(self.data_dir, d.val_split, downscale=d.downscale,
+                                     target_width=d.target_width, background=d.background)
+        if (self.val_data.height, self.val_data.width) != (self.train_data.height, self.train_data.width):
+            raise NerfkitError(f"{self.data_dir}: validation images ({self.val_data.width}x{self.val_data.height}) "
+                               f"differ in size from training images ({self.train_data.width}x{self.train_data.height})")
+        self.model = build_model(cfg)
+        self.optimizer, self.schedule = make_optimizer(cfg)
+        self.renderer = Renderer(self.model, cfg.train.chunk)
+        self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
+
+    # -- run folder -------------------------------------------------------------------
+    def _write_run_files(self):
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        (self.run_dir / "config.json").write_text(self.cfg.to_json())
+        td = self.train_data
+        scene = {"data_dir": str(self.data_dir.resolve()), "height": td.height, "width": td.width, "focal": td.focal,
+                 "n_train": len(td), "n_val": len(self.val_data)}
+        (self.run_dir / "scene.json").write_text(json.dumps(scene, indent=2))
+
+    def _append(self, name: str, row: dict):
+        with open(self.run_dir / name, "a") as f:
+            f.write(json.dumps(row) + "\n")
+
+    def _truncate_logs(self, step: int):
+        """After a resume, drop log rows past the restored step (written after the checkpoint)."""
+        for name in ("metrics.jsonl", "val_metrics.jsonl"):
+            rows = [r for r in read_jsonl(self.run_dir / name) if r.get("step", 0) <= step]
+            (self.run_dir / name).write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+    def plot(self):
+        rows = read_jsonl(self.run_dir / "metrics.jsonl")
+        vrows = read_jsonl(self.run_dir / "val_metrics.jsonl")
+        plots = self.run_dir / "plots"
+        steps = [r["step"] for r in rows]
+        plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", "loss (MSE)",
+                    "Training loss", logy=True)
+        plot_curves({"train": (steps, [r["psnr"] for r in rows])}, plots / "train_psnr.png", "step", "PSNR (dB)",
+                    "Training PSNR")
+        plot_curves({"val": ([r["step"] for r in vrows], [r["psnr"] for r in vrows])}, plots / "val_psnr.png", "step",
+                    "PSNR (dB)", "Validation PSNR")
+
+    def validate(self, state, step: int, elapsed: float) -> float:
+        """Render the validation views, save them beside ground truth, log mean PSNR."""
+        out_dir = self.run_dir / "val" / f"step_{step:07d}"
+        vd = self.val_data
+        bg = (1.0, 1.0, 1.0) if self.cfg.data.background == "white" else (0.0, 0.0, 0.0)
+        scores, renders = [], []
+        for k in self.val_ids:
+            r = self.renderer.render_image(state["params"], state["aux"], vd.poses[k], vd.height, vd.width, vd.focal)
+            scores.append(psnr_np(r["rgb"], vd.images[k]))
+            renders.append(r)
+        lo, hi = depth_range([r["depth_normalized"] for r in renders], [r["opacity"] for r in renders])
+        for k, r in zip(self.val_ids, renders):
+            depth_img = colorize_depth(r["depth_normalized"], r["opacity"], lo, hi, bg)
+            save_png(out_dir / f"view_{k:03d}.png", side_by_side([vd.images[k], r["rgb"], depth_img]))
+            np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
+        mean = float(np.mean(scores))
+        self._append("val_metrics.jsonl", {"step": step, "psnr": mean, "elapsed": round(elapsed, 2),
+                                           "views": self.val_ids, "per_view": [round(s, 3) for s in scores]})
+        self.plot()
+        return mean
+
+    def save(self, state, step: int, elapsed: float):
+        full = dict(state, elapsed=np.float64(elapsed))
+        ckpt_lib.save_checkpoint(self.ckpt_dir, step, full, self.cfg.to_dict()["field"], self.cfg.train.keep_ckpts)
+
+    # -- the loop ---------------------------------------------------------------------
+    def run(self) -> TrainResult:
+        cfg, t = self.cfg, self.cfg.train
+        self._write_run_files()
+        state = init_state(self.model, self.optimizer, t.seed)
+        step, elapsed0 = 0, 0.0
+        if self.resume:
+            path = ckpt_lib.latest_checkpoint(self.ckpt_dir)
+            if path is not None:
+                target = dict(state, elapsed=np.float64(0))
+                step, restored = ckpt_lib.restore_checkpoint(path, target, cfg.to_dict()["field"])
+                elapsed0 = float(restored.pop("elapsed"))
+                state = jax.tree_util.tree_map(jnp.asarray, restored)
+                self._truncate_logs(step)
+                tqdm.write(f"resumed from {path} at step {step}")
+            else:
+                tqdm.write(f"no checkpoint in {self.ckpt_dir}: starting from step 0")
+        images = jnp.asarray(self.train_data.images)
+        poses = jnp.asarray(self.train_data.poses)
+        step_fn = make_train_step(self.model, self.optimizer, self.train_data, cfg)
+
+        start = time.perf_counter()
+        deadline = start + 60 * t.max_minutes if t.max_minutes else math.inf
+        bad_streak, last_val, last_val_step = 0, None, -1
+        pending = []  # device metrics not yet logged
+        first_step = step
+        bar = tqdm(total=t.max_steps, initial=step, disable=not self.progress, dynamic_ncols=True,
+                   desc="train", unit="step", file=sys.stderr, mininterval=1.0)
+        interrupted = False
+        with _StopFlag() as stop:
+            while step < t.max_steps:
+                if time.perf_counter() >= deadline:
+                    tqdm.write(f"--max-minutes {t.max_minutes} reached at step {step}")
+                    break
+                state, m = step_fn(state, jnp.int32(step), images, poses)
+                step += 1
+                pending.append((step, m))
+                bar.update(1)
+                if step % t.log_every == 0 or step == t.max_steps or stop.signal_name:
+                    elapsed = elapsed0 + time.perf_counter() - start
+                    for s, mm in pending:
+                        finite = bool(mm["finite"])
+                        if not finite:
+                            bad_streak += 1
+                            tqdm.write(f"step {s}: non-finite loss or gradient ({float(mm['loss'])}); update skipped")
+                            if bad_streak >= t.max_bad_steps:
+                                raise NerfkitError(
+                                    f"stopping: {bad_streak} non-finite steps in a row (last at step {s}); "
+                                    f"the last good checkpoint in {self.ckpt_dir} is intact. Try a lower --lr.")
+                        else:
+                            bad_streak = 0
+                    s, mm = pending[-1]
+                    loss, mse = float(mm["loss"]), float(mm["mse"])
+                    row = {"step": s, "loss": loss, "psnr": float(-10 * np.log10(max(mse, 1e-12))),
+                           "lr": float(self.schedule(s)), "elapsed": round(elapsed, 3)}
+                    for k, v in mm.items():
+                        if k not in ("loss", "mse", "finite"):
+                            row[k] = float(v)
+                    self._append("metrics.jsonl", row)
+                    pending.clear()
+                    bar.set_postfix(loss=f"{loss:.4f}", psnr=f"{row['psnr']:.2f}",
+                                    val=f"{last_val:.2f}" if last_val is not None else "-")
+                if stop.signal_name:
+                    interrupted = True
+                    break
+                if step % t.val_every == 0:
+                    last_val = self.validate(state, step, elapsed0 + time.perf_counter() - start)
+                    last_val_step = step
+                    tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB")
+                if step % t.ckpt_every == 0:
+                    self.save(state, step, elapsed0 + time.perf_counter() - start)
+            bar.close()
+            elapsed = elapsed0 + time.perf_counter() - start
+            if not interrupted and last_val_step != step and step > 0:
+                last_val = self.validate(state, step, elapsed)
+                tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB")
+            self.save(state, step, elapsed)
+        if not read_jsonl(self.run_dir / "val_metrics.jsonl") or interrupted:
+            self.plot()
+        run_time = time.perf_counter() - start
+        sps = (step - first_step) / run_time if run_time > 0 else 0.0
+        if interrupted:
+            tqdm.write(f"stopped at step {step}; checkpoint saved. Resume with:\n"
+                       f"  nerfkit train {self.data_dir} --out {self.run_dir} --resume")
+        return TrainResult(self.run_dir, step, last_val, sps, interrupted)
