@@ -282,6 +282,7 @@ class Trainer:
                     tqdm.write(f"--max-minutes {t.max_minutes} reached at step {step}")
                     break
                 state, m = step_fn(state, jnp.int32(step), images, poses)
+                jax.block_until_ready(m)  # keeps the bar's rate and ETA honest (steps are compute-bound)
                 step += 1
                 pending.append((step, m))
                 bar.update(1)

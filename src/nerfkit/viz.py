@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from pathlib import Path
 
 import imageio.v2 as imageio_v2
@@ -62,6 +63,14 @@ def write_video(path: Path, frames: list[np.ndarray], fps: int = 24) -> None:
     frames = [to_uint8(f) if f.dtype != np.uint8 else f for f in frames]
     h, w = frames[0].shape[:2]
     h2, w2 = h - h % 2, w - w % 2  # yuv420p needs even sizes
+    with warnings.catch_warnings():
+        # imageio-ffmpeg forks ffmpeg; JAX warns about fork in a threaded process, but the
+        # child execs ffmpeg at once and never touches JAX.
+        warnings.filterwarnings("ignore", message="os.fork", category=RuntimeWarning)
+        _write_frames(path, frames, fps, h2, w2)
+
+
+def _write_frames(path, frames, fps, h2, w2):
     with imageio_v2.get_writer(path, fps=fps, codec="libx264", quality=8, macro_block_size=1,
                                pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
         for f in frames:
