@@ -1,0 +1,118 @@
+"""CLI smoke tests: every verb runs, writes what it promises, and fails cleanly on bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from nerfkit import checkpoint as ckpt_lib
+from nerfkit.cli import main
+from nerfkit.data.scene import make_scene
+
+TRAIN = ["--preset", "tiny", "--no-progress", "--max-steps", "8", "--val-every", "4", "--ckpt-every", "4",
+         "--log-every", "2"]
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    return make_scene(tmp_path_factory.mktemp("cli") / "scene", size=16, n_train=6, n_val=2, n_test=3)
+
+
+@pytest.fixture(scope="module")
+def run(scene, tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli") / "run"
+    assert main(["train", str(scene), "--out", str(out), *TRAIN]) == 0
+    return out
+
+
+def test_help_lists_commands(capsys):
+    assert main(["--help"]) == 0
+    text = capsys.readouterr().out
+    for verb in ("demo", "make-scene", "train", "eval", "render"):
+        assert verb in text
+
+
+def test_console_script_entry_point():
+    out = subprocess.run([sys.executable, "-m", "nerfkit", "train", "--help"], capture_output=True, text=True)
+    assert out.returncode == 0
+    for flag in ("--out", "--preset", "--max-steps", "--max-minutes", "--downscale", "--seed", "--resume",
+                 "--train-split", "--val-split", "--no-pe", "--n-importance", "--depth", "--width"):
+        assert flag in out.stdout, flag
+
+
+def test_unknown_command_fails(capsys):
+    assert main(["fly"]) == 2
+    assert "unknown command" in capsys.readouterr().err
+
+
+def test_train_writes_run_folder(run):
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["train"]["max_steps"] == 8 and cfg["field"]["width"] == 32
+    assert [r["step"] for r in map(json.loads, (run / "metrics.jsonl").read_text().splitlines())] == [2, 4, 6, 8]
+    assert [p.name for p in ckpt_lib.list_checkpoints(run / "checkpoints")] == ["ckpt_00000004.msgpack",
+                                                                               "ckpt_00000008.msgpack"]
+    assert (run / "plots" / "val_psnr.png").is_file()
+
+
+def test_train_refuses_to_overwrite_a_run(scene, run, capsys):
+    assert main(["train", str(scene), "--out", str(run), *TRAIN]) == 1
+    assert "--resume" in capsys.readouterr().err
+
+
+def test_resume_continues_to_total_steps(scene, tmp_path):
+    out = tmp_path / "run"
+    assert main(["train", str(scene), "--out", str(out), *TRAIN]) == 0
+    assert main(["train", str(scene), "--out", str(out), "--resume", "--max-steps", "12", "--no-progress"]) == 0
+    steps = [r["step"] for r in map(json.loads, (out / "metrics.jsonl").read_text().splitlines())]
+    assert steps == [2, 4, 6, 8, 10, 12]
+    assert ckpt_lib.latest_checkpoint(out / "checkpoints").name == "ckpt_00000012.msgpack"
+
+
+def test_eval_writes_json(scene, run, capsys):
+    assert main(["eval", str(run), "--data", str(scene), "--split", "test", "--every", "2"]) == 0
+    res = json.loads((run / "eval_test.json").read_text())
+    assert {"psnr", "ssim", "per_view"} <= set(res)
+    assert [v["view"] for v in res["per_view"]] == [0, 2]
+    assert np.isclose(res["psnr"], np.mean([v["psnr"] for v in res["per_view"]]))
+    assert "mean" in capsys.readouterr().out
+
+
+def test_render_split_at_other_resolution(scene, run, tmp_path):
+    out = tmp_path / "r"
+    assert main(["render", str(run), "--data", str(scene), "--split", "test", "--width", "40", "--out", str(out)]) == 0
+    assert iio.imread(out / "rgb_0000.png").shape == (40, 40, 3)
+    assert np.load(out / "depth_0002.npy").shape == (40, 40)
+    for video in ("rgb.mp4", "depth.mp4"):
+        frames = iio.imread(out / video)
+        assert frames.shape[0] == 3 and frames.shape[1:3] == (40, 40)
+
+
+def test_render_orbit(scene, run):
+    assert main(["render", str(run), "--data", str(scene), "--orbit", "4"]) == 0
+    assert len(list((run / "renders" / "orbit4_16x16").glob("rgb_*.png"))) == 4
+
+
+def test_render_needs_split_or_orbit(scene, run, capsys):
+    assert main(["render", str(run), "--data", str(scene)]) == 1
+    assert "--split" in capsys.readouterr().err
+
+
+def test_bad_data_dir_is_a_one_line_error(tmp_path, capsys):
+    assert main(["train", str(tmp_path / "nope"), "--out", str(tmp_path / "run"), "--preset", "tiny"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nope" in err and "does not exist" in err
+
+
+def test_bad_config_value_is_reported(scene, tmp_path, capsys):
+    assert main(["train", str(scene), "--out", str(tmp_path / "run"), "--preset", "tiny", "--near", "7"]) == 1
+    assert "--near must be smaller than --far" in capsys.readouterr().err
+
+
+def test_make_scene(tmp_path):
+    assert main(["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1", "--n-test", "1"]) == 0
+    assert (tmp_path / "s" / "transforms_test.json").is_file()
