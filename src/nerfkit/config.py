@@ -190,13 +190,12 @@ def _nerf() -> Config:
 
 def _demo() -> Config:
     # Sized for the embedded procedural scene (camera radius 4, geometry within 1.2 of the
-    # origin, 64 px) so `nerfkit demo` trains, evaluates and renders in a few minutes.
+    # origin, 64 px) so `nerfkit demo` trains, evaluates and renders in about 5 minutes.
     return Config(
         field=FieldConfig(depth=4, width=128, l_xyz=8, l_dir=4),
-        sampler=SamplerConfig(n_samples=48, near=2.0, far=6.0),
+        sampler=SamplerConfig(n_samples=32, near=2.0, far=6.0),
         train=TrainConfig(
-            max_steps=3000, batch_rays=1024, lr=5e-4, lr_decay_steps=250_000, val_every=1000,
-            ckpt_every=1000, val_views=3, log_every=25,
+            max_steps=5000, batch_rays=512, lr=1e-3, val_every=500, ckpt_every=500, val_views=3, log_every=25,
         ),
     )
 
