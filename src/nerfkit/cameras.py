@@ -71,7 +71,7 @@ def scene_center(poses: np.ndarray) -> np.ndarray:
     proj = np.eye(3)[None] - a[:, :, None] * a[:, None, :]
     lhs = proj.sum(0)
     rhs = np.einsum("kij,kj->i", proj, o)
-    if np.linalg.cond(lhs) > 1e8:  # all axes parallel: fall back to the mean camera target
+    if np.linalg.cond(lhs) > 1e8:  # all axes parallel: no closest point, use the mean camera position
         return o.mean(0)
     return np.linalg.solve(lhs, rhs)
 

@@ -68,26 +68,47 @@ def volume_render(sigma, rgb, t, dir_norm, last_interval, background) -> dict:
 # Packed form: S samples in one flat list, sorted by ray then t; ray_idx [S] names the ray.
 
 
-def packed_compositing_weights(sigma, delta, ray_idx, valid, n_rays: int, min_transmittance: float = 0.0):
-    """w_i of packed samples [S]; invalid samples get weight 0 and no optical depth.
+def segment_starts(ray_idx: jnp.ndarray) -> jnp.ndarray:
+    """bool [S]: True where a new ray's run of samples begins in a packed list."""
+    return jnp.concatenate([jnp.ones(1, bool), ray_idx[1:] != ray_idx[:-1]])
 
-    T_i = exp(-(C_{i} - C_{start(ray_i)})) with C the exclusive running sum of sigma delta
-    over the whole list, so each ray's sum starts at zero. Samples whose transmittance is
-    already below `min_transmittance` get weight 0 (early ray termination).
+
+def segmented_cumsum(x: jnp.ndarray, starts: jnp.ndarray) -> jnp.ndarray:
+    """Inclusive running sum of x [S] that restarts wherever `starts` is True.
+
+    A segmented scan (associative operator on (sum, restarted) pairs), so each ray's sum is
+    accumulated from its own samples only: no large batch-wide prefix is subtracted,
+    which would lose float32 precision after many opaque rays.
+    """
+
+    def op(a, b):
+        a_sum, a_flag = a
+        b_sum, b_flag = b
+        return jnp.where(b_flag, b_sum, a_sum + b_sum), a_flag | b_flag
+
+    out, _ = jax.lax.associative_scan(op, (x, starts))
+    return out
+
+
+def packed_compositing_weights(sigma, delta, ray_idx, valid, min_transmittance: float = 0.0):
+    """w_i of packed samples [S] sorted by ray; invalid samples get weight 0 and no optical depth.
+
+    T_i = exp(-sum_{j<i, same ray} sigma_j delta_j). Samples whose transmittance is already
+    below `min_transmittance` get weight 0 (early ray termination).
     """
     tau = jnp.where(valid, sigma * delta, 0.0)
-    csum = jnp.cumsum(tau) - tau  # exclusive
-    first = jax.ops.segment_min(jnp.where(valid, jnp.arange(tau.shape[0]), tau.shape[0]), ray_idx, n_rays)
-    start = jnp.take(jnp.concatenate([csum, jnp.zeros(1, csum.dtype)]), jnp.clip(first, 0, tau.shape[0]))[ray_idx]
-    trans = jnp.exp(-(csum - start))
+    trans = jnp.exp(-(segmented_cumsum(tau, segment_starts(ray_idx)) - tau))
     w = trans * (1.0 - jnp.exp(-tau))
     return jnp.where(valid & (trans >= min_transmittance), w, 0.0)
 
 
-def packed_composite(weights, rgb, t, ray_idx, n_rays: int, background) -> dict:
-    """Per-ray rgb [n_rays, 3], depth, opacity and depth_normalized from packed samples [S]."""
+def packed_composite(weights, rgb, t, ray_idx, n_rays: int, background, far) -> dict:
+    """Per-ray rgb [n_rays, 3], depth, opacity and depth_normalized from packed samples [S].
+
+    As `composite`; depth_normalized is `far` for rays with (almost) no opacity.
+    """
     opacity = jax.ops.segment_sum(weights, ray_idx, n_rays)
     color = jax.ops.segment_sum(weights[:, None] * rgb, ray_idx, n_rays) + (1.0 - opacity[:, None]) * background
     depth = jax.ops.segment_sum(weights * t, ray_idx, n_rays)
-    depth_norm = depth / jnp.maximum(opacity, 1e-6)
+    depth_norm = jnp.where(opacity > 1e-6, depth / jnp.maximum(opacity, 1e-6), far)
     return {"rgb": color, "depth": depth, "opacity": opacity, "depth_normalized": depth_norm}

@@ -24,7 +24,7 @@ from PIL import Image, UnidentifiedImageError
 
 from nerfkit.errors import DataError
 
-_SPEC_ITEM = re.compile(r"^\s*([A-Za-z0-9_\-]+)\s*(?:\[\s*(-?\d*)\s*:\s*(-?\d*)\s*\])?\s*$")
+_SPEC_ITEM = re.compile(r"^\s*([A-Za-z0-9_\-]+)\s*(?:\[\s*(-?\d+)?\s*:\s*(-?\d+)?\s*\])?\s*$")
 
 
 @dataclass
