@@ -30,25 +30,34 @@ class Renderer:
 
         def render_chunk(params, aux, o, d):
             out = model.render_rays(params, aux, o, d, jax.random.PRNGKey(0), train=False)
-            return {k: out[k] for k in OUTPUT_KEYS}
+            res = {k: out[k] for k in OUTPUT_KEYS}
+            res["complete"] = out.get("complete", jnp.ones(o.shape[0], bool))
+            return res
 
         self._render_chunk = jax.jit(render_chunk)
 
     def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray) -> dict:
-        """Render rays [N, 3] chunk by chunk; returns numpy arrays rgb [N, 3], depth [N], ..."""
+        """Render rays [N, 3] chunk by chunk; returns numpy arrays rgb [N, 3], depth [N], ...
+
+        Models with a per-chunk sample budget mark rays that did not fit as incomplete;
+        those rays go to the front of the next chunk (the first ray of a chunk always fits).
+        """
         n = origins.shape[0]
-        outs = {k: [] for k in OUTPUT_KEYS}
-        for start in range(0, n, self.chunk):
-            o = origins[start:start + self.chunk]
-            d = directions[start:start + self.chunk]
-            m = o.shape[0]
-            if m < self.chunk:  # pad to the compiled size
-                o = np.concatenate([o, np.repeat(o[-1:], self.chunk - m, 0)])
-                d = np.concatenate([d, np.repeat(d[-1:], self.chunk - m, 0)])
-            res = self._render_chunk(params, aux, jnp.asarray(o), jnp.asarray(d))
+        outs = {k: np.zeros((n, 3) if k == "rgb" else (n,), np.float32) for k in OUTPUT_KEYS}
+        pending = np.arange(n)
+        while pending.size:
+            idx = pending[:self.chunk]
+            m = idx.size
+            if m < self.chunk:  # pad to the compiled size with copies of the last ray
+                idx = np.concatenate([idx, np.full(self.chunk - m, idx[-1])])
+            res = self._render_chunk(params, aux, jnp.asarray(origins[idx]), jnp.asarray(directions[idx]))
+            done = np.asarray(res["complete"])[:m]
+            if not done[0]:
+                raise RuntimeError("a single ray needs more samples than the render budget")
             for k in OUTPUT_KEYS:
-                outs[k].append(np.asarray(res[k])[:m])
-        return {k: np.concatenate(v) for k, v in outs.items()}
+                outs[k][idx[:m][done]] = np.asarray(res[k])[:m][done]
+            pending = np.concatenate([pending[:m][~done], pending[m:]])
+        return outs
 
     def render_image(self, params, aux, c2w: np.ndarray, height: int, width: int, focal: float) -> dict:
         """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of the camera c2w."""

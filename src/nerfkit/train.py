@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shlex
 import signal
 import sys
 import time
@@ -41,7 +43,7 @@ def make_optimizer(cfg: Config):
     """Adam with lr(step) = lr * decay_rate ** (step / decay_steps), continuous decay."""
     t = cfg.train
     schedule = optax.exponential_decay(t.lr, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
-    return optax.adam(schedule), schedule
+    return optax.adam(schedule, b2=t.adam_b2, eps=t.adam_eps), schedule
 
 
 def make_train_step(model, optimizer, data: SceneData, cfg: Config):
@@ -127,7 +129,11 @@ class _StopFlag:
         if self.signal_name is not None and signum == signal.SIGINT:
             raise KeyboardInterrupt
         self.signal_name = signal.Signals(signum).name
-        tqdm.write(f"{self.signal_name} received: finishing this step, saving a checkpoint (Ctrl-C again to abort)")
+        msg = f"{self.signal_name} received: finishing this step, saving a checkpoint (Ctrl-C again to abort)\n"
+        try:  # os.write, not print: a handler that prints while the loop prints hits a reentrant-write error
+            os.write(sys.stderr.fileno(), msg.encode())
+        except (OSError, ValueError, AttributeError):  # stderr replaced (e.g. captured): best effort
+            pass
 
     def __exit__(self, *exc):
         for sig, old in self._old.items():
@@ -139,9 +145,11 @@ def load_run_config(run_dir: Path) -> Config:
     if not path.is_file():
         raise ConfigError(f"{path}: missing; is {run_dir} a nerfkit run folder?")
     try:
-        return Config.from_dict(json.loads(path.read_text()))
-    except json.JSONDecodeError as e:
-        raise ConfigError(f"{path}: not valid JSON ({e})") from None
+        return Config.from_dict(json.loads(path.read_text(encoding="utf-8")))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise ConfigError(f"{path}: not valid JSON ({e}); restore it or start a new run") from None
+    except ConfigError as e:
+        raise ConfigError(f"{path}: {e}") from None
 
 
 def init_state(model, optimizer, seed: int):
@@ -330,6 +338,6 @@ class Trainer:
         run_time = time.perf_counter() - start
         sps = (step - first_step) / run_time if run_time > 0 else 0.0
         if interrupted:
-            tqdm.write(f"stopped at step {step}; checkpoint saved. Resume with:\n"
-                       f"  nerfkit train {self.data_dir} --out {self.run_dir} --resume")
+            tqdm.write(f"stopped at step {step}; checkpoint saved in {self.ckpt_dir}. Resume with:\n"
+                       f"  nerfkit train {shlex.quote(str(self.data_dir))} --out {shlex.quote(str(self.run_dir))} --resume")
         return TrainResult(self.run_dir, step, last_val, sps, interrupted)

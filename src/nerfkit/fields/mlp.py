@@ -23,7 +23,8 @@ from nerfkit.config import FieldConfig
 from nerfkit.encoding.positional import encoded_size, positional_encoding
 
 
-def _dense(key, n_in: int, n_out: int) -> jnp.ndarray:
+def dense_init(key, n_in: int, n_out: int) -> jnp.ndarray:
+    """Glorot-uniform weights [n_in, n_out]."""
     limit = jnp.sqrt(6.0 / (n_in + n_out))
     return jax.random.uniform(key, (n_in, n_out), jnp.float32, -limit, limit)
 
@@ -44,22 +45,22 @@ class MLPField:
         trunk = []
         for layer in range(c.depth):
             n_in = self.x_dim if layer == 0 else w
-            p = {"w": _dense(next(keys), n_in, w), "b": jnp.zeros(w, jnp.float32)}
+            p = {"w": dense_init(next(keys), n_in, w), "b": jnp.zeros(w, jnp.float32)}
             if layer == self.skip:
-                p["w_skip"] = _dense(next(keys), self.x_dim, w)
+                p["w_skip"] = dense_init(next(keys), self.x_dim, w)
             trunk.append(p)
-        params = {"trunk": trunk, "sigma": {"w": _dense(next(keys), w, 1), "b": jnp.zeros(1, jnp.float32)}}
+        params = {"trunk": trunk, "sigma": {"w": dense_init(next(keys), w, 1), "b": jnp.zeros(1, jnp.float32)}}
         if c.viewdirs:
             half = max(w // 2, 1)
-            params["feature"] = {"w": _dense(next(keys), w, w), "b": jnp.zeros(w, jnp.float32)}
+            params["feature"] = {"w": dense_init(next(keys), w, w), "b": jnp.zeros(w, jnp.float32)}
             params["view"] = {
-                "w_f": _dense(next(keys), w, half),
-                "w_d": _dense(next(keys), self.d_dim, half),
+                "w_f": dense_init(next(keys), w, half),
+                "w_d": dense_init(next(keys), self.d_dim, half),
                 "b": jnp.zeros(half, jnp.float32),
             }
-            params["rgb"] = {"w": _dense(next(keys), half, 3), "b": jnp.zeros(3, jnp.float32)}
+            params["rgb"] = {"w": dense_init(next(keys), half, 3), "b": jnp.zeros(3, jnp.float32)}
         else:
-            params["rgb"] = {"w": _dense(next(keys), w, 3), "b": jnp.zeros(3, jnp.float32)}
+            params["rgb"] = {"w": dense_init(next(keys), w, 3), "b": jnp.zeros(3, jnp.float32)}
         return params
 
     def _trunk(self, params, x):
