@@ -111,6 +111,47 @@ class DemoArgs:
     """Frames in the orbit video."""
 
 
+@dataclasses.dataclass
+class ExperimentArgs:
+    """Run an experiment. pe-ablation: train Model-1 (PE, L_xyz=10, L_dir=4), Model-2 (no PE) and
+    Model-3 (PE, L_xyz=5, L_dir=2) with the same preset, seed and budget; evaluate, render orbits;
+    write results.md/.json, overlaid curves, image grids and OUT/report.html."""
+
+    experiment: tyro.conf.Positional[Literal["pe-ablation"]]
+    """Which experiment: pe-ablation."""
+    data_dir: tyro.conf.Positional[Path]
+    """Folder with transforms_{split}.json and the images."""
+    out: Path
+    """Experiment folder (one run folder per model, results, plots, grids, report.html)."""
+    budget_minutes: float | None = None
+    """Wall-time budget per model, compile and validation included."""
+    max_steps: int | None = None
+    """Step budget per model (with --budget-minutes: whichever comes first)."""
+    preset: PresetName = "seed"  # type: ignore[valid-type]
+    """Configuration all three models start from (only the positional encoding differs)."""
+    seed: int | None = None
+    """Seed of all three models (default: the preset's)."""
+    eval_every: int = 2
+    """Evaluate every K-th view of the val split."""
+    orbit_frames: int = 40
+    """Frames of each model's orbit video (at the training resolution)."""
+    grid_views: int = 2
+    """Validation views shown in image grids (at least 2)."""
+    val_every: int | None = None
+    """Validate every N steps during training (default: the preset's)."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
+class ReportArgs:
+    """Write a static HTML report that opens from disk: RUN_DIR/report.html for a run folder, or
+    the experiment report for a folder written by `nerfkit experiment`."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train` (or an experiment folder)."""
+
+
 def _preset_from_argv(argv: list[str], default: str) -> str:
     for k, a in enumerate(argv):
         if a == "--preset" and k + 1 < len(argv):
@@ -204,10 +245,38 @@ def cmd_demo(argv: list[str]) -> int:
         "plots": str(run / "plots"), "minutes": round((time.perf_counter() - t0) / 60, 2),
     }
     (a.out / "demo_summary.json").write_text(json.dumps(summary, indent=2))
+    from nerfkit.report import write_report
+
+    report = write_report(run)
     print("\nnerfkit demo finished in {minutes} min: test PSNR {test_psnr:.2f} dB, SSIM {test_ssim:.3f}".format(**summary))
     print(f"  run folder : {run}  (config, metrics.jsonl, plots/, val/, checkpoints/)")
     print(f"  test views : {run / 'eval_test'}  and {run / 'eval_test.json'}")
     print(f"  videos     : {summary['videos'][0]}  {summary['videos'][1]}")
+    print(f"  report     : {report}  (open it in a browser)")
+    return 0
+
+
+def cmd_experiment(argv: list[str]) -> int:
+    from nerfkit.experiments import pe_ablation
+
+    a = tyro.cli(ExperimentArgs, args=argv, prog="nerfkit experiment")
+    pe_ablation(a.data_dir, a.out, preset=a.preset, budget_minutes=a.budget_minutes, max_steps=a.max_steps,
+                seed=a.seed, eval_every=a.eval_every, orbit_frames=a.orbit_frames, grid_views=a.grid_views,
+                val_every=a.val_every, progress=a.progress)
+    print("\n" + (a.out / "results.md").read_text())
+    print(f"report: {a.out / 'report.html'}")
+    return 0
+
+
+def cmd_report(argv: list[str]) -> int:
+    from nerfkit.report import write_experiment_report, write_report
+
+    a = tyro.cli(ReportArgs, args=argv, prog="nerfkit report")
+    if (a.run_dir / "results.json").is_file() and not (a.run_dir / "config.json").is_file():
+        path = write_experiment_report(a.run_dir)
+    else:
+        path = write_report(a.run_dir)
+    print(f"wrote {path}")
     return 0
 
 
@@ -217,6 +286,9 @@ COMMANDS = {
     "train": (cmd_train, "train a radiance field: nerfkit train DATA_DIR --out RUN_DIR [--preset seed|nerf|demo]"),
     "eval": (cmd_eval, "PSNR/SSIM of a run on a split: nerfkit eval RUN_DIR --data DATA_DIR --split SPLIT"),
     "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --data DATA_DIR --orbit N"),
+    "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation DATA_DIR --out DIR "
+                                   "--budget-minutes M"),
+    "report": (cmd_report, "static HTML report of a run or experiment (opens from disk): nerfkit report RUN_DIR"),
 }
 
 

@@ -340,4 +340,10 @@ class Trainer:
         if interrupted:
             tqdm.write(f"stopped at step {step}; checkpoint saved in {self.ckpt_dir}. Resume with:\n"
                        f"  nerfkit train {shlex.quote(str(self.data_dir))} --out {shlex.quote(str(self.run_dir))} --resume")
+        try:
+            from nerfkit.report import write_report
+
+            write_report(self.run_dir)
+        except Exception as e:  # noqa: BLE001 - a report must never cost a finished run
+            tqdm.write(f"report not written: {e}")
         return TrainResult(self.run_dir, step, last_val, sps, interrupted)

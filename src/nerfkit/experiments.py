@@ -1,0 +1,297 @@
+"""Experiments: several runs that differ in one setting, trained under one budget, and
+compared in one folder (results table, overlaid curves, image grids, videos, HTML report).
+
+`pe_ablation` answers the reference report's question "what does positional encoding
+buy?" with three models that share the preset, the seed and the budget:
+
+    Model-1  PE, L_xyz=10, L_dir=4   (the report's model)
+    Model-2  no PE (raw x and d into the MLP)
+    Model-3  PE, L_xyz=5, L_dir=2    (fewer frequencies)
+
+Experiment folder:
+
+    OUT/model1_pe/, model2_no_pe/, model3_pe_l5/   run folders (+ eval_<val split>/, renders/orbitN_WxH/, report.html)
+    OUT/results.json, results.md                   val PSNR and SSIM per model
+    OUT/plots/{loss,train_psnr,val_psnr}_vs_{step,time}.png
+    OUT/grid_view_K.png                            GT | each model's render, and its depth map, per val view
+    OUT/report.html                                everything above on one page
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from imageio.v3 import imread
+
+from nerfkit import checkpoint as ckpt_lib
+from nerfkit.config import preset as make_preset
+from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.viz import plot_curves, read_jsonl
+
+
+@dataclass(frozen=True)
+class Variant:
+    run_dir: str
+    label: str
+    description: str
+    pe: bool
+    l_xyz: int | None = None  # None: keep the preset's value (unused without PE)
+    l_dir: int | None = None
+
+
+PE_ABLATION = (
+    Variant("model1_pe", "Model-1", "PE, L_xyz=10, L_dir=4", True, 10, 4),
+    Variant("model2_no_pe", "Model-2", "no PE (raw x, d)", False),
+    Variant("model3_pe_l5", "Model-3", "PE, L_xyz=5, L_dir=2", True, 5, 2),
+)
+
+PE_QUESTION = (
+    "Does positional encoding matter, and how many frequencies does it need? Three models share the preset, "
+    "the seed and the training budget and differ only in how positions x and view directions d are fed to "
+    "the MLP: Model-1 uses the encoding gamma(p) = (sin(2^k pi p), cos(2^k pi p)), k < L, with L_xyz=10 and "
+    "L_dir=4; Model-2 feeds raw coordinates; Model-3 uses fewer frequencies, L_xyz=5 and L_dir=2."
+)
+
+
+def _budget_text(budget_minutes: float | None, max_steps: int | None) -> str:
+    parts = []
+    if budget_minutes is not None:
+        parts.append(f"{budget_minutes:g} min of wall time (compile and validation included)")
+    if max_steps is not None:
+        parts.append(f"{max_steps} steps")
+    return " or ".join(parts) + (", whichever comes first" if len(parts) == 2 else "")
+
+
+def _time_axis(runs: list[list[dict]]) -> tuple[str, float]:
+    longest = max((r[-1].get("elapsed", 0) for r in runs if r), default=0)
+    return ("time (min)", 60.0) if longest > 180 else ("time (s)", 1.0)
+
+
+def overlay_plots(exp_dir: Path, labels: list[str], run_dirs: list[Path]) -> dict[str, str]:
+    """Six overlaid plots (loss, train PSNR, val PSNR against step and against time) of
+    several runs; returns {name: path relative to exp_dir}."""
+    rows = [read_jsonl(r / "metrics.jsonl") for r in run_dirs]
+    vrows = [read_jsonl(r / "val_metrics.jsonl") for r in run_dirs]
+    tlabel, tscale = _time_axis(rows + vrows)
+    specs = [
+        ("loss", rows, "loss", "loss (MSE)", "Training loss", True),
+        ("train_psnr", rows, "psnr", "PSNR (dB)", "Training PSNR (ray batch)", False),
+        ("val_psnr", vrows, "psnr", "PSNR (dB)", "Validation PSNR", False),
+    ]
+    out = {}
+    for name, table, key, ylabel, title, logy in specs:
+        for axis in ("step", "time"):
+            series = {}
+            for label, rs in zip(labels, table):
+                xs = [r["step"] if axis == "step" else r.get("elapsed", math.nan) / tscale for r in rs]
+                series[label] = (xs, [r[key] for r in rs])
+            rel = f"plots/{name}_vs_{axis}.png"
+            plot_curves(series, exp_dir / rel, "step" if axis == "step" else tlabel, ylabel,
+                        f"{title} against {axis}", logy=logy)
+            out[f"{name}_vs_{axis}"] = rel
+    return out
+
+
+def _gt_depth(data_dir: Path, name: str) -> np.ndarray | None:
+    """Exact depth of a view where the data set has it (the procedural scene's r_K_depth.npy)."""
+    p = data_dir / (str(Path(name).with_suffix("")) + "_depth.npy")
+    if not p.is_file():
+        return None
+    try:
+        d = np.load(p, allow_pickle=False)
+    except (OSError, ValueError):
+        return None
+    return d if d.ndim == 2 else None
+
+
+def image_grid(path: Path, gt: np.ndarray, renders: list[np.ndarray], depths: list[np.ndarray],
+               titles: list[str], gt_depth: np.ndarray | None = None, background=(1.0, 1.0, 1.0)) -> None:
+    """Labelled 2-row grid: top ground truth then each model's render, bottom each model's
+    depth map (under the ground truth: the exact depth where known). Images [H, W, 3]."""
+    import matplotlib.pyplot as plt
+
+    from nerfkit.viz import colorize_depth, depth_range
+
+    h, w = gt.shape[:2]
+    ncols = 1 + len(renders)
+    scale = max(1.0, 160.0 / w)  # small images shown enlarged
+    dpi = 100
+    cw, ch = w * scale / dpi, h * scale / dpi
+    lines = max(t.count("\n") + 1 for t in titles)
+    fig, axes = plt.subplots(2, ncols, figsize=(ncols * (cw + 0.15) + 0.2, 2 * ch + 0.16 * lines + 0.6), dpi=dpi,
+                             squeeze=False)
+    cells = [(gt, "ground truth")] + list(zip(renders, titles))
+    for ax, (img, title) in zip(axes[0], cells):
+        ax.imshow(np.clip(img, 0, 1), interpolation="nearest")
+        ax.set_title(title, fontsize=8)
+    if gt_depth is not None:
+        fg = np.isfinite(gt_depth)
+        lo, hi = depth_range([np.where(fg, gt_depth, 0)], [fg.astype(np.float32)])
+        axes[1][0].imshow(colorize_depth(np.where(fg, gt_depth, hi), fg.astype(np.float32), lo, hi, background),
+                          interpolation="nearest")
+        axes[1][0].set_title("exact depth", fontsize=8)
+    else:
+        axes[1][0].text(0.5, 0.5, "depth:\nsum_i w_i t_i\nnear = red\nfar = blue", ha="center", va="center",
+                        fontsize=8, transform=axes[1][0].transAxes)
+    for ax, img, title in zip(axes[1][1:], depths, titles):
+        ax.imshow(np.clip(img, 0, 1), interpolation="nearest")
+        ax.set_title(title.split("\n")[0] + ": depth", fontsize=8)
+    for ax in axes.ravel():
+        ax.set_xticks([])
+        ax.set_yticks([])
+        for s in ax.spines.values():
+            s.set_visible(False)
+    fig.tight_layout(pad=0.3)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _num(x, digits: int) -> str:
+    return "n/a" if x is None else f"{x:.{digits}f}"
+
+
+def _markdown(results: dict) -> str:
+    ev, b = results["eval"], results["budget"]
+    lines = [
+        f"# {results['title']}",
+        "",
+        f"Data: `{results['data_dir']}`. Preset `{results['preset']}`, seed {results['seed']}, the same budget per "
+        f"model: {b['text']}. Validation metrics on `{ev['split']}`, every {ev['every']} view(s) "
+        f"({ev['n_views']} views).",
+        "",
+        "| model | encoding | steps | train time (s) | val PSNR (dB) | val SSIM |",
+        "| --- | --- | ---: | ---: | ---: | ---: |",
+    ]
+    for m in results["models"]:
+        lines.append(f"| {m['label']} | {m['description']} | {m['steps']} | {_num(m['train_seconds'], 0)} | "
+                     f"{m['psnr']:.2f} | {m['ssim']:.4f} |")
+    lines += ["", "Run folders: " + ", ".join(f"`{m['run_dir']}/`" for m in results["models"])
+              + ". Curves in `plots/`, image grids `grid_view_K.png`, everything on one page in `report.html`.", ""]
+    return "\n".join(lines)
+
+
+def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", budget_minutes: float | None = None,
+                max_steps: int | None = None, seed: int | None = None, eval_every: int = 2, orbit_frames: int = 40,
+                grid_views: int = 2, val_every: int | None = None, progress: bool = True,
+                log: Callable[[str], None] = print) -> dict:
+    """Train Model-1 (PE 10/4), Model-2 (no PE) and Model-3 (PE 5/2) from `preset` with the
+    same seed and budget (`budget_minutes` of wall time and/or `max_steps` steps, per model),
+    evaluate each on its val split (every `eval_every`-th view), render an `orbit_frames`
+    orbit of each at the training resolution, and write results.{json,md}, the overlaid
+    plots, `grid_views` image grids and report.html into `out`. Returns the results dict."""
+    from nerfkit.data.blender import load_blender
+    from nerfkit.evaluate import evaluate_run, render_run, split_slug
+    from nerfkit.report import write_experiment_report, write_report
+    from nerfkit.train import Trainer, evenly_spaced
+
+    data_dir, out = Path(data_dir), Path(out)
+    if budget_minutes is None and max_steps is None:
+        raise ConfigError("give the models a budget: --budget-minutes M and/or --max-steps N")
+    if budget_minutes is not None and not budget_minutes > 0:
+        raise ConfigError(f"--budget-minutes must be positive (got {budget_minutes})")
+    if max_steps is not None and max_steps < 1:
+        raise ConfigError(f"--max-steps must be >= 1 (got {max_steps})")
+    for name, v in (("--eval-every", eval_every), ("--orbit-frames", orbit_frames), ("--grid-views", grid_views)):
+        if v < 1:
+            raise ConfigError(f"{name} must be >= 1 (got {v})")
+    taken = [v.run_dir for v in PE_ABLATION if ckpt_lib.list_checkpoints(out / v.run_dir / "checkpoints")]
+    if taken:
+        raise NerfkitError(f"{out}: already holds model runs ({', '.join(taken)}); pick a new --out")
+
+    if make_preset(preset).field.kind != "mlp":
+        raise ConfigError(f"pe-ablation compares positional encodings of the MLP field; preset {preset!r} uses the "
+                          f"{make_preset(preset).field.kind!r} field. Pick an MLP preset (seed, nerf, demo, tiny).")
+    cfgs = []
+    for v in PE_ABLATION:
+        cfg = make_preset(preset)
+        cfg.field.pe = v.pe
+        if v.l_xyz is not None:
+            cfg.field.l_xyz = v.l_xyz
+        if v.l_dir is not None:
+            cfg.field.l_dir = v.l_dir
+        if budget_minutes is not None:
+            cfg.train.max_minutes = float(budget_minutes)
+        if max_steps is not None:
+            cfg.train.max_steps = int(max_steps)
+        if seed is not None:
+            cfg.train.seed = int(seed)
+        if val_every is not None:
+            cfg.train.val_every = int(val_every)
+        cfgs.append(cfg)
+    budget = {"max_minutes": budget_minutes, "max_steps": max_steps,
+              "text": _budget_text(budget_minutes, max_steps)}
+    val_split = cfgs[0].data.val_split
+    log(f"PE ablation on {data_dir}: 3 models, preset {preset}, {budget['text']} each; writing {out}")
+
+    models = []
+    for k, (v, cfg) in enumerate(zip(PE_ABLATION, cfgs), 1):
+        run = out / v.run_dir
+        log(f"[{k}/3] {v.label} ({v.description}): training into {run}")
+        res = Trainer(data_dir, run, cfg, progress=progress).run()
+        if res.interrupted:
+            raise KeyboardInterrupt
+        log(f"[{k}/3] {v.label}: step {res.step}; evaluating on {val_split} (every {eval_every} view(s))")
+        ev = evaluate_run(run, data_dir, val_split, every=eval_every, progress=progress)
+        log(f"[{k}/3] {v.label}: val PSNR {ev['psnr']:.2f} dB, SSIM {ev['ssim']:.4f}; "
+            f"rendering a {orbit_frames}-frame orbit")
+        info = render_run(run, data_dir, orbit=orbit_frames, progress=progress)
+        write_report(run)
+        rows, vrows = read_jsonl(run / "metrics.jsonl"), read_jsonl(run / "val_metrics.jsonl")
+        vid = Path(info["out"])
+        models.append({
+            "label": v.label, "description": v.description, "run_dir": v.run_dir,
+            "pe": cfg.field.pe, "l_xyz": cfg.field.l_xyz if cfg.field.pe else None,
+            "l_dir": cfg.field.l_dir if cfg.field.pe else None,
+            "steps": res.step, "train_seconds": rows[-1]["elapsed"] if rows else None,
+            "steps_per_second": round(res.steps_per_second, 3),
+            "final_train_loss": rows[-1]["loss"] if rows else None,
+            "final_train_psnr": rows[-1]["psnr"] if rows else None,
+            "val_psnr_training": vrows[-1]["psnr"] if vrows else None,
+            "psnr": ev["psnr"], "ssim": ev["ssim"], "eval_json": f"{v.run_dir}/eval_{split_slug(val_split)}.json",
+            "orbit_video": (vid / "rgb.mp4").relative_to(out).as_posix(),
+            "depth_video": (vid / "depth.mp4").relative_to(out).as_posix(),
+            "video_width": info["width"],
+        })
+
+    log("writing the results table, curves, image grids and report")
+    ev0 = json.loads((out / models[0]["eval_json"]).read_text())
+    plots = overlay_plots(out, [m["label"] for m in models], [out / m["run_dir"] for m in models])
+
+    d = cfgs[0].data
+    val = load_blender(data_dir, val_split, downscale=d.downscale, target_width=d.target_width,
+                       background=d.background)
+    bg = (1.0, 1.0, 1.0) if d.background == "white" else (0.0, 0.0, 0.0)
+    ids = [v["view"] for v in ev0["per_view"]]
+    grids = []
+    for j in evenly_spaced(len(ids), max(grid_views, 2)):
+        k = ids[j]
+        renders, depths, titles = [], [], []
+        for m in models:
+            rdir = out / m["run_dir"] / f"eval_{split_slug(val_split)}"
+            renders.append(imread(rdir / f"view_{k:03d}_rgb.png")[..., :3] / 255.0)
+            depths.append(imread(rdir / f"view_{k:03d}_depth.png")[..., :3] / 255.0)
+            pv = next(p for p in json.loads((out / m["eval_json"]).read_text())["per_view"] if p["view"] == k)
+            titles.append(f"{m['label']}\n{m['description']}\n{pv['psnr']:.2f} dB, SSIM {pv['ssim']:.3f}")
+        rel = f"grid_view_{k:03d}.png"
+        image_grid(out / rel, val.images[k], renders, depths, titles, _gt_depth(data_dir, val.names[k]), bg)
+        grids.append({"view": k, "name": val.names[k], "path": rel})
+
+    results = {
+        "experiment": "pe-ablation", "title": "PE ablation: what positional encoding buys",
+        "subtitle": f"{data_dir.resolve().name} · preset {preset} · {budget['text']} per model",
+        "question": PE_QUESTION,
+        "data_dir": str(data_dir.resolve()), "preset": preset, "seed": cfgs[0].train.seed, "budget": budget,
+        "eval": {"split": val_split, "every": eval_every, "n_views": ev0["n_views"]},
+        "orbit_frames": orbit_frames, "models": models, "plots": plots, "grids": grids,
+    }
+    (out / "results.json").write_text(json.dumps(results, indent=2))
+    (out / "results.md").write_text(_markdown(results))
+    report = write_experiment_report(out, results)
+    log(f"done: {out / 'results.md'}, {report}")
+    return results
