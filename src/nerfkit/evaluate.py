@@ -20,6 +20,11 @@ from nerfkit.train import load_trained
 from nerfkit.viz import colorize_depth, depth_range, save_png, write_video
 
 
+def check_chunk(chunk: int | None) -> None:
+    if chunk is not None and chunk < 1:
+        raise ConfigError(f"--chunk must be >= 1 (got {chunk})")
+
+
 def split_slug(spec: str) -> str:
     """A file-name-safe form of a split spec: "val[50:100]" -> "val_50_100"."""
     return re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9]+", "_", spec)).strip("_")
@@ -35,12 +40,13 @@ def evaluate_run(run_dir: Path, data_dir: Path, split: str, downscale: int | Non
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/."""
     if every < 1:
         raise ConfigError(f"--every must be >= 1 (got {every})")
+    check_chunk(chunk)
     run_dir = Path(run_dir)
     cfg, model, params, aux, step = load_trained(run_dir)
     d = cfg.data
     data = load_blender(data_dir, split, downscale=downscale if downscale is not None else d.downscale,
                         target_width=None if downscale is not None else d.target_width, background=d.background)
-    renderer = Renderer(model, chunk or cfg.train.chunk)
+    renderer = Renderer(model, cfg.train.chunk if chunk is None else chunk)
     out_dir = run_dir / f"eval_{split_slug(split)}"
     per_view, renders = [], []
     ids = list(range(0, len(data), every))
@@ -83,6 +89,7 @@ def render_run(run_dir: Path, data_dir: Path, split: str | None = None, orbit: i
     depth PNGs, depth as float32 .npy (sum_i w_i t_i), and an MP4 of each."""
     if (split is None) == (orbit is None):
         raise ConfigError("pass exactly one of --split SPLIT or --orbit N")
+    check_chunk(chunk)
     if orbit is not None and orbit < 1:
         raise ConfigError(f"--orbit must be >= 1 frames (got {orbit})")
     for name, v in (("--width", width), ("--height", height)):
@@ -107,7 +114,7 @@ def render_run(run_dir: Path, data_dir: Path, split: str | None = None, orbit: i
         height = max(1, round(width * aspect))
     focal = 0.5 * width / math.tan(0.5 * fov)
     out = Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}"
-    renderer = Renderer(model, chunk or cfg.train.chunk)
+    renderer = Renderer(model, cfg.train.chunk if chunk is None else chunk)
     renders = []
     t0 = time.perf_counter()
     for k in tqdm(range(len(poses)), desc="render", disable=not progress, unit="view"):

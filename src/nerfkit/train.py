@@ -316,6 +316,10 @@ class Trainer:
                             row[k] = float(v)
                     self._append("metrics.jsonl", row)
                     pending.clear()
+                    if math.isfinite(deadline):  # time-bound run: the bar's end is where time runs out
+                        now = time.perf_counter()
+                        rate = (step - first_step) / max(now - start, 1e-9)
+                        bar.total = min(t.max_steps, step + int(rate * max(deadline - now, 0.0)))
                     bar.set_postfix(loss=f"{loss:.4f}", psnr=f"{row['psnr']:.2f}",
                                     val=f"{last_val:.2f}" if last_val is not None else "-")
                 if stop.signal_name:

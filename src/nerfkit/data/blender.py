@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
 from nerfkit.errors import DataError
 
@@ -77,14 +77,18 @@ class SceneData:
 def read_transforms(root: Path, split: str) -> dict:
     """Read and check `root/transforms_{split}.json`."""
     path = root / f"transforms_{split}.json"
+    if path.exists() and not path.is_file():
+        raise DataError(f"{path}: is not a regular file; split {split!r} needs the transforms JSON there")
     if not path.is_file():
         have = sorted(p.name for p in root.glob("transforms_*.json"))
         hint = f" (found: {', '.join(have)})" if have else " (no transforms_*.json in that folder)"
         raise DataError(f"{path}: missing; split {split!r} needs this file{hint}")
     try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
+        meta = json.loads(path.read_text(encoding="utf-8-sig"))  # -sig: tolerate a UTF-8 byte-order mark
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DataError(f"{path}: not valid JSON ({e})") from None
+        raise DataError(f"{path}: not valid JSON ({_one_line(e)}); fix or re-export the file") from None
+    except RecursionError:
+        raise DataError(f"{path}: not valid transforms JSON (nested too deeply); fix or re-export the file") from None
     except OSError as e:
         raise DataError(f"{path}: unreadable ({e.strerror})") from None
     if not isinstance(meta, dict):
@@ -107,7 +111,7 @@ def check_pose(m, where: str) -> np.ndarray:
     """A 4x4 finite rigid camera-to-world matrix, or DataError."""
     try:
         pose = np.asarray(m, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise DataError(f"{where}: transform_matrix is not a 4x4 matrix of numbers") from None
     if pose.shape == (3, 4):
         pose = np.concatenate([pose, [[0, 0, 0, 1]]], 0)
@@ -124,46 +128,77 @@ def check_pose(m, where: str) -> np.ndarray:
     return pose.astype(np.float32)
 
 
+def _is_file(p: Path) -> bool:
+    try:
+        return p.is_file()
+    except (OSError, ValueError):  # e.g. a name too long for the file system
+        return False
+
+
 def _image_path(root: Path, file_path: str, where: str) -> Path:
+    if "\x00" in file_path:
+        raise DataError(f"{where}: file_path {file_path!r} contains a NUL character; fix the transforms JSON")
     p = root / file_path
     if p.suffix.lower() != ".png":
-        with_png = p.with_name(p.name + ".png")
-        if with_png.is_file() or not p.is_file():
+        with_png = p.with_name(p.name + ".png") if p.name else p
+        if _is_file(with_png) or not _is_file(p):
             p = with_png
-    if not p.is_file():
-        raise DataError(f"{p}: missing image for {where}")
+    if not _is_file(p):
+        raise DataError(f"{p}: missing image for {where}; fix its file_path or add the image")
     return p
 
 
-def load_image(path: Path, background: np.ndarray) -> np.ndarray:
+# Pillow modes read as they are (palette and 1-bit images are expanded), and the 16-bit gray ones.
+_COLOR_MODES = ("1", "L", "LA", "P", "PA", "RGB", "RGBA")
+_GRAY16_MODES = ("I;16", "I;16B", "I;16L", "I")
+
+
+def _one_line(e: BaseException, limit: int = 200) -> str:
+    text = " ".join(str(e).split()) or type(e).__name__
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def load_image(path: Path, background: np.ndarray, expect_size: tuple[int, int] | None = None) -> np.ndarray:
     """Read an image as float32 RGB in [0, 1], compositing alpha on `background`.
 
-    Accepted: 8- or 16-bit gray, gray+alpha, RGB, RGBA (RGB without alpha is taken as
-    fully opaque). Anything else (palette images are converted; CMYK etc. refused).
+    Accepted: 8-bit RGB / RGBA (RGB without alpha is fully opaque), 8- or 16-bit gray
+    (with or without alpha), 1-bit and palette images; 16-bit RGB(A) is read at 8 bits.
+    Refused with a DataError: other modes (CMYK, float, ...), unreadable or truncated
+    files, and (checked from the header, before decoding) a size other than
+    `expect_size` = (width, height).
     """
     try:
         with Image.open(path) as im:
-            im.load()
+            if expect_size is not None and im.size != tuple(expect_size):
+                raise DataError(f"{path}: image is {im.size[0]}x{im.size[1]} but earlier frames are "
+                                f"{expect_size[0]}x{expect_size[1]}; all images must have one size")
             mode = im.mode
-            if mode == "P":
-                im = im.convert("RGBA")
-                mode = "RGBA"
-            if mode in ("I;16", "I;16B", "I;16L", "I"):
-                arr = np.asarray(im, dtype=np.float64)
-                peak = 65535.0 if arr.max(initial=0) > 255 or mode.startswith("I;16") else 255.0
-                rgba = np.repeat((arr / peak)[..., None], 3, -1)
-                a = np.ones(arr.shape, np.float64)
-            elif mode in ("L", "LA", "RGB", "RGBA"):
-                arr = np.asarray(im.convert("RGBA"), dtype=np.float64) / 255.0
-                rgba, a = arr[..., :3], arr[..., 3]
+            if mode not in _COLOR_MODES + _GRAY16_MODES:
+                raise DataError(f"{path}: unsupported image mode {mode!r}; "
+                                f"save it as an 8-bit RGB/RGBA or 8/16-bit grayscale PNG")
+            im.load()
+            if im.mode in _GRAY16_MODES:
+                gray = np.asarray(im).astype(np.float64)
+                if gray.size and (gray.min() < 0 or gray.max() > 65535):
+                    raise DataError(f"{path}: {mode} pixel values outside 0..65535; save it as an 8- or 16-bit PNG")
+                rgb = np.repeat((gray / 65535.0)[..., None], 3, -1)
+                a = np.ones(gray.shape, np.float64)
             else:
-                raise DataError(f"{path}: unsupported image mode {mode!r}; use RGB or RGBA PNG")
+                arr = np.asarray(im.convert("RGBA"), dtype=np.float64) / 255.0
+                rgb, a = arr[..., :3], arr[..., 3]
     except DataError:
         raise
-    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as e:
-        raise DataError(f"{path}: unreadable or truncated image ({e})") from None
-    rgb = rgba * a[..., None] + (1.0 - a[..., None]) * background
-    return rgb.astype(np.float32)
+    except Image.DecompressionBombError as e:
+        raise DataError(f"{path}: image too large to load ({_one_line(e)}); shrink it") from None
+    except MemoryError:
+        raise DataError(f"{path}: not enough memory to decode this image; shrink it") from None
+    except Exception as e:  # noqa: BLE001 - Pillow raises many unrelated types on corrupt files
+        raise DataError(f"{path}: unreadable or truncated image ({type(e).__name__}: {_one_line(e)}); "
+                        f"re-export it as PNG") from None
+    if rgb.ndim != 3 or rgb.shape[0] == 0 or rgb.shape[1] == 0:
+        raise DataError(f"{path}: image has no pixels ({rgb.shape}); re-export it as PNG")
+    out = rgb * a[..., None] + (1.0 - a[..., None]) * background
+    return out.astype(np.float32)
 
 
 def area_downscale(img: np.ndarray, factor: int) -> np.ndarray:
@@ -185,6 +220,17 @@ def resolve_downscale(width: int, height: int, downscale: int | None, target_wid
     if downscale < 1 or width % downscale or height % downscale:
         raise DataError(f"{where}: --downscale {downscale} does not divide the image size {width}x{height}")
     return downscale
+
+
+def _select(jpath: Path, item: SplitItem, n: int) -> list[int]:
+    """Indices of `item`'s frames in a split of n frames; DataError if out of range or empty."""
+    for bound in (item.start, item.stop):
+        if bound is not None and not (-n <= bound <= n):
+            raise DataError(f"{jpath}: index {bound} in '{item}' is out of range; split {item.split!r} has {n} frames")
+    chosen = list(range(n))[slice(item.start, item.stop)]
+    if not chosen:
+        raise DataError(f"{jpath}: '{item}' selects no frames (split has {n}); fix the split spec")
+    return chosen
 
 
 def load_blender(
@@ -211,24 +257,15 @@ def load_blender(
             raise DataError(f"{jpath}: camera_angle_x {meta['camera_angle_x']} differs from the other splits ({fov})")
         fov = float(meta["camera_angle_x"])
         frames = meta["frames"]
-        n = len(frames)
-        for bound in (item.start, item.stop):
-            if bound is not None and not (-n <= bound <= n):
-                raise DataError(f"{jpath}: index {bound} in '{item}' is out of range; split {item.split!r} has {n} frames")
-        chosen = list(range(n))[slice(item.start, item.stop)]
-        if not chosen:
-            raise DataError(f"{jpath}: '{item}' selects no frames (split has {n})")
-        for k in chosen:
+        for k in _select(jpath, item, len(frames)):
             where = f"{jpath} frame {k}"
             pose = check_pose(frames[k]["transform_matrix"], where)
             path = _image_path(root, frames[k]["file_path"], where)
-            img = load_image(path, bg)
+            img = load_image(path, bg, expect_size=None if size is None else (size[1], size[0]))
             h, w = img.shape[:2]
             if size is None:
                 size = (h, w)
                 factor = resolve_downscale(w, h, downscale, target_width, str(path))
-            elif (h, w) != size:
-                raise DataError(f"{path}: image is {w}x{h} but earlier frames are {size[1]}x{size[0]}; all images must have one size")
             images.append(area_downscale(img, factor))
             poses.append(pose)
             names.append(str(path.relative_to(root)))
@@ -245,9 +282,11 @@ def read_split_poses(root: str | Path, spec: str) -> tuple[np.ndarray, float]:
     poses, fov = [], None
     for item in parse_split_spec(spec):
         meta = read_transforms(root, item.split)
-        fov = float(meta["camera_angle_x"])
         jpath = root / f"transforms_{item.split}.json"
-        for k in list(range(len(meta["frames"])))[slice(item.start, item.stop)]:
+        if fov is not None and abs(meta["camera_angle_x"] - fov) > 1e-6:
+            raise DataError(f"{jpath}: camera_angle_x {meta['camera_angle_x']} differs from the other splits ({fov})")
+        fov = float(meta["camera_angle_x"])
+        for k in _select(jpath, item, len(meta["frames"])):
             poses.append(check_pose(meta["frames"][k]["transform_matrix"], f"{jpath} frame {k}"))
     if not poses:
         raise DataError(f"{root}: split spec {spec!r} selects no frames")
