@@ -41,12 +41,12 @@ def mean_psnr(renderer, state, data, ids) -> float:
 
 
 def psnr_at(records, seconds):
-    """The last measured PSNR at or before `seconds` of training (None if none yet)."""
-    best = None
-    for r in records:
-        if r["elapsed"] <= seconds + 1e-6:
-            best = r["psnr"]
-    return best
+    """Val PSNR at `seconds` of training, linearly interpolated between measurements
+    (None before the first measurement or after the last)."""
+    ts = [r["elapsed"] for r in records]
+    if not records or seconds < ts[0] or seconds > ts[-1] + 1e-6:
+        return None
+    return float(np.interp(seconds, ts, [r["psnr"] for r in records]))
 
 
 def main():
@@ -99,7 +99,14 @@ def main():
     big.render_image(state["params"], state["aux"], val.poses[0], 800, 800, focal800)
     render_s = time.perf_counter() - t0
 
-    hit = next((r["elapsed"] for r in records if r["psnr"] >= a.target), None)
+    # First crossing of the target, interpolated between the two measurements around it.
+    hit, prev = None, None
+    for r in records:
+        if r["psnr"] >= a.target:
+            hit = r["elapsed"] if prev is None else float(np.interp(
+                a.target, [prev["psnr"], r["psnr"]], [prev["elapsed"], r["elapsed"]]))
+            break
+        prev = r
     result = {
         "preset": a.preset, "minutes": a.minutes, "steps": step, "steps_per_s": step / trained,
         "samples_per_ray_mean_last_100": float(np.mean(spr[-100:])) if spr else cfg.sampler.n_samples,

@@ -243,13 +243,34 @@ def load_blender(
 ) -> SceneData:
     """Load the frames named by `spec` (e.g. "train,val[0:50]") from a Blender-format folder."""
     root = Path(root)
-    if not root.is_dir():
-        raise DataError(f"{root}: data folder does not exist")
     bg = np.array([1.0, 1.0, 1.0]) if background == "white" else np.zeros(3)
     images, poses, names = [], [], []
-    fov = None
     size = None
     factor = None
+    fov = None
+    for where, frame, pose, fov in iter_frames(root, spec):
+        path = _image_path(root, frame["file_path"], where)
+        img = load_image(path, bg, expect_size=None if size is None else (size[1], size[0]))
+        h, w = img.shape[:2]
+        if size is None:
+            size = (h, w)
+            factor = resolve_downscale(w, h, downscale, target_width, str(path))
+        images.append(area_downscale(img, factor))
+        poses.append(pose)
+        names.append(str(path.relative_to(root)))
+    h, w = images[0].shape[:2]
+    focal = 0.5 * w / math.tan(0.5 * fov)
+    return SceneData(np.stack(images), np.stack(poses), float(focal), h, w, names)
+
+
+def iter_frames(root: Path, spec: str):
+    """Yield (where, frame dict, checked pose [4, 4], camera_angle_x) for every frame of a
+    split spec, checking the folder, each transforms JSON, index ranges, poses, and that
+    all splits share one field of view."""
+    root = Path(root)
+    if not root.is_dir():
+        raise DataError(f"{root}: data folder does not exist")
+    fov = None
     for item in parse_split_spec(spec):
         meta = read_transforms(root, item.split)
         jpath = root / f"transforms_{item.split}.json"
@@ -259,35 +280,14 @@ def load_blender(
         frames = meta["frames"]
         for k in _select(jpath, item, len(frames)):
             where = f"{jpath} frame {k}"
-            pose = check_pose(frames[k]["transform_matrix"], where)
-            path = _image_path(root, frames[k]["file_path"], where)
-            img = load_image(path, bg, expect_size=None if size is None else (size[1], size[0]))
-            h, w = img.shape[:2]
-            if size is None:
-                size = (h, w)
-                factor = resolve_downscale(w, h, downscale, target_width, str(path))
-            images.append(area_downscale(img, factor))
-            poses.append(pose)
-            names.append(str(path.relative_to(root)))
-    h, w = images[0].shape[:2]
-    focal = 0.5 * w / math.tan(0.5 * fov)
-    return SceneData(np.stack(images), np.stack(poses), float(focal), h, w, names)
+            yield where, frames[k], check_pose(frames[k]["transform_matrix"], where), fov
 
 
 def read_split_poses(root: str | Path, spec: str) -> tuple[np.ndarray, float]:
     """Poses [N, 4, 4] and camera_angle_x of a split spec, without reading images."""
-    root = Path(root)
-    if not root.is_dir():
-        raise DataError(f"{root}: data folder does not exist")
     poses, fov = [], None
-    for item in parse_split_spec(spec):
-        meta = read_transforms(root, item.split)
-        jpath = root / f"transforms_{item.split}.json"
-        if fov is not None and abs(meta["camera_angle_x"] - fov) > 1e-6:
-            raise DataError(f"{jpath}: camera_angle_x {meta['camera_angle_x']} differs from the other splits ({fov})")
-        fov = float(meta["camera_angle_x"])
-        for k in _select(jpath, item, len(meta["frames"])):
-            poses.append(check_pose(meta["frames"][k]["transform_matrix"], f"{jpath} frame {k}"))
+    for _, _, pose, fov in iter_frames(root, spec):
+        poses.append(pose)
     if not poses:
         raise DataError(f"{root}: split spec {spec!r} selects no frames")
     return np.stack(poses), fov
