@@ -152,20 +152,12 @@ class ReportArgs:
     """A run folder written by `nerfkit train` (or an experiment folder)."""
 
 
-def _preset_from_argv(argv: list[str], default: str) -> str:
+def _flag_value(argv: list[str], flag: str) -> str | None:
+    """The value given to `flag` ("--flag V" or "--flag=V"), read before tyro parses argv."""
     for k, a in enumerate(argv):
-        if a == "--preset" and k + 1 < len(argv):
+        if a == flag and k + 1 < len(argv):
             return argv[k + 1]
-        if a.startswith("--preset="):
-            return a.split("=", 1)[1]
-    return default
-
-
-def _out_from_argv(argv: list[str]) -> str | None:
-    for k, a in enumerate(argv):
-        if a == "--out" and k + 1 < len(argv):
-            return argv[k + 1]
-        if a.startswith("--out="):
+        if a.startswith(flag + "="):
             return a.split("=", 1)[1]
     return None
 
@@ -173,9 +165,9 @@ def _out_from_argv(argv: list[str]) -> str | None:
 def cmd_train(argv: list[str]) -> int:
     from nerfkit.train import Trainer, load_run_config
 
-    name = _preset_from_argv(argv, "nerf")
+    name = _flag_value(argv, "--preset") or "nerf"
     base = preset(name) if name in PRESETS else Config()
-    out = _out_from_argv(argv)
+    out = _flag_value(argv, "--out")
     if "--resume" in argv and out and (Path(out) / "config.json").is_file():
         base = load_run_config(Path(out))  # a resumed run keeps its own config
     default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name if name in PRESETS else "nerf", cfg=base)

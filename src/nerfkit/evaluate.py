@@ -17,7 +17,7 @@ from nerfkit.errors import ConfigError
 from nerfkit.inference import Renderer
 from nerfkit.metrics import psnr, ssim
 from nerfkit.train import load_trained
-from nerfkit.viz import colorize_depth, depth_range, save_png, write_video
+from nerfkit.viz import background_rgb, colorize_renders, save_png, write_video
 
 
 def check_chunk(chunk: int | None) -> None:
@@ -28,10 +28,6 @@ def check_chunk(chunk: int | None) -> None:
 def split_slug(spec: str) -> str:
     """A file-name-safe form of a split spec: "val[50:100]" -> "val_50_100"."""
     return re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9]+", "_", spec)).strip("_")
-
-
-def _bg(cfg):
-    return (1.0, 1.0, 1.0) if cfg.data.background == "white" else (0.0, 0.0, 0.0)
 
 
 def evaluate_run(run_dir: Path, data_dir: Path, split: str, downscale: int | None = None, every: int = 1,
@@ -57,10 +53,10 @@ def evaluate_run(run_dir: Path, data_dir: Path, split: str, downscale: int | Non
                          "ssim": ssim(r["rgb"], data.images[k])})
         renders.append(r)
     seconds = time.perf_counter() - t0
-    lo, hi = depth_range([r["depth_normalized"] for r in renders], [r["opacity"] for r in renders])
-    for k, r in zip(ids, renders):
+    depth_imgs, _ = colorize_renders(renders, background_rgb(cfg.data.background))
+    for k, r, depth_img in zip(ids, renders, depth_imgs):
         save_png(out_dir / f"view_{k:03d}_rgb.png", r["rgb"])
-        save_png(out_dir / f"view_{k:03d}_depth.png", colorize_depth(r["depth_normalized"], r["opacity"], lo, hi, _bg(cfg)))
+        save_png(out_dir / f"view_{k:03d}_depth.png", depth_img)
         np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
     result = {
         "split": split, "step": step, "height": data.height, "width": data.width, "n_views": len(ids),
@@ -120,16 +116,12 @@ def render_run(run_dir: Path, data_dir: Path, split: str | None = None, orbit: i
     for k in tqdm(range(len(poses)), desc="render", disable=not progress, unit="view"):
         renders.append(renderer.render_image(params, aux, poses[k], height, width, focal))
     seconds = time.perf_counter() - t0
-    lo, hi = depth_range([r["depth_normalized"] for r in renders], [r["opacity"] for r in renders])
-    rgb_frames, depth_frames = [], []
-    for k, r in enumerate(renders):
-        depth_img = colorize_depth(r["depth_normalized"], r["opacity"], lo, hi, _bg(cfg))
+    depth_frames, (lo, hi) = colorize_renders(renders, background_rgb(cfg.data.background))
+    for k, (r, depth_img) in enumerate(zip(renders, depth_frames)):
         save_png(out / f"rgb_{k:04d}.png", r["rgb"])
         save_png(out / f"depth_{k:04d}.png", depth_img)
         np.save(out / f"depth_{k:04d}.npy", r["depth"].astype(np.float32), allow_pickle=False)
-        rgb_frames.append(r["rgb"])
-        depth_frames.append(depth_img)
-    write_video(out / "rgb.mp4", rgb_frames, fps=fps)
+    write_video(out / "rgb.mp4", [r["rgb"] for r in renders], fps=fps)
     write_video(out / "depth.mp4", depth_frames, fps=fps)
     info = {"out": str(out), "frames": len(poses), "width": width, "height": height, "step": step,
             "seconds_per_frame": seconds / len(poses), "depth_range": [lo, hi]}

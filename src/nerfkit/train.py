@@ -34,9 +34,9 @@ from nerfkit.config import Config, validate
 from nerfkit.data.blender import SceneData, load_blender
 from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.inference import Renderer
-from nerfkit.metrics import psnr as psnr_np
+from nerfkit.metrics import mse_to_psnr, psnr as psnr_np
 from nerfkit.model import build_model
-from nerfkit.viz import (colorize_depth, depth_range, plot_curves, read_jsonl, save_png, side_by_side)
+from nerfkit.viz import background_rgb, colorize_renders, plot_curves, read_jsonl, save_png, side_by_side
 
 
 def make_optimizer(cfg: Config):
@@ -234,15 +234,13 @@ class Trainer:
         """Render the validation views, save them beside ground truth, log mean PSNR."""
         out_dir = self.run_dir / "val" / f"step_{step:07d}"
         vd = self.val_data
-        bg = (1.0, 1.0, 1.0) if self.cfg.data.background == "white" else (0.0, 0.0, 0.0)
         scores, renders = [], []
         for k in self.val_ids:
             r = self.renderer.render_image(state["params"], state["aux"], vd.poses[k], vd.height, vd.width, vd.focal)
             scores.append(psnr_np(r["rgb"], vd.images[k]))
             renders.append(r)
-        lo, hi = depth_range([r["depth_normalized"] for r in renders], [r["opacity"] for r in renders])
-        for k, r in zip(self.val_ids, renders):
-            depth_img = colorize_depth(r["depth_normalized"], r["opacity"], lo, hi, bg)
+        depth_imgs, _ = colorize_renders(renders, background_rgb(self.cfg.data.background))
+        for k, r, depth_img in zip(self.val_ids, renders, depth_imgs):
             save_png(out_dir / f"view_{k:03d}.png", side_by_side([vd.images[k], r["rgb"], depth_img]))
             np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
         mean = float(np.mean(scores))
@@ -309,7 +307,7 @@ class Trainer:
                             bad_streak = 0
                     s, mm = pending[-1]
                     loss, mse = float(mm["loss"]), float(mm["mse"])
-                    row = {"step": s, "loss": loss, "psnr": float(-10 * np.log10(max(mse, 1e-12))),
+                    row = {"step": s, "loss": loss, "psnr": float(mse_to_psnr(mse)),
                            "lr": float(self.schedule(s)), "elapsed": round(elapsed, 3)}
                     for k, v in mm.items():
                         if k not in ("loss", "mse", "finite"):

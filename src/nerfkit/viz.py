@@ -40,6 +40,19 @@ def colorize_depth(depth: np.ndarray, opacity: np.ndarray, lo: float, hi: float,
     return rgb * a + (1.0 - a) * np.asarray(background)
 
 
+def background_rgb(name: str) -> tuple[float, float, float]:
+    """The RGB triple of a background name ("white" or "black")."""
+    return (1.0, 1.0, 1.0) if name == "white" else (0.0, 0.0, 0.0)
+
+
+def colorize_renders(renders: list[dict], background) -> tuple[list[np.ndarray], tuple[float, float]]:
+    """Depth colour maps of several renders on one shared depth range (so the views of a
+    set or the frames of a video are comparable), and that range."""
+    lo, hi = depth_range([r["depth_normalized"] for r in renders], [r["opacity"] for r in renders])
+    images = [colorize_depth(r["depth_normalized"], r["opacity"], lo, hi, background) for r in renders]
+    return images, (lo, hi)
+
+
 def save_png(path: Path, img: np.ndarray) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     iio.imwrite(path, to_uint8(img) if img.dtype != np.uint8 else img)
