@@ -225,7 +225,7 @@ def cmd_demo(argv: list[str]) -> int:
         shutil.rmtree(run)  # the demo always starts fresh
     print(f"[2/4] training ({a.preset} preset, up to {a.max_minutes:g} min) into {run}")
     res = Trainer(scene, run, cfg).run()
-    print(f"[3/4] evaluating on the test views")
+    print("[3/4] evaluating on the test views")
     ev = evaluate_run(run, scene, "test")
     print(format_eval_table(ev))
     print(f"[4/4] rendering a {a.orbit_frames}-frame orbit")
