@@ -16,7 +16,7 @@ from typing import Literal
 
 import tyro
 
-from nerfkit.config import PRESET_HELP, PRESETS, Config, preset
+from nerfkit.config import DEFAULT_PRESET, PRESET_HELP, PRESETS, Config, preset
 from nerfkit.errors import NerfkitError
 
 PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
@@ -24,14 +24,15 @@ PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
 
 @dataclasses.dataclass
 class TrainArgs:
-    """Train a radiance field on a Blender-format scene and write a run folder."""
+    """Train a radiance field on a capture folder and write a run folder."""
 
     data_dir: tyro.conf.Positional[Path]
-    """Folder with transforms_{split}.json and the images."""
+    """Capture folder: Blender (transforms_{split}.json), nerfstudio (transforms.json), LLFF (poses_bounds.npy)
+    or COLMAP (sparse/0); `nerfkit process-data` makes one from photos or a video."""
     out: Path
     """Run folder (config, metrics, plots, validation images, checkpoints)."""
-    preset: PresetName = "nerf"  # type: ignore[valid-type]
-    """Starting configuration: seed | nerf | demo | tiny (see README)."""
+    preset: PresetName = DEFAULT_PRESET  # type: ignore[valid-type]
+    """Starting configuration: ngp (default) | seed | nerf | demo | tiny (see README)."""
     resume: bool = False
     """Continue the run in --out from its newest checkpoint (with its saved config)."""
     progress: bool = True
@@ -45,8 +46,8 @@ class EvalArgs:
 
     run_dir: tyro.conf.Positional[Path]
     """A run folder written by `nerfkit train`."""
-    data: Path
-    """The data folder the views come from."""
+    data: Path | None = None
+    """The data folder the views come from (default: the one the run was trained on)."""
     split: str = "test"
     """Views to evaluate: 'split' or 'split[a:b]', e.g. 'val[50:100]'."""
     downscale: int | None = None
@@ -63,12 +64,13 @@ class RenderArgs:
 
     run_dir: tyro.conf.Positional[Path]
     """A run folder written by `nerfkit train`."""
-    data: Path
-    """The data folder (for poses, field of view and the orbit's radius and elevation)."""
+    data: Path | None = None
+    """The data folder (poses, field of view, the orbit's path); default: the one the run was trained on."""
     split: str | None = None
     """Render the poses of this split, e.g. 'val[50:100]'."""
     orbit: int | None = None
-    """Render an orbit of N frames around the scene centre at the dataset's typical elevation."""
+    """Render an orbit of N frames: a circle at the cameras' typical radius and elevation (Blender scenes),
+    or an ellipse fitted to the camera centres (photo captures), looking at the scene centre."""
     width: int | None = None
     """Output width in pixels (default: training width; height follows the aspect ratio)."""
     height: int | None = None
@@ -139,6 +141,14 @@ class ExperimentArgs:
     """Validation views shown in image grids (at least 2)."""
     val_every: int | None = None
     """Validate every N steps during training (default: the preset's)."""
+    train_split: str | None = None
+    """Frames to train on (default: the data's train split); the report's seed protocol is "train,val[0:50]"."""
+    val_split: str | None = None
+    """Frames to validate and evaluate on (default: val, else test); seed protocol: "val[50:100]"."""
+    target_width: int | None = None
+    """Shrink images to this width (seed protocol: 200)."""
+    downscale: int | None = None
+    """Shrink images by this factor (overrides --target-width)."""
     progress: bool = True
     """Show progress bars."""
 
@@ -165,12 +175,13 @@ def _flag_value(argv: list[str], flag: str) -> str | None:
 def cmd_train(argv: list[str]) -> int:
     from nerfkit.train import Trainer, load_run_config
 
-    name = _flag_value(argv, "--preset") or "nerf"
-    base = preset(name) if name in PRESETS else Config()
+    name = _flag_value(argv, "--preset") or DEFAULT_PRESET
+    base = preset(name) if name in PRESETS else preset(DEFAULT_PRESET)
     out = _flag_value(argv, "--out")
     if "--resume" in argv and out and (Path(out) / "config.json").is_file():
         base = load_run_config(Path(out))  # a resumed run keeps its own config
-    default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name if name in PRESETS else "nerf", cfg=base)
+    default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name if name in PRESETS else DEFAULT_PRESET,
+                        cfg=base)
     args = tyro.cli(TrainArgs, default=default, args=argv, prog="nerfkit train")
     res = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress).run()
     val = f"{res.val_psnr:.2f} dB" if res.val_psnr is not None else "n/a"
@@ -254,7 +265,8 @@ def cmd_experiment(argv: list[str]) -> int:
     a = tyro.cli(ExperimentArgs, args=argv, prog="nerfkit experiment")
     pe_ablation(a.data_dir, a.out, preset=a.preset, budget_minutes=a.budget_minutes, max_steps=a.max_steps,
                 seed=a.seed, eval_every=a.eval_every, orbit_frames=a.orbit_frames, grid_views=a.grid_views,
-                val_every=a.val_every, progress=a.progress)
+                val_every=a.val_every, progress=a.progress, train_split=a.train_split, val_split=a.val_split,
+                target_width=a.target_width, downscale=a.downscale)
     print("\n" + (a.out / "results.md").read_text())
     print(f"report: {a.out / 'report.html'}")
     return 0
@@ -275,9 +287,9 @@ def cmd_report(argv: list[str]) -> int:
 COMMANDS = {
     "demo": (cmd_demo, "generate the procedural scene, train, evaluate and render an orbit (a few minutes)"),
     "make-scene": (cmd_make_scene, "write the procedural demo scene in Blender format"),
-    "train": (cmd_train, "train a radiance field: nerfkit train DATA_DIR --out RUN_DIR [--preset seed|nerf|demo]"),
-    "eval": (cmd_eval, "PSNR/SSIM of a run on a split: nerfkit eval RUN_DIR --data DATA_DIR --split SPLIT"),
-    "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --data DATA_DIR --orbit N"),
+    "train": (cmd_train, "train a radiance field: nerfkit train DATA_DIR --out RUN_DIR [--preset ngp|seed|nerf|demo]"),
+    "eval": (cmd_eval, "PSNR/SSIM of a run on a split: nerfkit eval RUN_DIR --split SPLIT [--data DATA_DIR]"),
+    "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --orbit N"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation DATA_DIR --out DIR "
                                    "--budget-minutes M"),
     "report": (cmd_report, "static HTML report of a run or experiment (opens from disk): nerfkit report RUN_DIR"),

@@ -23,16 +23,23 @@ from nerfkit.errors import ConfigError
 class DataConfig:
     """Which images to load and how."""
 
-    train_split: str = "train"
-    """Frames to train on: comma-separated `split` or `split[a:b]`, e.g. "train,val[0:50]"."""
-    val_split: str = "val"
-    """Frames for periodic validation, same syntax as --train-split."""
+    train_split: str | None = None
+    """Frames to train on: comma-separated `split` or `split[a:b]`, e.g. "train,val[0:50]" (default: train)."""
+    val_split: str | None = None
+    """Frames for periodic validation, same syntax (default: val if the data has it, else test)."""
     downscale: int | None = None
-    """Shrink images by this integer factor (area resampling). Overrides --target-width."""
+    """Shrink images by this integer factor (area resampling). Overrides --target-width. Default: 1, or for
+    photos the smallest power of two that brings the long side to 1600 px or less."""
     target_width: int | None = None
     """Pick the downscale factor that gives this image width (must divide the width)."""
     background: Literal["white", "black"] = "white"
-    """Colour RGBA images are composited on, and the colour rendered behind the field."""
+    """Colour RGBA images and masked photos are composited on, and the colour rendered behind the field."""
+    format: Literal["auto", "blender", "nerfstudio", "llff", "colmap"] = "auto"
+    """Capture format (auto: from the files in the data folder)."""
+    masks: bool = True
+    """Use object masks where the capture has them (pixels outside become the background); --no-masks ignores them."""
+    holdout_every: int = 8
+    """Formats without splits: every N-th image (sorted by name, index % N == 0) is held out as 'test'."""
 
 
 @dataclass
@@ -65,8 +72,28 @@ class FieldConfig:
     """ngp: resolution of the finest level (cells across the scene box)."""
     hidden: int = 64
     """ngp: width of the density and colour MLPs."""
-    bound: float = 1.5
-    """ngp: the scene lies in the box [-bound, bound]^3 (1.5 for the Blender scenes)."""
+    bound: float | None = None
+    """ngp: bounded scenes lie in the box [-bound, bound]^3; unbounded ones are contracted outside the ball
+    of this radius. Default: from the data (1.5 for Blender scenes, the visual hull of masked captures,
+    1.1 x the farthest camera for unbounded ones)."""
+    scene_type: Literal["auto", "bounded", "unbounded"] = "auto"
+    """ngp: bounded (object in a box, background colour behind) or unbounded (mip-NeRF 360 contraction, the
+    background is part of the scene). auto: bounded for Blender scenes and masked captures, else unbounded."""
+    appearance_dim: int | None = None
+    """Per-image appearance embedding size (NeRF-W); absorbs exposure / white balance. Default: 16 for photo
+    captures, 0 (off) for Blender scenes. Held-out views use the mean embedding."""
+    appearance_count: int = 0
+    """Set from the data: number of training images that own an appearance embedding."""
+
+    def resolved_bound(self) -> float:
+        return 1.5 if self.bound is None else self.bound
+
+    def unbounded(self) -> bool:
+        return self.scene_type == "unbounded"
+
+    def n_appearance(self) -> int:
+        """Embedding size actually used (0 unless both the size and the image count are set)."""
+        return (self.appearance_dim or 0) if self.appearance_count > 0 else 0
 
 
 @dataclass
@@ -77,10 +104,10 @@ class SamplerConfig:
     """Stratified samples per ray (coarse samples when hierarchical sampling is on)."""
     n_importance: int = 0
     """Extra fine samples from the coarse weights (inverse CDF); 0 disables the fine network."""
-    near: float = 2.0
-    """Near bound of the ray interval, in z-depth (units of the camera's viewing axis)."""
-    far: float = 6.0
-    """Far bound of the ray interval."""
+    near: float | None = 2.0
+    """Near bound of the ray interval, in z-depth (units of the camera's viewing axis); ngp default: from the data."""
+    far: float | None = 6.0
+    """Far bound of the ray interval; ngp default: from the data (beyond the box; 1e4 for unbounded scenes)."""
     perturb: bool = True
     """Jitter samples within their bins while training (stratified); eval uses bin midpoints."""
     occ_res: int = 64
@@ -90,7 +117,8 @@ class SamplerConfig:
     occ_warmup: int = 256
     """ngp: steps during which every update re-evaluates all cells."""
     march_steps: int = 512
-    """ngp: ray-marching steps across the box diagonal (step = 2 sqrt(3) bound / N)."""
+    """ngp: ray-marching steps across the box diagonal (step = 2 sqrt(3) bound / N); unbounded scenes: steps
+    evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""
     max_samples: int = 65536
     """ngp: samples per training step; rays per step adapt to fill it (at most --batch-rays)."""
     eval_samples_per_ray: int = 48
@@ -218,9 +246,20 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"expected a nerfkit Config, got {type(cfg).__name__}")
     _check_types(cfg)
 
-    need(math.isfinite(s.near) and math.isfinite(s.far), "--near and --far must be finite numbers")
-    need(s.near >= 0, f"--near must be >= 0 (got {s.near})")
-    need(s.near < s.far, f"--near must be smaller than --far (got near={s.near}, far={s.far})")
+    if f.kind == "mlp":
+        need(s.near is not None and s.far is not None, "--near and --far must be set for the mlp field")
+        need(not f.unbounded(), "--scene-type unbounded needs the ngp field (--preset ngp); the MLP presets sample a "
+                                "fixed [near, far] interval")
+        need(f.n_appearance() == 0 or f.viewdirs, "appearance embeddings need --viewdirs with the mlp field")
+    for name in ("near", "far"):
+        v = getattr(s, name)
+        need(v is None or math.isfinite(v), "--near and --far must be finite numbers")
+    need(s.near is None or s.near >= 0, f"--near must be >= 0 (got {s.near})")
+    need(s.near is None or s.far is None or s.near < s.far,
+         f"--near must be smaller than --far (got near={s.near}, far={s.far})")
+    need(f.appearance_dim is None or f.appearance_dim >= 0, f"--appearance-dim must be >= 0 (got {f.appearance_dim})")
+    need(f.appearance_count >= 0, f"--appearance-count must be >= 0 (got {f.appearance_count})")
+    need(d.holdout_every >= 1, f"--holdout-every must be >= 1 (got {d.holdout_every})")
     need(s.n_samples >= 2, f"--n-samples must be at least 2 (got {s.n_samples})")
     need(s.n_importance >= 0, f"--n-importance must be >= 0 (got {s.n_importance})")
     need(t.max_steps >= 0, f"--max-steps must be >= 0 (got {t.max_steps})")
@@ -238,7 +277,7 @@ def validate(cfg: Config) -> Config:
     need(f.width >= 1, f"--width must be >= 1 (got {f.width})")
     need(f.l_xyz >= 0 and f.l_dir >= 0, f"--l-xyz and --l-dir must be >= 0 (got {f.l_xyz}, {f.l_dir})")
     if f.kind == "ngp":
-        need(f.bound > 0, f"--bound must be positive (got {f.bound})")
+        need(f.bound is None or f.bound > 0, f"--bound must be positive (got {f.bound})")
         need(1 <= f.hash_levels and 1 <= f.hash_features and 10 <= f.hash_log2_size <= 24,
              "--hash-levels, --hash-features must be >= 1 and --hash-log2-size in [10, 24]")
         need(2 <= f.hash_base_res <= f.hash_max_res, "need 2 <= --hash-base-res <= --hash-max-res")
@@ -253,9 +292,9 @@ def validate(cfg: Config) -> Config:
 
 def _seed() -> Config:
     # The reference report's Model-1: D=4, W=128, L=10/4, 64 stratified samples, near 0,
-    # far 5, 1024 rays/step, lr 5e-4 * 0.1^(step/250k), seed protocol at 200x200.
+    # far 5, 1024 rays/step, lr 5e-4 * 0.1^(step/250k). (The report's seed protocol is data:
+    # --train-split "train,val[0:50]" --val-split "val[50:100]" --target-width 200.)
     return Config(
-        data=DataConfig(train_split="train,val[0:50]", val_split="val[50:100]", target_width=200),
         field=FieldConfig(depth=4, width=128, l_xyz=10, l_dir=4),
         sampler=SamplerConfig(n_samples=64, n_importance=0, near=0.0, far=5.0),
         train=TrainConfig(val_every=1000, ckpt_every=1000, val_views=4),
@@ -297,15 +336,14 @@ def _tiny() -> Config:
 
 
 def _ngp() -> Config:
-    # Instant-NGP on the seed protocol: hash grid of 16 levels x 2 features with 2^17 rows per
-    # level (2^19 is the paper's; on 2 CPU cores the encoding's forward+backward ran 1.4x faster at 2^17 in
-    # benchmarks/hashgrid_speed.py, and 200x200 images do not need more), finest level 1024,
-    # a 64^3 occupancy grid (a 128^3 update costs ~8x more on CPU), 512 marching steps
-    # across the box, 2^16 samples per step.
+    # Instant-NGP: hash grid of 16 levels x 2 features with 2^17 rows per level (2^19 is the
+    # paper's; on 2 CPU cores the encoding's forward+backward ran 1.4x faster at 2^17 in
+    # benchmarks/hashgrid_speed.py), finest level 1024, a 64^3 occupancy grid (a 128^3 update
+    # costs ~8x more on CPU), 512 marching steps, 2^16 samples per step. Scene box / contraction,
+    # near / far and appearance embeddings come from the data (see resolve.py).
     return Config(
-        data=DataConfig(train_split="train,val[0:50]", val_split="val[50:100]", target_width=200),
-        field=FieldConfig(kind="ngp", hash_log2_size=17, hash_max_res=1024, bound=1.5),
-        sampler=SamplerConfig(near=0.0, far=6.0, occ_res=64, march_steps=512, max_samples=1 << 16),
+        field=FieldConfig(kind="ngp", hash_log2_size=17, hash_max_res=1024),
+        sampler=SamplerConfig(near=None, far=None, occ_res=64, march_steps=512, max_samples=1 << 16),
         train=TrainConfig(
             max_steps=20_000, batch_rays=4096, lr=1e-2, lr_decay_steps=20_000, adam_b2=0.99, adam_eps=1e-15,
             val_every=500, ckpt_every=500, val_views=4, log_every=25, chunk=4096,
@@ -313,11 +351,12 @@ def _ngp() -> Config:
     )
 
 
+DEFAULT_PRESET = "ngp"
 PRESETS = {"seed": _seed, "nerf": _nerf, "ngp": _ngp, "demo": _demo, "tiny": _tiny}
 PRESET_HELP = {
-    "seed": "the reference report's Model-1 (D=4, W=128, 64 samples, near 0, far 5, seed protocol, 200x200)",
+    "seed": "the reference report's Model-1 (D=4, W=128, 64 samples, near 0, far 5)",
     "nerf": "the original NeRF (D=8, W=256, 64 coarse + 128 fine, near 2, far 6)",
-    "ngp": "hash grid + occupancy grid (Instant-NGP), seed protocol at 200x200: minutes instead of hours",
+    "ngp": "hash grid + occupancy grid (Instant-NGP): minutes instead of hours (the default)",
     "demo": "small model for the embedded procedural scene",
     "tiny": "smallest model, for tests",
 }

@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.cameras import orbit_poses
-from nerfkit.data.blender import load_blender, read_split_poses
-from nerfkit.errors import ConfigError
+from nerfkit.cameras import ellipse_orbit_poses, orbit_poses
+from nerfkit.data.loader import load_frames, read_capture, scene_cameras
+from nerfkit.errors import ConfigError, DataError
 from nerfkit.inference import Renderer
 from nerfkit.metrics import psnr, ssim
 from nerfkit.train import load_trained
-from nerfkit.viz import background_rgb, colorize_renders, save_png, write_video
+from nerfkit.viz import background_rgb, colorize_renders, save_png, side_by_side, write_video
 
 
 def check_chunk(chunk: int | None) -> None:
@@ -30,7 +30,26 @@ def split_slug(spec: str) -> str:
     return re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9]+", "_", spec)).strip("_")
 
 
-def evaluate_run(run_dir: Path, data_dir: Path, split: str, downscale: int | None = None, every: int = 1,
+def run_data_dir(run_dir: Path, data_dir: Path | None) -> Path:
+    """The data folder of a run: the one given, else the one it was trained on (scene.json)."""
+    if data_dir is not None:
+        return Path(data_dir)
+    path = Path(run_dir) / "scene.json"
+    try:
+        return Path(json.loads(path.read_text())["data_dir"])
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ConfigError(f"{path}: no data folder recorded; pass --data DATA_DIR") from None
+
+
+def appearance_note(cfg) -> str | None:
+    n = cfg.field.n_appearance()
+    if not n:
+        return None
+    return (f"appearance: the mean of the {cfg.field.appearance_count} training images' embeddings "
+            f"(held-out views have none of their own)")
+
+
+def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
                  chunk: int | None = None, progress: bool = True) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/."""
@@ -39,16 +58,18 @@ def evaluate_run(run_dir: Path, data_dir: Path, split: str, downscale: int | Non
     check_chunk(chunk)
     run_dir = Path(run_dir)
     cfg, model, params, aux, step = load_trained(run_dir)
+    data_dir = run_data_dir(run_dir, data_dir)
     d = cfg.data
-    data = load_blender(data_dir, split, downscale=downscale if downscale is not None else d.downscale,
-                        target_width=None if downscale is not None else d.target_width, background=d.background)
+    cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
+    data = load_frames(cap, split, downscale=downscale if downscale is not None else d.downscale,
+                       target_width=None if downscale is not None else d.target_width, background=d.background)
     renderer = Renderer(model, cfg.train.chunk if chunk is None else chunk)
     out_dir = run_dir / f"eval_{split_slug(split)}"
     per_view, renders = [], []
     ids = list(range(0, len(data), every))
     t0 = time.perf_counter()
     for k in tqdm(ids, desc="eval", disable=not progress, unit="view"):
-        r = renderer.render_image(params, aux, data.poses[k], data.height, data.width, data.focal)
+        r = renderer.render_camera(params, aux, data.poses[k], data.cameras[k])
         per_view.append({"view": k, "name": data.names[k], "psnr": psnr(r["rgb"], data.images[k]),
                          "ssim": ssim(r["rgb"], data.images[k])})
         renders.append(r)
@@ -57,7 +78,8 @@ def evaluate_run(run_dir: Path, data_dir: Path, split: str, downscale: int | Non
     for k, r, depth_img in zip(ids, renders, depth_imgs):
         save_png(out_dir / f"view_{k:03d}_rgb.png", r["rgb"])
         save_png(out_dir / f"view_{k:03d}_depth.png", depth_img)
-        np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
+        save_png(out_dir / f"view_{k:03d}.png", side_by_side([data.images[k], r["rgb"], depth_img]))
+        np.save(out_dir / f"view_{k:03d}_depth.npy", (r["depth"] / data.scale).astype(np.float32), allow_pickle=False)
     result = {
         "split": split, "step": step, "height": data.height, "width": data.width, "n_views": len(ids),
         "psnr": float(np.mean([v["psnr"] for v in per_view])),
@@ -65,6 +87,8 @@ def evaluate_run(run_dir: Path, data_dir: Path, split: str, downscale: int | Non
         "seconds_per_view": seconds / max(len(ids), 1),
         "per_view": per_view,
     }
+    if appearance_note(cfg):
+        result["appearance"] = appearance_note(cfg)
     (run_dir / f"eval_{split_slug(split)}.json").write_text(json.dumps(result, indent=2))
     return result
 
@@ -75,10 +99,12 @@ def format_eval_table(result: dict) -> str:
         lines.append(f"{v['view']:>5}  {v['name'][-28:]:<28} {v['psnr']:7.2f} {v['ssim']:7.4f}")
     lines.append(f"{'mean':>5}  {'(' + str(result['n_views']) + ' views, step ' + str(result['step']) + ')':<28} "
                  f"{result['psnr']:7.2f} {result['ssim']:7.4f}")
+    if result.get("appearance"):
+        lines.append(result["appearance"])
     return "\n".join(lines)
 
 
-def render_run(run_dir: Path, data_dir: Path, split: str | None = None, orbit: int | None = None,
+def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, orbit: int | None = None,
                width: int | None = None, height: int | None = None, out: Path | None = None,
                fps: int = 24, chunk: int | None = None, progress: bool = True) -> dict:
     """Render a split's poses or an N-frame orbit at any resolution: RGB and colour-mapped
@@ -93,37 +119,52 @@ def render_run(run_dir: Path, data_dir: Path, split: str | None = None, orbit: i
             raise ConfigError(f"{name} must be positive (got {v})")
     run_dir = Path(run_dir)
     cfg, model, params, aux, step = load_trained(run_dir)
+    data_dir = run_data_dir(run_dir, data_dir)
     scene = json.loads((run_dir / "scene.json").read_text())
-    train_poses, fov = read_split_poses(data_dir, cfg.data.train_split)
+    d = cfg.data
+    cap = read_capture(data_dir, cfg.data.train_split if split is None else split, d.format, d.masks, d.holdout_every)
     if split is not None:
-        poses, fov = read_split_poses(data_dir, split)
+        sel = scene_cameras(cap, split, d.downscale, d.target_width)
         name = split_slug(split)
+        poses = sel.poses
     else:
-        poses = orbit_poses(train_poses, orbit)
+        train = scene_cameras(cap, cfg.data.train_split, d.downscale, d.target_width)
+        sel = train
+        poses = orbit_poses(train.poses, orbit) if cap.format == "blender" else ellipse_orbit_poses(
+            train.poses, orbit, center=np.zeros(3))
         name = f"orbit{orbit}"
-    aspect = scene["height"] / scene["width"]
+    cam0 = sel.cameras[0]
+    aspect = cam0.height / cam0.width
     if width is None and height is None:
         width, height = scene["width"], scene["height"]
     elif width is None:
         width = max(1, round(height / aspect))
     elif height is None:
         height = max(1, round(width * aspect))
-    focal = 0.5 * width / math.tan(0.5 * fov)
+    native = split is not None and (width, height) == (cam0.width, cam0.height)
+    cams = sel.cameras if native else [c.with_size(width, height) for c in sel.cameras]
+    if split is None:
+        cams = [cams[0]] * len(poses)
     out = Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}"
     renderer = Renderer(model, cfg.train.chunk if chunk is None else chunk)
     renders = []
     t0 = time.perf_counter()
     for k in tqdm(range(len(poses)), desc="render", disable=not progress, unit="view"):
-        renders.append(renderer.render_image(params, aux, poses[k], height, width, focal))
+        renders.append(renderer.render_camera(params, aux, poses[k], cams[k]))
     seconds = time.perf_counter() - t0
     depth_frames, (lo, hi) = colorize_renders(renders, background_rgb(cfg.data.background))
     for k, (r, depth_img) in enumerate(zip(renders, depth_frames)):
         save_png(out / f"rgb_{k:04d}.png", r["rgb"])
         save_png(out / f"depth_{k:04d}.png", depth_img)
-        np.save(out / f"depth_{k:04d}.npy", r["depth"].astype(np.float32), allow_pickle=False)
+        np.save(out / f"depth_{k:04d}.npy", (r["depth"] / sel.scale).astype(np.float32), allow_pickle=False)
     write_video(out / "rgb.mp4", [r["rgb"] for r in renders], fps=fps)
     write_video(out / "depth.mp4", depth_frames, fps=fps)
+    # Camera-to-world of every frame in the capture's own coordinates (undoing the normalisation).
+    inv = np.linalg.inv(sel.transform)
+    capture_poses = [(inv @ p.astype(np.float64) @ np.diag([sel.scale] * 3 + [1.0])).tolist() for p in poses]
     info = {"out": str(out), "frames": len(poses), "width": width, "height": height, "step": step,
-            "seconds_per_frame": seconds / len(poses), "depth_range": [lo, hi]}
+            "seconds_per_frame": seconds / len(poses), "depth_range": [lo / sel.scale, hi / sel.scale],
+            "depth_units": "z-depth in the capture's own units", "camera": cams[0].to_json(),
+            "camera_to_world": capture_poses}
     (out / "render.json").write_text(json.dumps(info, indent=2))
     return info

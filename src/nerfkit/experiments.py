@@ -179,16 +179,18 @@ def _markdown(results: dict) -> str:
 def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", budget_minutes: float | None = None,
                 max_steps: int | None = None, seed: int | None = None, eval_every: int = 2, orbit_frames: int = 40,
                 grid_views: int = 2, val_every: int | None = None, progress: bool = True,
-                log: Callable[[str], None] = print) -> dict:
+                log: Callable[[str], None] = print, train_split: str | None = None, val_split: str | None = None,
+                target_width: int | None = None, downscale: int | None = None) -> dict:
     """Train Model-1 (PE 10/4), Model-2 (no PE) and Model-3 (PE 5/2) from `preset` with the
     same seed and budget (`budget_minutes` of wall time and/or `max_steps` steps, per model),
     evaluate each on its val split (every `eval_every`-th view), render an `orbit_frames`
     orbit of each at the training resolution, and write results.{json,md}, the overlaid
-    plots, `grid_views` image grids and report.html into `out`. Returns the results dict."""
-    from nerfkit.data.blender import load_blender
+    plots, `grid_views` image grids and report.html into `out`. Returns the results dict.
+    train_split, val_split, target_width, downscale: the data settings (default: the data's)."""
+    from nerfkit.data.loader import load_scene
     from nerfkit.evaluate import evaluate_run, render_run, split_slug
     from nerfkit.report import write_experiment_report, write_report
-    from nerfkit.train import Trainer, evenly_spaced
+    from nerfkit.train import Trainer, evenly_spaced, load_run_config
 
     data_dir, out = Path(data_dir), Path(out)
     if budget_minutes is None and max_steps is None:
@@ -223,10 +225,11 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
             cfg.train.seed = int(seed)
         if val_every is not None:
             cfg.train.val_every = int(val_every)
+        cfg.data.train_split, cfg.data.val_split = train_split, val_split
+        cfg.data.target_width, cfg.data.downscale = target_width, downscale
         cfgs.append(cfg)
     budget = {"max_minutes": budget_minutes, "max_steps": max_steps,
               "text": _budget_text(budget_minutes, max_steps)}
-    val_split = cfgs[0].data.val_split
     log(f"PE ablation on {data_dir}: 3 models, preset {preset}, {budget['text']} each; writing {out}")
 
     models = []
@@ -236,6 +239,7 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
         res = Trainer(data_dir, run, cfg, progress=progress).run()
         if res.interrupted:
             raise KeyboardInterrupt
+        val_split = load_run_config(run).data.val_split  # the split the run validated on (data default or given)
         log(f"[{k}/3] {v.label}: step {res.step}; evaluating on {val_split} (every {eval_every} view(s))")
         ev = evaluate_run(run, data_dir, val_split, every=eval_every, progress=progress)
         log(f"[{k}/3] {v.label}: val PSNR {ev['psnr']:.2f} dB, SSIM {ev['ssim']:.4f}; "
@@ -263,9 +267,9 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     ev0 = json.loads((out / models[0]["eval_json"]).read_text())
     plots = overlay_plots(out, [m["label"] for m in models], [out / m["run_dir"] for m in models])
 
-    d = cfgs[0].data
-    val = load_blender(data_dir, val_split, downscale=d.downscale, target_width=d.target_width,
-                       background=d.background)
+    d = load_run_config(out / models[0]["run_dir"]).data
+    val = load_scene(data_dir, val_split, format=d.format, downscale=d.downscale, target_width=d.target_width,
+                     background=d.background, masks=d.masks, holdout_every=d.holdout_every)
     bg = (1.0, 1.0, 1.0) if d.background == "white" else (0.0, 0.0, 0.0)
     ids = [v["view"] for v in ev0["per_view"]]
     grids = []

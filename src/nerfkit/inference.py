@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.cameras import image_rays
+from nerfkit.cameras import Camera, camera_rays
 
 OUTPUT_KEYS = ("rgb", "depth", "depth_normalized", "opacity")
 
@@ -60,7 +60,12 @@ class Renderer:
         return outs
 
     def render_image(self, params, aux, c2w: np.ndarray, height: int, width: int, focal: float) -> dict:
-        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of the camera c2w."""
-        o, d = image_rays(c2w, height, width, focal)
+        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of an ideal pinhole camera at c2w."""
+        return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
+
+    def render_camera(self, params, aux, c2w: np.ndarray, camera: Camera) -> dict:
+        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of `camera` (lens model included) at c2w.
+        Appearance embeddings, where the model has them, are the mean over training images."""
+        o, d = camera_rays(c2w, camera)
         out = self.render_rays(params, aux, o.reshape(-1, 3), d.reshape(-1, 3))
-        return {k: v.reshape(height, width, *v.shape[1:]) for k, v in out.items()}
+        return {k: v.reshape(camera.height, camera.width, *v.shape[1:]) for k, v in out.items()}

@@ -6,7 +6,8 @@ and optionally inverse-CDF samples from the coarse weights through a fine field
 trainer, evaluation and rendering code use without knowing which field is inside:
 
     init(key) -> (params, aux)            trainable params, non-trainable state
-    render_rays(params, aux, o, d, key, train) -> {"rgb", "depth", "opacity", ...}
+    render_rays(params, aux, o, d, key, train, image_idx=None) -> {"rgb", "depth", "opacity", ...}
+        (image_idx [R]: the training image of each ray, for appearance embeddings; None: mean)
     losses(out, target) -> (loss, {"mse": ...})
     update_aux(params, aux, step, key) -> aux   (e.g. an occupancy grid; no-op here)
 """
@@ -18,6 +19,7 @@ import jax.numpy as jnp
 
 from nerfkit import occupancy
 from nerfkit.config import Config
+from nerfkit.coord import radial_stretch
 from nerfkit.fields.mlp import MLPField
 from nerfkit.fields.ngp import HashGridField
 from nerfkit.render import packed_composite, packed_compositing_weights, volume_render
@@ -45,12 +47,13 @@ class NeRFModel:
     def update_aux(self, params, aux, step, key):
         return aux
 
-    def _shade(self, field, params, o, d, viewdir, t, last_interval):
+    def _shade(self, field, params, o, d, viewdir, t, last_interval, image_idx):
         x = o[:, None, :] + t[..., None] * d[:, None, :]  # [R, N, 3]
-        rgb, sigma = field(params, x, viewdir[:, None, :])
+        emb = field.embedding(params, image_idx)
+        rgb, sigma = field(params, x, viewdir[:, None, :], None if emb is None else emb[:, None, :])
         return volume_render(sigma, rgb, t, jnp.linalg.norm(d, axis=-1), last_interval, self.background)
 
-    def render_rays(self, params, aux, o, d, key, train: bool) -> dict:
+    def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None) -> dict:
         """Render rays o, d [R, 3]. Returns rgb [R, 3], depth, opacity, depth_normalized [R]
         (and "coarse": the coarse pass's outputs when hierarchical sampling is on)."""
         s = self.cfg.sampler
@@ -58,7 +61,7 @@ class NeRFModel:
         viewdir = d / jnp.linalg.norm(d, axis=-1, keepdims=True)
         t = stratified_samples(k_strat, o.shape[0], s.n_samples, s.near, s.far, perturb=train and s.perturb)
         bin_width = (s.far - s.near) / s.n_samples
-        out = self._shade(self.coarse, params["coarse"], o, d, viewdir, t, bin_width)
+        out = self._shade(self.coarse, params["coarse"], o, d, viewdir, t, bin_width, image_idx)
         if self.fine is None:
             return out
         # Fine pass: importance samples from the coarse weights on the interior bins
@@ -67,7 +70,7 @@ class NeRFModel:
                             deterministic=not (train and s.perturb))
         t_all = jnp.sort(jnp.concatenate([t, t_fine], axis=-1), axis=-1)
         fine = self._shade(self.fine, params["fine"], o, d, viewdir, t_all,
-                           (s.far - s.near) / (s.n_samples + s.n_importance))
+                           (s.far - s.near) / (s.n_samples + s.n_importance), image_idx)
         fine["coarse"] = out
         return fine
 
@@ -84,13 +87,17 @@ class NeRFModel:
 class NGPModel:
     """Hash-grid field with occupancy-grid empty-space skipping (Instant-NGP style).
 
-    Rays march through the box [-bound, bound]^3 at a fixed step (2 sqrt(3) bound /
-    march_steps, in t units) and keep only samples in occupied cells; the kept samples of
-    all rays are packed into a fixed budget (static shapes). While training, `batch_rays`
-    rays are drawn and the rays whose samples all fit in `max_samples` are rendered and
-    scored ("complete" rays), so the number of rays per step adapts to keep the budget
-    full. Weights stop once transmittance drops below 1e-4. The occupancy grid (aux) is
-    refreshed every `occ_update_every` steps inside the jitted step.
+    Bounded scenes: rays march through the box [-bound, bound]^3 at a fixed step
+    (2 sqrt(3) bound / march_steps, in t units). Unbounded scenes: march_steps candidates
+    evenly spaced in s = g(t) (coord.spacing: linear inside the inner ball of radius
+    bound, disparity beyond), the occupancy grid over the contracted cube [-2, 2]^3, and
+    a random background colour per ray while training (so the field, not the background,
+    explains every pixel). Only samples in occupied cells are kept; the kept samples of all
+    rays are packed into a fixed budget (static shapes). While training, `batch_rays` rays
+    are drawn and the rays whose samples all fit in `max_samples` are rendered and scored
+    ("complete" rays), so the number of rays per step adapts to keep the budget full.
+    Weights stop once transmittance drops below 1e-4. The occupancy grid (aux) is refreshed
+    every `occ_update_every` steps inside the jitted step.
     """
 
     MIN_TRANSMITTANCE = 1e-4
@@ -99,44 +106,70 @@ class NGPModel:
         self.cfg = cfg
         self.field = HashGridField(cfg.field)
         s = cfg.sampler
-        self.step_size = 2.0 * 3**0.5 * cfg.field.bound / s.march_steps
+        self.unbounded = self.field.unbounded
+        radius = self.field.radius
+        # t-step inside the box, or inside the inner ball (s spans ~[0, 2] over march_steps).
+        self.step_size = (2.0 * radius if self.unbounded else 2.0 * 3**0.5 * radius) / s.march_steps
         # A cell is worth sampling if one marching step through it has optical depth
-        # sigma * step >= 0.01 (instant-ngp's minimum optical thickness).
-        self.occ = occupancy.OccupancyConfig(resolution=s.occ_res, bound=cfg.field.bound,
+        # sigma * step >= 0.01 (instant-ngp's minimum optical thickness); in contracted space
+        # the grid stores sigma times the stretch of the step there (coord.radial_stretch).
+        self.occ = occupancy.OccupancyConfig(resolution=s.occ_res, bound=self.field.grid_bound,
                                              threshold=0.01 / self.step_size)
         self.background = background_color(cfg.data.background)
+        # Unresolved (no data seen): the defaults of resolve.py.
+        self.near = s.near if s.near is not None else (0.05 if self.unbounded else 0.0)
+        self.far = s.far if s.far is not None else 1e4
 
     def init(self, key):
         return {"field": self.field.init(key)}, occupancy.init_occupancy(self.occ)
+
+    def occupancy_density(self, params, y):
+        """What the occupancy grid stores at grid points y [M, 3] (see __init__)."""
+        sigma = self.field.density_grid(params["field"], y)
+        return sigma * radial_stretch(y) if self.unbounded else sigma
 
     def update_aux(self, params, aux, step, key):
         s = self.cfg.sampler
 
         def update(a):
-            return occupancy.update_occupancy(a, lambda x: self.field.density(params["field"], x), key, step,
+            return occupancy.update_occupancy(a, lambda y: self.occupancy_density(params, y), key, step,
                                               self.occ, warmup_steps=s.occ_warmup)
 
         return jax.lax.cond(step % s.occ_update_every == 0, update, lambda a: a, aux)
 
-    def render_rays(self, params, aux, o, d, key, train: bool) -> dict:
+    def march(self, aux, o, d, budget: int, key=None) -> dict:
+        """Packed samples of rays o, d [R, 3] (occupancy.pack_candidates)."""
+        s = self.cfg.sampler
+        if self.unbounded:
+            t0, t1, cand = occupancy.contracted_candidates(o.shape[0], self.near, self.far, self.field.radius,
+                                                           s.march_steps, key)
+        else:
+            t0, t1, cand = occupancy.box_candidates(o, d, self.near, self.far, self.field.radius, self.step_size,
+                                                    s.march_steps, key)
+        return occupancy.pack_candidates(aux, o, d, t0, t1, cand, self.occ, budget, to_grid=self.field.to_grid)
+
+    def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None) -> dict:
         """Render rays o, d [R, 3]; also returns complete [R] (rays whose samples all fit the
         budget; the others must be rendered again) and the number of samples used."""
         s = self.cfg.sampler
         n = o.shape[0]
         budget = s.max_samples if train else n * s.eval_samples_per_ray
-        k_march = key if (train and s.perturb) else None
-        m = occupancy.march_rays(aux, o, d, s.near, s.far, self.occ, self.step_size, budget, key=k_march,
-                                 max_steps=s.march_steps)
+        k_march, k_bg = jax.random.split(key)
+        m = self.march(aux, o, d, budget, k_march if (train and s.perturb) else None)
         ray = m["ray_idx"]
         valid = m["valid"] & m["complete"][ray]
         dir_norm = jnp.linalg.norm(d, axis=-1)
         t_mid = 0.5 * (m["t_start"] + m["t_end"])
         x = o[ray] + t_mid[:, None] * d[ray]
         viewdir = d[ray] / dir_norm[ray][:, None]
-        rgb, sigma = self.field(params["field"], x, viewdir)
+        emb = self.field.embedding(params["field"], image_idx)
+        if emb is not None:
+            emb = emb[ray] if image_idx is not None else emb
+        rgb, sigma = self.field(params["field"], x, viewdir, emb)
         delta = (m["t_end"] - m["t_start"]) * dir_norm[ray]
         w = packed_compositing_weights(sigma, delta, ray, valid, self.MIN_TRANSMITTANCE)
-        out = packed_composite(w, rgb, t_mid, ray, n, self.background, s.far)
+        bg = jax.random.uniform(k_bg, (n, 3)) if (train and self.unbounded) else self.background
+        out = packed_composite(w, rgb, t_mid, ray, n, bg, self.far)
         out["complete"] = m["complete"]
         out["n_samples"] = jnp.sum(valid)
         return out

@@ -302,31 +302,71 @@ def march_rays(
     """
     o = jnp.asarray(origins, jnp.float32)
     d = jnp.asarray(directions, jnp.float32)
-    n_rays = o.shape[0]
     k_steps = default_max_steps(cfg, step_size) if max_steps is None else int(max_steps)
+    t_start, t_end, cand = box_candidates(o, d, near, far, cfg.bound, step_size, k_steps, key)
+    return pack_candidates(state, o, d, t_start, t_end, cand, cfg, max_samples)
 
-    t_enter, t_exit = ray_box_intersect(o, d, cfg.bound)
+
+def _jitter(key, n_rays: int):
+    return jnp.zeros((n_rays,), jnp.float32) if key is None else jax.random.uniform(key, (n_rays,), jnp.float32)
+
+
+def box_candidates(o, d, near, far, bound: float, step_size: float, k_steps: int, key=None):
+    """Candidate intervals [R, K] at a fixed step inside the box [-B, B]^3 (see march_rays).
+
+    Returns t_start, t_end (float32 [R, K]) and cand (bool [R, K], the interval starts
+    before the ray leaves the box or passes far).
+    """
+    n_rays = o.shape[0]
+    t_enter, t_exit = ray_box_intersect(o, d, bound)
     t_lo = jnp.maximum(jnp.broadcast_to(jnp.asarray(near, jnp.float32), (n_rays,)), t_enter)
     t_hi = jnp.minimum(jnp.broadcast_to(jnp.asarray(far, jnp.float32), (n_rays,)), t_exit)
-
-    if key is None:
-        jitter = jnp.zeros((n_rays,), jnp.float32)
-    else:
-        jitter = jax.random.uniform(key, (n_rays,), jnp.float32)
     steps = jnp.arange(k_steps, dtype=jnp.float32)
-    t_start = t_lo[:, None] + (steps[None, :] + jitter[:, None]) * jnp.float32(step_size)
+    t_start = t_lo[:, None] + (steps[None, :] + _jitter(key, n_rays)[:, None]) * jnp.float32(step_size)
     t_end = jnp.minimum(t_start + jnp.float32(step_size), t_hi[:, None])  # [R, K]
-    cand = t_start < t_hi[:, None]
+    return t_start, t_end, t_start < t_hi[:, None]
+
+
+def contracted_candidates(n_rays: int, near, far, radius: float, k_steps: int, key=None):
+    """Candidate intervals [R, K] evenly spaced in s = coord.spacing(t, radius) over
+    [g(near), g(far)]: evenly in t up to t = radius, evenly in disparity beyond.
+
+    With jitter j_r (0 without key) and ds = (g(far) - g(near)) / K, candidate k spans
+    s in [g(near) + (k + j_r) ds, g(near) + (k + 1 + j_r) ds] clipped to g(far), mapped
+    back to t. Returns t_start, t_end (float32 [R, K]), cand (bool [R, K]).
+    """
+    from nerfkit.coord import spacing, spacing_inverse
+
+    s_lo = spacing(jnp.float32(near), radius)
+    s_hi = spacing(jnp.float32(far), radius)
+    ds = (s_hi - s_lo) / k_steps
+    steps = jnp.arange(k_steps, dtype=jnp.float32)
+    s0 = s_lo + (steps[None, :] + _jitter(key, n_rays)[:, None]) * ds
+    s1 = jnp.minimum(s0 + ds, s_hi)
+    cand = s0 < s_hi
+    return spacing_inverse(jnp.minimum(s0, s_hi), radius), spacing_inverse(s1, radius), cand
+
+
+def pack_candidates(state: dict, o, d, t_start, t_end, cand, cfg: OccupancyConfig, max_samples: int,
+                    to_grid=None) -> dict:
+    """Keep the candidates whose midpoint lies in an occupied cell and pack them (see march_rays).
+
+    to_grid maps world points [M, 3] to grid coordinates (identity for bounded fields,
+    the contraction for unbounded ones).
+    """
+    n_rays, k_steps = t_start.shape
     t_mid = 0.5 * (t_start + t_end)
-    pts = o[:, None, :] + t_mid[..., None] * d[:, None, :]  # [R, K, 3]
-    keep = cand & query_occupancy(state, pts.reshape(-1, 3), cfg).reshape(n_rays, k_steps)
+    pts = (o[:, None, :] + t_mid[..., None] * d[:, None, :]).reshape(-1, 3)  # [R K, 3]
+    if to_grid is not None:
+        pts = to_grid(pts)
+    keep = cand & query_occupancy(state, pts, cfg).reshape(n_rays, k_steps)
 
     counts = jnp.sum(keep, axis=1, dtype=jnp.int32)
     flat_keep = keep.reshape(-1)
     n_cand = jnp.sum(counts)
     (sel,) = jnp.nonzero(flat_keep, size=max_samples, fill_value=0)
     valid = jnp.arange(max_samples, dtype=jnp.int32) < n_cand
-    t_pad = t_hi[n_rays - 1]
+    t_pad = jnp.max(jnp.where(cand[n_rays - 1], t_end[n_rays - 1], t_start[n_rays - 1, 0]))
     return {
         "ray_idx": jnp.where(valid, sel // k_steps, n_rays - 1).astype(jnp.int32),
         "t_start": jnp.where(valid, t_start.reshape(-1)[sel], t_pad),

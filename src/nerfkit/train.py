@@ -29,13 +29,15 @@ import optax
 from tqdm.auto import tqdm
 
 from nerfkit import checkpoint as ckpt_lib
-from nerfkit.cameras import rays_from_pixels
+from nerfkit.cameras import ray_table, rotate_directions, table_directions
 from nerfkit.config import Config, validate
-from nerfkit.data.blender import SceneData, load_blender
+from nerfkit.data.capture import SceneData
+from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.inference import Renderer
 from nerfkit.metrics import mse_to_psnr, psnr as psnr_np
 from nerfkit.model import build_model
+from nerfkit.resolve import default_splits, resolve_config
 from nerfkit.viz import background_rgb, colorize_renders, plot_curves, read_jsonl, save_png, side_by_side
 
 
@@ -50,17 +52,20 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
     """A jitted step(state, step, images, poses) -> (state, metrics).
 
     Each step draws `batch_rays` pixels uniformly over all training images (inside the
-    centre crop while step < precrop_steps), renders them and applies one Adam update.
-    The randomness of step s is fold_in(PRNGKey(seed), s), so a resumed run repeats
-    exactly. A step whose loss or gradients are not finite is not applied.
+    centre crop while step < precrop_steps), makes their rays with each frame's camera
+    (cameras.ray_table: pinhole intrinsics, or per-pixel lens tables), renders them (with
+    the appearance embedding of their image, where the model has them) and applies one
+    Adam update. The randomness of step s is fold_in(PRNGKey(seed), s), so a resumed run
+    repeats exactly. A step whose loss or gradients are not finite is not applied.
     """
     t = cfg.train
-    h, w, focal = data.height, data.width, data.focal
+    h, w = data.height, data.width
+    table = {k: jnp.asarray(v) for k, v in ray_table(data.cameras).items()}
     base_key = jax.random.PRNGKey(t.seed)
     crop_h = max(1, int(round(h * t.precrop_frac)))
     crop_w = max(1, int(round(w * t.precrop_frac)))
 
-    def step_fn(state, step, images, poses):
+    def step_fn(state, step, images, poses, table):
         key = jax.random.fold_in(base_key, step)
         k_img, k_i, k_j, k_render, k_aux = jax.random.split(key, 5)
         n = images.shape[0]
@@ -71,13 +76,13 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
         ww = jnp.where(cropping, crop_w, w)
         i = (h - hh) // 2 + jnp.floor(jax.random.uniform(k_i, (b,)) * hh).astype(jnp.int32)
         j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
-        o, d = rays_from_pixels(poses[img], i.astype(jnp.float32), j.astype(jnp.float32), h, w, focal)
+        o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
         target = images[img, i, j]
         params, aux = state["params"], state["aux"]
         aux = model.update_aux(params, aux, step, k_aux)
 
         def loss_fn(p):
-            out = model.render_rays(p, aux, o, d, k_render, train=True)
+            out = model.render_rays(p, aux, o, d, k_render, train=True, image_idx=img)
             loss, parts = model.losses(out, target)
             return loss, (parts, out)
 
@@ -98,7 +103,8 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
             metrics.update(model.step_metrics(out))
         return new_state, metrics
 
-    return jax.jit(step_fn, donate_argnums=(0,))
+    jitted = jax.jit(step_fn, donate_argnums=(0,))
+    return lambda state, step, images, poses: jitted(state, step, images, poses, table)
 
 
 @dataclass
@@ -187,13 +193,23 @@ class Trainer:
         if not resume and ckpt_lib.list_checkpoints(self.ckpt_dir):
             raise NerfkitError(f"{self.run_dir}: already holds a run; pass --resume to continue it or pick a new --out")
         d = cfg.data
-        self.train_data = load_blender(self.data_dir, d.train_split, downscale=d.downscale,
-                                       target_width=d.target_width, background=d.background)
-        self.val_data = load_blender(self.data_dir, d.val_split, downscale=d.downscale,
-                                     target_width=d.target_width, background=d.background)
+        spec_train, spec_val = default_splits(cfg)
+        self.capture = read_capture(self.data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
+        spec_train, spec_val = default_splits(cfg, list(self.capture.splits))
+        load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
+        self.train_data = load_frames(self.capture, spec_train, **load)
+        self.val_data = load_frames(self.capture, spec_val, **load)
         if (self.val_data.height, self.val_data.width) != (self.train_data.height, self.train_data.width):
             raise NerfkitError(f"{self.data_dir}: validation images ({self.val_data.width}x{self.val_data.height}) "
                                f"differ in size from training images ({self.train_data.width}x{self.train_data.height})")
+        td = self.train_data
+        say = tqdm.write if progress else (lambda *_: None)
+        say(f"data: {self.capture.format} capture {self.data_dir}: {len(td)} training ({spec_train}) and "
+            f"{len(self.val_data)} validation ({spec_val}) images at {td.width}x{td.height}"
+            f"{', masks on' if td.has_masks else ''}")
+        cfg = resolve_config(cfg, self.capture, td, log=say)
+        cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
+        self.cfg = cfg
         self.model = build_model(cfg)
         self.optimizer, self.schedule = make_optimizer(cfg)
         self.renderer = Renderer(self.model, cfg.train.chunk)
@@ -204,8 +220,10 @@ class Trainer:
         self.run_dir.mkdir(parents=True, exist_ok=True)
         (self.run_dir / "config.json").write_text(self.cfg.to_json())
         td = self.train_data
-        scene = {"data_dir": str(self.data_dir.resolve()), "height": td.height, "width": td.width, "focal": td.focal,
-                 "n_train": len(td), "n_val": len(self.val_data)}
+        scene = {"data_dir": str(self.data_dir.resolve()), "format": td.format, "height": td.height, "width": td.width,
+                 "focal": td.focal, "camera": td.cameras[0].to_json(), "n_train": len(td), "n_val": len(self.val_data),
+                 "masks": td.has_masks, "transform": td.transform.tolist(), "scale": td.scale,
+                 "train_poses": td.poses.tolist()}
         (self.run_dir / "scene.json").write_text(json.dumps(scene, indent=2))
 
     def _append(self, name: str, row: dict):
@@ -236,7 +254,7 @@ class Trainer:
         vd = self.val_data
         scores, renders = [], []
         for k in self.val_ids:
-            r = self.renderer.render_image(state["params"], state["aux"], vd.poses[k], vd.height, vd.width, vd.focal)
+            r = self.renderer.render_camera(state["params"], state["aux"], vd.poses[k], vd.cameras[k])
             scores.append(psnr_np(r["rgb"], vd.images[k]))
             renders.append(r)
         depth_imgs, _ = colorize_renders(renders, background_rgb(self.cfg.data.background))

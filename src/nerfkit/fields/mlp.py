@@ -6,7 +6,10 @@
           the input is concatenated to the fifth layer's activation, as in the paper)
     sigma = relu(a_sigma . h_D + b_sigma)
     f     = A_f h_D + b_f                           (W features, no activation)
-    c     = sigmoid(A_c relu(A_v [f, gamma(d)] + b_v) + b_c)     (hidden width W/2)
+    c     = sigmoid(A_c relu(A_v [f, gamma(d), e_k] + b_v) + b_c)     (hidden width W/2)
+
+e_k is the appearance embedding of training image k (NeRF-W), present only when
+appearance_dim > 0; views that are not training images use the mean embedding.
 
 Params are a plain dict of arrays (Glorot-uniform weights, zero biases as in the original
 TensorFlow code). Concatenations are written as sums of matmuls with split weights, so a
@@ -21,6 +24,15 @@ import jax.numpy as jnp
 
 from nerfkit.config import FieldConfig
 from nerfkit.encoding.positional import encoded_size, positional_encoding
+
+
+def appearance_embedding(params: dict, image_idx, n_appearance: int):
+    """Rows image_idx [R] of params["appearance"] -> [R, A]; image_idx None: the mean row [1, A].
+    None when the field has no embeddings."""
+    if not n_appearance:
+        return None
+    table = params["appearance"]
+    return jnp.mean(table, axis=0, keepdims=True) if image_idx is None else table[image_idx]
 
 
 def dense_init(key, n_in: int, n_out: int) -> jnp.ndarray:
@@ -38,6 +50,7 @@ class MLPField:
         self.skip = cfg.depth // 2 + 1 if cfg.depth // 2 + 1 < cfg.depth else None
         self.x_dim = encoded_size(3, cfg.l_xyz, cfg.pe)
         self.d_dim = encoded_size(3, cfg.l_dir, cfg.pe)
+        self.n_appearance = cfg.n_appearance() if cfg.viewdirs else 0
 
     def init(self, key) -> dict:
         c, w = self.cfg, self.cfg.width
@@ -58,6 +71,9 @@ class MLPField:
                 "w_d": dense_init(next(keys), self.d_dim, half),
                 "b": jnp.zeros(half, jnp.float32),
             }
+            if self.n_appearance:
+                params["view"]["w_a"] = dense_init(next(keys), self.n_appearance, half)
+                params["appearance"] = jnp.zeros((c.appearance_count, self.n_appearance), jnp.float32)
             params["rgb"] = {"w": dense_init(next(keys), half, 3), "b": jnp.zeros(3, jnp.float32)}
         else:
             params["rgb"] = {"w": dense_init(next(keys), w, 3), "b": jnp.zeros(3, jnp.float32)}
@@ -78,10 +94,14 @@ class MLPField:
         h = self._trunk(params, x)
         return jax.nn.relu(h @ params["sigma"]["w"] + params["sigma"]["b"])[..., 0]
 
-    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray):
+    def embedding(self, params, image_idx):
+        return appearance_embedding(params, image_idx, self.n_appearance)
+
+    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None):
         """rgb [..., 3] in (0, 1) and sigma [...] at x [..., 3] seen along unit directions d.
 
-        d broadcasts against x (e.g. [R, 1, 3] for all samples of a ray).
+        d (and the appearance embeddings emb [..., A], when the field has them) broadcast
+        against x (e.g. [R, 1, 3] for all samples of a ray).
         """
         h = self._trunk(params, x)
         sigma = jax.nn.relu(h @ params["sigma"]["w"] + params["sigma"]["b"])[..., 0]
@@ -89,7 +109,10 @@ class MLPField:
             f = h @ params["feature"]["w"] + params["feature"]["b"]
             ed = positional_encoding(d, self.cfg.l_dir, self.cfg.pe)
             v = params["view"]
-            hv = jax.nn.relu(f @ v["w_f"] + (ed @ v["w_d"] + v["b"]))
+            pre = ed @ v["w_d"] + v["b"]
+            if self.n_appearance:
+                pre = pre + emb @ v["w_a"]
+            hv = jax.nn.relu(f @ v["w_f"] + pre)
             rgb = jax.nn.sigmoid(hv @ params["rgb"]["w"] + params["rgb"]["b"])
         else:
             rgb = jax.nn.sigmoid(h @ params["rgb"]["w"] + params["rgb"]["b"])

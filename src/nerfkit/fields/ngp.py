@@ -1,12 +1,17 @@
 """The fast field of Instant-NGP (Mueller et al. 2022): hash grid + two tiny MLPs.
 
-    h      = HashGrid((x + B) / 2B)                        (L*F features, x in [-B, B]^3)
+    y      = x                     (bounded: the box [-B, B]^3)
+             contract(x / R)       (unbounded: mip-NeRF 360's contraction, y in the ball of radius 2)
+    h      = HashGrid((y + G) / 2G)                        (L*F features; G = B, or 2 when contracted)
     z      = A_2 relu(A_1 h + b_1) + b_2                   (16 outputs, hidden width 64)
     sigma  = exp(min(z_0, 15))                             (truncated exponential)
-    c      = sigmoid(MLP_64x64([z, SH_4(d)]))              (degree-4 spherical harmonics)
+    c      = sigmoid(MLP_64x64([z, SH_4(d), e_k]))         (degree-4 spherical harmonics)
 
-Same interface as the NeRF MLP: `field(params, x, d) -> (rgb, sigma)`,
-`field.density(params, x)`. Points outside the box get sigma = 0.
+e_k is the appearance embedding of training image k (NeRF-W; absent when
+appearance_dim = 0); other views use the mean embedding. Same interface as the NeRF MLP:
+`field(params, x, d, emb) -> (rgb, sigma)`, `field.density(params, x)`; the occupancy grid
+uses `density_grid(params, y)`, the density at grid coordinates. Points outside a bounded
+box get sigma = 0.
 """
 
 from __future__ import annotations
@@ -15,9 +20,10 @@ import jax
 import jax.numpy as jnp
 
 from nerfkit.config import FieldConfig
+from nerfkit.coord import CONTRACTED_BOUND, contract
 from nerfkit.encoding.hashgrid import HashGridConfig, encode_hashgrid, init_hashgrid
 from nerfkit.encoding.sh import sh_encode
-from nerfkit.fields.mlp import dense_init
+from nerfkit.fields.mlp import appearance_embedding, dense_init
 
 GEO_FEATURES = 16  # outputs of the density MLP: log-density + 15 geometry features
 SH_DEGREE = 4
@@ -37,37 +43,60 @@ class HashGridField:
     def __init__(self, cfg: FieldConfig):
         self.cfg = cfg
         self.grid = hashgrid_config(cfg)
-        self.bound = cfg.bound
+        self.unbounded = cfg.unbounded()
+        self.radius = cfg.resolved_bound()
+        self.grid_bound = CONTRACTED_BOUND if self.unbounded else self.radius
+        self.n_appearance = cfg.n_appearance()
 
     def init(self, key) -> dict:
         k = jax.random.split(key, 6)
         h = self.cfg.hidden
-        return {
+        params = {
             "grid": init_hashgrid(k[0], self.grid),
             "density": [_layer(k[1], self.grid.output_dim, h), _layer(k[2], h, GEO_FEATURES)],
-            "color": [_layer(k[3], GEO_FEATURES + SH_DEGREE**2, h), _layer(k[4], h, h), _layer(k[5], h, 3)],
+            "color": [_layer(k[3], GEO_FEATURES + SH_DEGREE**2 + self.n_appearance, h), _layer(k[4], h, h),
+                      _layer(k[5], h, 3)],
         }
+        if self.n_appearance:
+            params["appearance"] = jnp.zeros((self.cfg.appearance_count, self.n_appearance), jnp.float32)
+        return params
 
-    def _geometry(self, params, x):
-        u = (x + self.bound) / (2 * self.bound)
+    def to_grid(self, x: jnp.ndarray) -> jnp.ndarray:
+        """Grid coordinates y [..., 3] of world points x [..., 3]."""
+        return contract(x / self.radius) if self.unbounded else x
+
+    def _geometry(self, params, y):
+        u = (y + self.grid_bound) / (2 * self.grid_bound)
         inside = jnp.all((u >= 0) & (u <= 1), axis=-1)
         flat = u.reshape(-1, 3)
         h = encode_hashgrid(params["grid"], flat, self.grid)
         l1, l2 = params["density"]
         z = jax.nn.relu(h @ l1["w"] + l1["b"]) @ l2["w"] + l2["b"]
-        z = z.reshape(*x.shape[:-1], GEO_FEATURES)
+        z = z.reshape(*y.shape[:-1], GEO_FEATURES)
         sigma = jnp.where(inside, jnp.exp(jnp.minimum(z[..., 0], 15.0)), 0.0)
         return sigma, z
 
-    def density(self, params, x: jnp.ndarray) -> jnp.ndarray:
-        """sigma [...] >= 0 at x [..., 3]."""
-        return self._geometry(params, x)[0]
+    def density_grid(self, params, y: jnp.ndarray) -> jnp.ndarray:
+        """sigma [...] at grid coordinates y [..., 3] (world units of density)."""
+        return self._geometry(params, y)[0]
 
-    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray):
-        """rgb [..., 3], sigma [...] at x [..., 3] seen along unit directions d (broadcast to x)."""
-        sigma, z = self._geometry(params, x)
+    def density(self, params, x: jnp.ndarray) -> jnp.ndarray:
+        """sigma [...] >= 0 at world points x [..., 3]."""
+        return self.density_grid(params, self.to_grid(x))
+
+    def embedding(self, params, image_idx) -> jnp.ndarray | None:
+        """Appearance embeddings [R, A] of training images image_idx [R] (None: the mean), or None without them."""
+        return appearance_embedding(params, image_idx, self.n_appearance)
+
+    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None):
+        """rgb [..., 3], sigma [...] at x [..., 3] seen along unit directions d (broadcast to x),
+        with appearance embeddings emb [..., A] (broadcast to x; needed when the field has them)."""
+        sigma, z = self._geometry(params, self.to_grid(x))
         sh = sh_encode(jnp.broadcast_to(d, x.shape).reshape(-1, 3), SH_DEGREE).reshape(*x.shape[:-1], -1)
-        h = jnp.concatenate([z, sh], axis=-1)
+        parts = [z, sh]
+        if self.n_appearance:
+            parts.append(jnp.broadcast_to(emb, (*x.shape[:-1], self.n_appearance)))
+        h = jnp.concatenate(parts, axis=-1)
         c1, c2, c3 = params["color"]
         h = jax.nn.relu(h @ c1["w"] + c1["b"])
         h = jax.nn.relu(h @ c2["w"] + c2["b"])

@@ -1,0 +1,67 @@
+"""A COLMAP sparse model: `sparse/0/{cameras,images,points3D}.{bin,txt}` + `images/` (+ `masks/`).
+
+Read with pycolmap. COLMAP stores world-to-camera poses in the OpenCV convention (x right,
+y down, z forward); the OpenGL camera-to-world is the inverse with the y and z axes
+negated. Every registered image becomes a frame (sorted by name) with its own camera
+model (any COLMAP model: the lens is applied per pixel through pycolmap); the 3D points
+come along for the scene bound.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from nerfkit.cameras import _from_pycolmap
+from nerfkit.data.capture import Capture, Frame, holdout_splits
+from nerfkit.data.images import is_file
+from nerfkit.data.llff import attach_masks
+from nerfkit.errors import DataError
+
+OPENCV_TO_OPENGL = np.diag([1.0, -1.0, -1.0, 1.0])
+
+
+def find_model(root: Path) -> Path | None:
+    """The sparse model folder of a capture: sparse/0, sparse, or root itself."""
+    for d in (root / "sparse" / "0", root / "sparse", root):
+        if any(is_file(d / f"cameras.{ext}") for ext in ("bin", "txt")):
+            return d
+    return None
+
+
+def c2w_from_cam_from_world(matrix_3x4: np.ndarray) -> np.ndarray:
+    """OpenGL camera-to-world [4, 4] from a COLMAP cam_from_world [3, 4] (OpenCV axes)."""
+    w2c = np.eye(4)
+    w2c[:3] = matrix_3x4
+    return np.linalg.inv(w2c) @ OPENCV_TO_OPENGL
+
+
+def read_colmap(root: Path, holdout_every: int = 8, masks: bool = True) -> Capture:
+    import pycolmap
+
+    model = find_model(root)
+    if model is None:
+        raise DataError(f"{root}: no COLMAP model (sparse/0/cameras.bin or .txt)")
+    try:
+        rec = pycolmap.Reconstruction(str(model))
+    except Exception as e:  # noqa: BLE001 - pycolmap raises plain exceptions on bad files
+        raise DataError(f"{model}: unreadable COLMAP model ({type(e).__name__}: {str(e).splitlines()[0][:160]}); "
+                        f"re-export it") from None
+    image_dir = root / "images"
+    frames = []
+    for img in sorted(rec.images.values(), key=lambda im: im.name):
+        if not img.has_pose:
+            continue
+        where = f"{model} image {img.name}"
+        path = image_dir / img.name
+        if not is_file(path):
+            raise DataError(f"{path}: missing image for {where}; put the photos in {image_dir}")
+        c2w = c2w_from_cam_from_world(np.asarray(img.cam_from_world().matrix(), np.float64))
+        frames.append(Frame(path, c2w, _from_pycolmap(rec.cameras[img.camera_id]), None, where))
+    if not frames:
+        raise DataError(f"{model}: no registered images in this model")
+    attach_masks(root, frames, masks)
+    pts = np.array([p.xyz for p in rec.points3D.values()], np.float64).reshape(-1, 3)
+    return Capture(root, "colmap", holdout_splits(frames, holdout_every), points=pts if len(pts) else None,
+                   source={"all": str(model)})

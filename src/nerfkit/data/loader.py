@@ -1,0 +1,143 @@
+"""One entry point for every capture format: detect it, select frames, read images and
+masks, shrink them, and normalise the poses.
+
+Formats (`--format`, or detected from what the folder holds, in this order):
+
+    blender     transforms_{split}.json (+ RGBA PNGs)          data/blender.py
+    nerfstudio  transforms.json (nerfstudio / instant-ngp)       data/nerfstudio.py
+    llff        poses_bounds.npy + images/                       data/llff.py
+    colmap      sparse/0/{cameras,images,points3D}.{bin,txt}     data/colmap.py
+
+Masks (white = object) turn into alpha: pixels outside become the background colour, as a
+Blender scene's alpha does. Images larger than MAX_SIDE on their long side are shrunk by
+the smallest power of two that fits (nerfstudio's rule) unless --downscale says otherwise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from nerfkit.data import blender, colmap, llff, nerfstudio
+from nerfkit.data.capture import Capture, SceneData
+from nerfkit.data.images import area_downscale, composite, load_mask, read_rgba, resolve_downscale
+from nerfkit.data.normalize import apply_transform, normalizing_transform
+from nerfkit.errors import DataError
+
+FORMATS = ("blender", "nerfstudio", "llff", "colmap")
+MAX_SIDE = 1600
+
+
+def detect_format(root: Path) -> str:
+    """The format of a capture folder (see the module docstring), or a DataError listing what is looked for."""
+    root = Path(root)
+    if not root.is_dir():
+        raise DataError(f"{root}: data folder does not exist")
+    if blender.is_blender(root):
+        return "blender"
+    if (root / "transforms.json").exists():
+        return "nerfstudio"
+    if (root / "poses_bounds.npy").exists():
+        return "llff"
+    if colmap.find_model(root) is not None:
+        return "colmap"
+    raise DataError(f"{root}: no capture found (looked for transforms_train.json, transforms.json, poses_bounds.npy, "
+                    f"sparse/0/cameras.bin|txt); for a folder of photos run `nerfkit process-data images {root} "
+                    f"--out DATA` first")
+
+
+def read_capture(root: str | Path, spec: str, format: str = "auto", masks: bool = True,
+                 holdout_every: int = 8) -> Capture:
+    """The capture in `root` (frames by split; only the Blender JSONs that `spec` names are read)."""
+    root = Path(root)
+    fmt = detect_format(root) if format == "auto" else format
+    if fmt not in FORMATS:
+        raise DataError(f"--format {fmt!r} is not one of auto, {', '.join(FORMATS)}")
+    if not root.is_dir():
+        raise DataError(f"{root}: data folder does not exist")
+    if fmt == "blender":
+        cap = blender.read_blender(root, spec)
+    elif fmt == "nerfstudio":
+        cap = nerfstudio.read_nerfstudio(root, holdout_every, masks)
+    elif fmt == "llff":
+        cap = llff.read_llff(root, holdout_every, masks)
+    else:
+        cap = colmap.read_colmap(root, holdout_every, masks)
+    if not masks:
+        for f in cap.all_frames:
+            f.mask = None
+    return cap
+
+
+@dataclass
+class CaptureFrame:
+    """Where the normalised poses and loaded-size cameras of a selection come from."""
+
+    poses: np.ndarray
+    cameras: list
+    names: list[str]
+    transform: np.ndarray
+    scale: float
+    factor: int
+
+
+def scene_cameras(cap: Capture, spec: str, downscale: int | None = None, target_width: int | None = None
+                  ) -> CaptureFrame:
+    """Poses (normalised) and cameras (at the loaded size) of the frames `spec` selects, without reading pixels."""
+    frames = cap.frames(spec)
+    first = frames[0].camera
+    for f in frames[1:]:
+        if (f.camera.width, f.camera.height) != (first.width, first.height):
+            raise DataError(f"{f.image}: image is {f.camera.width}x{f.camera.height} but earlier frames are "
+                            f"{first.width}x{first.height}; all images must have one size")
+    exact = cap.format == "blender"
+    factor = resolve_downscale(first.width, first.height, downscale, target_width, str(frames[0].image), exact=exact,
+                               max_side=None if exact else MAX_SIDE)
+    if cap.normalize:
+        m, s = normalizing_transform(np.stack([f.c2w for f in cap.all_frames]))
+    else:
+        m, s = np.eye(4), 1.0
+    poses = apply_transform(m, s, np.stack([f.c2w for f in frames])).astype(np.float32)
+    cams = [f.camera.scaled(1.0 / factor, f.camera.width // factor, f.camera.height // factor) for f in frames]
+    names = [_rel(f.image, cap.root) for f in frames]
+    return CaptureFrame(poses, cams, names, m, s, factor)
+
+
+def _rel(path: Path, root: Path) -> str:
+    try:
+        return str(path.relative_to(root))
+    except ValueError:
+        return str(path)
+
+
+def load_scene(root: str | Path, spec: str, *, format: str = "auto", downscale: int | None = None,
+               target_width: int | None = None, background: str = "white", masks: bool = True,
+               holdout_every: int = 8, progress: bool = False) -> SceneData:
+    """Load the frames a split spec selects (e.g. "train,val[0:50]" or "test") as SceneData."""
+    cap = read_capture(root, spec, format, masks, holdout_every)
+    return load_frames(cap, spec, downscale=downscale, target_width=target_width, background=background,
+                       progress=progress)
+
+
+def load_frames(cap: Capture, spec: str, *, downscale: int | None = None, target_width: int | None = None,
+                background: str = "white", progress: bool = False) -> SceneData:
+    """Read, mask, composite and shrink the images of `spec` (see load_scene)."""
+    sel = scene_cameras(cap, spec, downscale, target_width)
+    bg = np.ones(3) if background == "white" else np.zeros(3)
+    frames = cap.frames(spec)
+    first = frames[0].camera
+    images, alphas = [], []
+    use_alpha = cap.alpha or any(f.mask is not None for f in frames)
+    for f in tqdm(frames, desc="load images", unit="img", disable=not progress or len(frames) < 20, leave=False):
+        rgb, a = read_rgba(f.image, (first.width, first.height))
+        if f.mask is not None:
+            a = a * load_mask(f.mask, (first.width, first.height), f.image)
+        images.append(area_downscale(composite(rgb, a, bg), sel.factor))
+        if use_alpha:
+            alphas.append(np.round(area_downscale(a, sel.factor) * 255).astype(np.uint8))
+    return SceneData(np.stack(images).astype(np.float32), sel.poses, sel.cameras, sel.names, sel.transform, sel.scale,
+                     cap.format, any(f.mask is not None for f in frames),
+                     np.stack(alphas) if use_alpha else None)

@@ -1,0 +1,94 @@
+"""Pose normalisation of real captures and the size of the box that holds a masked object.
+
+A capture comes in whatever coordinates its SfM chose. nerfkit moves it into the frame the
+fields assume (instant-ngp's convention, the Blender scenes' too):
+
+    x_n = s R (x - c)
+
+with c the focus point (the point closest to all optical axes), R the rotation taking the
+mean camera up vector to +z (so orbits and viewers have a natural up), and s the scale that
+puts the cameras at median distance CAMERA_RADIUS from c. A camera-to-world pose becomes
+[R R_cam | s R (t - c)]; depths (along unnormalised rays) scale by s. The 4x4 matrix
+M = [[s R, -s R c], [0, 1]] is kept with the run, so renders and exports go back to the
+capture's own coordinates with M^-1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nerfkit.cameras import Camera, scene_center
+
+CAMERA_RADIUS = 4.0
+
+
+def rotation_to_z(up: np.ndarray) -> np.ndarray:
+    """The rotation [3, 3] taking unit vector `up` to +z along the great circle (Rodrigues)."""
+    up = np.asarray(up, np.float64) / np.linalg.norm(up)
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(up, z)
+    c = float(up @ z)
+    if c < -1 + 1e-9:  # up = -z: half a turn about x
+        return np.diag([1.0, -1.0, -1.0])
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx / (1.0 + c)
+
+
+def focus_point(poses: np.ndarray) -> np.ndarray:
+    """The point the cameras look at (least squares over optical axes); the mean camera
+    position when that point lies behind most cameras (outward-facing or parallel captures)."""
+    c = scene_center(poses)
+    fwd = -poses[:, :3, 2]
+    in_front = np.einsum("ki,ki->k", c[None] - poses[:, :3, 3], fwd) > 0
+    return c if in_front.mean() >= 0.5 else poses[:, :3, 3].mean(0)
+
+
+def normalizing_transform(poses: np.ndarray, radius: float = CAMERA_RADIUS) -> tuple[np.ndarray, float]:
+    """(M [4, 4], s): x_n = M [x, 1] = s R (x - c), see the module docstring."""
+    poses = np.asarray(poses, np.float64)
+    c = focus_point(poses)
+    rot = rotation_to_z(poses[:, :3, 1].mean(0))
+    dist = np.median(np.linalg.norm(poses[:, :3, 3] - c, axis=-1))
+    s = radius / dist if dist > 1e-12 else 1.0
+    m = np.eye(4)
+    m[:3, :3] = s * rot
+    m[:3, 3] = -s * rot @ c
+    return m, float(s)
+
+
+def apply_transform(m: np.ndarray, scale: float, c2w: np.ndarray) -> np.ndarray:
+    """Camera-to-world poses [..., 4, 4] moved by the similarity m (of scale `scale`)."""
+    out = np.array(c2w, np.float64, copy=True)
+    out[..., :3, :3] = (m[:3, :3] / scale) @ out[..., :3, :3]
+    out[..., :3, 3] = out[..., :3, 3] @ m[:3, :3].T + m[:3, 3]
+    return out
+
+
+def masked_bound(poses: np.ndarray, cameras: list[Camera], alphas: np.ndarray, resolution: int = 64,
+                 margin: float = 1.1) -> float | None:
+    """Half-size B of the box [-B, B]^3 that holds a masked object: its visual hull.
+
+    Points of a grid over the ball of the nearest camera are kept when every camera that
+    sees them finds them inside its mask (alpha > 0.5, pinhole projection; a point outside
+    an image says nothing). B = margin * the largest |coordinate| kept, or None if no point
+    is kept.
+    """
+    extent = 0.95 * float(np.min(np.linalg.norm(poses[:, :3, 3], axis=-1)))
+    g = (np.arange(resolution) + 0.5) / resolution * 2 * extent - extent
+    pts = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    keep = np.linalg.norm(pts, axis=-1) < extent
+    for pose, cam, alpha in zip(poses, cameras, alphas):
+        rel = (pts - pose[:3, 3]) @ pose[:3, :3]  # camera coordinates (OpenGL)
+        z = -rel[:, 2]
+        front = z > 1e-6
+        u = cam.fx * rel[:, 0] / np.where(front, z, 1) + cam.cx
+        v = -cam.fy * rel[:, 1] / np.where(front, z, 1) + cam.cy
+        h, w = alpha.shape
+        seen = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+        ui = np.clip(u.astype(int), 0, w - 1)
+        vi = np.clip(v.astype(int), 0, h - 1)
+        inside = alpha[vi, ui] > 0.5 * (255 if alpha.dtype == np.uint8 else 1.0)
+        keep &= ~seen | inside
+    if not keep.any():
+        return None
+    return float(margin * (np.abs(pts[keep]).max() + extent / resolution))
