@@ -116,6 +116,9 @@ class SamplerConfig:
     """ngp: update the occupancy grid every N steps."""
     occ_warmup: int = 256
     """ngp: steps during which every update re-evaluates all cells."""
+    occ_warmup_decay: float = 0.6
+    """ngp: decay of a cell's running max density per update during the warm-up (0.95 afterwards, as in
+    instant-ngp); faster than instant-ngp's so that a CPU run carves empty space in its first minute."""
     march_steps: int = 512
     """ngp: ray-marching steps across the box diagonal (step = 2 sqrt(3) bound / N); unbounded scenes: steps
     evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""

@@ -114,7 +114,7 @@ class NGPModel:
         # sigma * step >= 0.01 (instant-ngp's minimum optical thickness); in contracted space
         # the grid stores sigma times the stretch of the step there (coord.radial_stretch).
         self.occ = occupancy.OccupancyConfig(resolution=s.occ_res, bound=self.field.grid_bound,
-                                             threshold=0.01 / self.step_size)
+                                             threshold=0.01 / self.step_size, warmup_decay=s.occ_warmup_decay)
         self.background = background_color(cfg.data.background)
         # Unresolved (no data seen): the defaults of resolve.py.
         self.near = s.near if s.near is not None else (0.05 if self.unbounded else 0.0)

@@ -51,12 +51,14 @@ class OccupancyConfig:
       resolution: R, cells per axis.
       bound: B, the grid covers the axis-aligned box [-B, B]^3.
       ema_decay: decay of the running max, rho <- max(decay * rho, new).
+      warmup_decay: the decay during warm-up (full passes), when the young field changes fast.
       threshold: a cell is occupied when rho > min(threshold, mean(rho)); sigma units.
     """
 
     resolution: int = 128
     bound: float = 1.5
     ema_decay: float = 0.95
+    warmup_decay: float = 0.95
     threshold: float = 0.01
 
     @property
@@ -210,7 +212,8 @@ def update_occupancy(
         return _max_density_at_cells(cells, k_jit, density_fn, cfg, chunk_size)
 
     new = jax.lax.cond(full_pass, all_cells, subset, None)
-    decayed = jnp.maximum(state["density"] * jnp.float32(cfg.ema_decay), new)
+    decay = jnp.where(full_pass, jnp.float32(cfg.warmup_decay), jnp.float32(cfg.ema_decay))
+    decayed = jnp.maximum(state["density"] * decay, new)
     density = jnp.where(state["n_updates"] == 0, new, decayed)
     thresh = jnp.minimum(jnp.float32(cfg.threshold), jnp.mean(density))
     return {

@@ -65,3 +65,30 @@ def read_colmap(root: Path, holdout_every: int = 8, masks: bool = True) -> Captu
     pts = np.array([p.xyz for p in rec.points3D.values()], np.float64).reshape(-1, 3)
     return Capture(root, "colmap", holdout_splits(frames, holdout_every), points=pts if len(pts) else None,
                    source={"all": str(model)})
+
+
+def write_colmap(model_dir: Path, names: list[str], c2ws: np.ndarray, cameras: list, points: np.ndarray | None = None,
+                 colors: np.ndarray | None = None, text: bool = True) -> Path:
+    """A COLMAP sparse model (through pycolmap) of images `names` with OpenGL poses [N, 4, 4]
+    and `cameras.Camera` intrinsics (identical cameras are shared); optional points [P, 3]."""
+    import pycolmap
+
+    rec = pycolmap.Reconstruction()
+    ids: dict = {}
+    for k, (name, c2w, cam) in enumerate(zip(names, c2ws, cameras), 1):
+        if cam not in ids:
+            ids[cam] = len(ids) + 1
+            params = list(cam.params) if cam.params else [cam.fx, cam.fy, cam.cx, cam.cy]
+            rec.add_camera_with_trivial_rig(pycolmap.Camera(model=cam.model if cam.params else "PINHOLE",
+                                                            width=cam.width, height=cam.height, params=params,
+                                                            camera_id=ids[cam]))
+        w2c = np.linalg.inv(np.asarray(c2w, np.float64) @ OPENCV_TO_OPENGL)
+        pose = pycolmap.Rigid3d(pycolmap.Rotation3d(w2c[:3, :3]), w2c[:3, 3])
+        rec.add_image_with_trivial_frame(pycolmap.Image(name=name, camera_id=ids[cam], image_id=k), pose)
+    for k, p in enumerate(np.zeros((0, 3)) if points is None else points):
+        c = np.full(3, 128, np.uint8) if colors is None else np.asarray(colors[k], np.uint8)
+        rec.add_point3D(np.asarray(p, np.float64), pycolmap.Track(), c)
+    model_dir = Path(model_dir)
+    model_dir.mkdir(parents=True, exist_ok=True)
+    (rec.write_text if text else rec.write_binary)(str(model_dir))
+    return model_dir

@@ -103,3 +103,16 @@ def read_llff(root: Path, holdout_every: int = 8, masks: bool = True) -> Capture
         frames.append(Frame(img, c2w, Camera.pinhole(w, h, f), None, where))
     attach_masks(root, frames, masks)
     return Capture(root, "llff", holdout_splits(frames, holdout_every), source={"all": str(path)})
+
+
+def write_llff(root: Path, c2ws: np.ndarray, cameras: list[Camera], bounds: np.ndarray) -> Path:
+    """poses_bounds.npy for OpenGL poses [N, 4, 4] of the sorted images/ (pinhole, centred cameras), bounds [N, 2]."""
+    rows = []
+    for c2w, cam, b in zip(c2ws, cameras, bounds):
+        m = np.zeros((3, 5))
+        m[:, 0], m[:, 1], m[:, 2], m[:, 3] = -c2w[:3, 1], c2w[:3, 0], c2w[:3, 2], c2w[:3, 3]
+        m[:, 4] = cam.height, cam.width, cam.fx
+        rows.append(np.concatenate([m.ravel(), b]))
+    path = Path(root) / "poses_bounds.npy"
+    np.save(path, np.array(rows), allow_pickle=False)
+    return path

@@ -128,3 +128,42 @@ def read_nerfstudio(root: Path, holdout_every: int = 8, masks: bool = True) -> C
         frames.append(Frame(img, check_pose(fr["transform_matrix"], where).astype(float), cam, mask, where))
     return Capture(root, "nerfstudio", holdout_splits(frames, holdout_every), source={"all": str(path)},
                    hint="bounded" if meta.get("aabb_scale") == 1 else None)
+
+
+def camera_to_json(cam: Camera) -> dict:
+    """transforms.json intrinsics of a camera (PINHOLE, OPENCV or OPENCV_FISHEYE keys).
+
+    COLMAP's SIMPLE_RADIAL / RADIAL / OPENCV / FULL_OPENCV (k4..k6 = 0) are the same lens as
+    nerfstudio's OPENCV with fewer terms; other models have no transforms.json form."""
+    out = {"w": cam.width, "h": cam.height, "fl_x": cam.fx, "fl_y": cam.fy, "cx": cam.cx, "cy": cam.cy}
+    if not cam.params or cam.model == "PINHOLE":
+        return {"camera_model": "PINHOLE", **out}
+    p = cam.params
+    if cam.model == "OPENCV_FISHEYE":
+        return {"camera_model": "OPENCV_FISHEYE", **out, "k1": p[4], "k2": p[5], "k3": p[6], "k4": p[7]}
+    k = {"SIMPLE_RADIAL": {"k1": p[3]}, "RADIAL": {"k1": p[3], "k2": p[4]},
+         "OPENCV": {"k1": p[4], "k2": p[5], "p1": p[6], "p2": p[7]}}.get(cam.model)
+    if cam.model == "FULL_OPENCV" and not any(p[9:12]):
+        k = {"k1": p[4], "k2": p[5], "p1": p[6], "p2": p[7], "k3": p[8]}
+    if k is None:
+        raise DataError(f"camera model {cam.model} has no transforms.json form; use --camera-model OPENCV, "
+                        f"SIMPLE_RADIAL or PINHOLE")
+    return {"camera_model": "OPENCV", **out, **{n: 0.0 for n in ("k1", "k2", "p1", "p2")}, **k}
+
+
+def write_nerfstudio(path: Path, frames: list[dict], cameras: list[Camera], extra: dict | None = None) -> None:
+    """Write transforms.json: frames are {"file_path", "transform_matrix" (4x4), optional "mask_path"};
+    intrinsics go to the top level when all cameras are equal, else into each frame."""
+    shared = all(c == cameras[0] for c in cameras)
+    meta = dict(camera_to_json(cameras[0])) if shared else {}
+    meta.update(extra or {})
+    out = []
+    for fr, cam in zip(frames, cameras):
+        f = {"file_path": fr["file_path"], "transform_matrix": [list(map(float, r)) for r in fr["transform_matrix"]]}
+        if fr.get("mask_path"):
+            f["mask_path"] = fr["mask_path"]
+        if not shared:
+            f.update(camera_to_json(cam))
+        out.append(f)
+    meta["frames"] = out
+    Path(path).write_text(json.dumps(meta, indent=2))

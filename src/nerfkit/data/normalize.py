@@ -6,14 +6,18 @@ fields assume (instant-ngp's convention, the Blender scenes' too):
     x_n = s R (x - c)
 
 with c the focus point (the point closest to all optical axes), R the rotation taking the
-mean camera up vector to +z (so orbits and viewers have a natural up), and s the scale that
-puts the cameras at median distance CAMERA_RADIUS from c. A camera-to-world pose becomes
+mean camera up vector to +z (so orbits and viewers have a natural up), then turning about z
+until the first camera (in file-name order) looks along +y, and s the scale that puts the
+cameras at median distance CAMERA_RADIUS from c. So the result does not depend on the
+coordinates SfM happened to choose. A camera-to-world pose becomes
 [R R_cam | s R (t - c)]; depths (along unnormalised rays) scale by s. The 4x4 matrix
 M = [[s R, -s R c], [0, 1]] is kept with the run, so renders and exports go back to the
 capture's own coordinates with M^-1.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -48,6 +52,11 @@ def normalizing_transform(poses: np.ndarray, radius: float = CAMERA_RADIUS) -> t
     poses = np.asarray(poses, np.float64)
     c = focus_point(poses)
     rot = rotation_to_z(poses[:, :3, 1].mean(0))
+    fwd = rot @ -poses[0, :3, 2]
+    if np.hypot(fwd[0], fwd[1]) > 1e-6:  # turn about z: the first camera's view, seen from above, along +y
+        a = math.atan2(fwd[0], fwd[1])
+        yaw = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+        rot = yaw @ rot
     dist = np.median(np.linalg.norm(poses[:, :3, 3] - c, axis=-1))
     s = radius / dist if dist > 1e-12 else 1.0
     m = np.eye(4)
@@ -68,15 +77,28 @@ def masked_bound(poses: np.ndarray, cameras: list[Camera], alphas: np.ndarray, r
                  margin: float = 1.1) -> float | None:
     """Half-size B of the box [-B, B]^3 that holds a masked object: its visual hull.
 
-    Points of a grid over the ball of the nearest camera are kept when every camera that
-    sees them finds them inside its mask (alpha > 0.5, pinhole projection; a point outside
-    an image says nothing). B = margin * the largest |coordinate| kept, or None if no point
-    is kept.
+    Points of a grid are kept when at least half of the cameras see them (the object is
+    what was photographed) and every camera that sees them finds them inside its mask
+    (alpha > 0.5, pinhole projection; a point outside an image says nothing, so objects
+    cut by the frame edge keep their parts). A first grid spans the ball inside the nearest
+    camera, a second one the box found by the first. B = margin * (the largest |coordinate|
+    kept + one cell), or None if no point is kept.
     """
     extent = 0.95 * float(np.min(np.linalg.norm(poses[:, :3, 3], axis=-1)))
-    g = (np.arange(resolution) + 0.5) / resolution * 2 * extent - extent
-    pts = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
-    keep = np.linalg.norm(pts, axis=-1) < extent
+    for _ in range(2):
+        g = (np.arange(resolution) + 0.5) / resolution * 2 * extent - extent
+        pts = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+        keep = _hull(pts, poses, cameras, alphas)
+        if not keep.any():
+            return None
+        extent = min(extent, float(np.abs(pts[keep]).max() + 2 * extent / resolution))
+    return margin * extent
+
+
+def _hull(pts, poses, cameras, alphas) -> np.ndarray:
+    """bool [P]: points inside the visual hull (see masked_bound)."""
+    keep = np.ones(len(pts), bool)
+    n_seen = np.zeros(len(pts), np.int32)
     for pose, cam, alpha in zip(poses, cameras, alphas):
         rel = (pts - pose[:3, 3]) @ pose[:3, :3]  # camera coordinates (OpenGL)
         z = -rel[:, 2]
@@ -89,6 +111,5 @@ def masked_bound(poses: np.ndarray, cameras: list[Camera], alphas: np.ndarray, r
         vi = np.clip(v.astype(int), 0, h - 1)
         inside = alpha[vi, ui] > 0.5 * (255 if alpha.dtype == np.uint8 else 1.0)
         keep &= ~seen | inside
-    if not keep.any():
-        return None
-    return float(margin * (np.abs(pts[keep]).max() + extent / resolution))
+        n_seen += seen
+    return keep & (n_seen >= 0.5 * len(poses))
