@@ -26,6 +26,9 @@ import jax.numpy as jnp
 import numpy as np
 
 PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE")
+# Perspective models that are an ideal pinhole when all their distortion terms are zero
+# (fisheye and other models never are).
+POLYNOMIAL_MODELS = ("SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
 
 
 @dataclass(frozen=True)
@@ -53,7 +56,7 @@ class Camera:
     @staticmethod
     def from_colmap(model: str, width: int, height: int, params) -> "Camera":
         """A camera from a COLMAP model name and parameter vector (read through pycolmap)."""
-        import pycolmap
+        from nerfkit._colmap import pycolmap
 
         cam = pycolmap.Camera(model=model, width=int(width), height=int(height), params=[float(p) for p in params])
         return _from_pycolmap(cam)
@@ -63,14 +66,13 @@ class Camera:
         """True when pixels must go through the lens model (any non-zero distortion term)."""
         if self.model in PINHOLE_MODELS or not self.params:
             return False
-        import pycolmap
-
+        if self.model not in POLYNOMIAL_MODELS:
+            return True
         cam = self._pycolmap()
-        extra = np.asarray(cam.params)[list(cam.extra_params_idxs())]
-        return bool(np.any(extra != 0)) or not cam.is_perspective_pinhole
+        return bool(np.any(np.asarray(cam.params)[list(cam.extra_params_idxs())] != 0))
 
     def _pycolmap(self):
-        import pycolmap
+        from nerfkit._colmap import pycolmap
 
         return pycolmap.Camera(model=self.model, width=self.width, height=self.height, params=list(self.params))
 

@@ -17,7 +17,7 @@ from typing import Literal
 import tyro
 
 from nerfkit.config import DEFAULT_PRESET, PRESET_HELP, PRESETS, Config, preset
-from nerfkit.errors import NerfkitError
+from nerfkit.errors import ConfigError, NerfkitError
 
 PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
 
@@ -154,6 +154,39 @@ class ExperimentArgs:
 
 
 @dataclasses.dataclass
+class ProcessArgs:
+    """Recover camera poses from photos or a video with structure from motion (pycolmap, on the CPU) and
+    write a capture folder that `nerfkit train` reads: transforms.json, images/, images_2/, images_4/,
+    masks/, sparse_pc.ply, cameras.png (check it), colmap.log."""
+
+    kind: tyro.conf.Positional[Literal["images", "video"]]
+    """images: a folder of photos; video: one video file."""
+    source: tyro.conf.Positional[Path]
+    """The folder of photos (.jpg, .png, ...) or the video file."""
+    out: Path
+    """The capture folder to write (built aside and renamed when complete)."""
+    masks: Path | None = None
+    """Folder of object masks named like the photos (any extension, optional _mask suffix; white = object):
+    SfM then sees only the object (needed for turntable captures) and training uses them as alpha."""
+    camera_model: Literal["SIMPLE_RADIAL", "OPENCV", "PINHOLE"] = "SIMPLE_RADIAL"
+    """One camera shared by all photos: SIMPLE_RADIAL (f, cx, cy, k), OPENCV (fx, fy, cx, cy, k1, k2, p1,
+    p2; mapped with SIMPLE_RADIAL, then refined) or PINHOLE."""
+    matching: Literal["auto", "exhaustive", "sequential"] = "auto"
+    """auto: exhaustive up to 150 photos, sequential beyond and for videos (no loop closure: COLMAP's needs a
+    downloaded vocabulary tree)."""
+    frames: int = 120
+    """video: number of frames to keep."""
+    max_image_size: int = 1600
+    """SIFT runs on photos shrunk to this longest side (poses stay in full-size pixels)."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
+    verbose: bool = False
+    """Show COLMAP's log (otherwise kept in OUT/colmap.log)."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
 class ReportArgs:
     """Write a static HTML report that opens from disk: RUN_DIR/report.html for a run folder, or
     the experiment report for a folder written by `nerfkit experiment`."""
@@ -272,6 +305,23 @@ def cmd_experiment(argv: list[str]) -> int:
     return 0
 
 
+def cmd_process_data(argv: list[str]) -> int:
+    from nerfkit.process.capture import process_images, process_video
+    from nerfkit.process.sfm import SfmOptions
+
+    a = tyro.cli(ProcessArgs, args=argv, prog="nerfkit process-data")
+    if a.max_image_size < 64:
+        raise ConfigError(f"--max-image-size must be at least 64 (got {a.max_image_size})")
+    opts = SfmOptions(camera_model=a.camera_model, max_image_size=a.max_image_size, verbose=a.verbose)
+    common = dict(masks=a.masks, opts=opts, matching=a.matching, overwrite=a.overwrite, progress=a.progress)
+    if a.kind == "images":
+        process_images(a.source, a.out, **common)
+    else:
+        process_video(a.source, a.out, a.frames, **common)
+    print(f"next: nerfkit train {a.out} --out runs/{a.out.name}")
+    return 0
+
+
 def cmd_report(argv: list[str]) -> int:
     from nerfkit.report import write_experiment_report, write_report
 
@@ -287,6 +337,8 @@ def cmd_report(argv: list[str]) -> int:
 COMMANDS = {
     "demo": (cmd_demo, "generate the procedural scene, train, evaluate and render an orbit (a few minutes)"),
     "make-scene": (cmd_make_scene, "write the procedural demo scene in Blender format"),
+    "process-data": (cmd_process_data, "poses from photos or a video (pycolmap SfM): nerfkit process-data images DIR "
+                                       "--out DATA [--masks DIR]"),
     "train": (cmd_train, "train a radiance field: nerfkit train DATA_DIR --out RUN_DIR [--preset ngp|seed|nerf|demo]"),
     "eval": (cmd_eval, "PSNR/SSIM of a run on a split: nerfkit eval RUN_DIR --split SPLIT [--data DATA_DIR]"),
     "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --orbit N"),
@@ -298,7 +350,7 @@ COMMANDS = {
 
 def usage() -> str:
     lines = ["usage: nerfkit COMMAND [ARGS]  (nerfkit COMMAND --help for its options)", "", "commands:"]
-    lines += [f"  {name:<11} {help_}" for name, (_, help_) in COMMANDS.items()]
+    lines += [f"  {name:<13} {help_}" for name, (_, help_) in COMMANDS.items()]
     lines += ["", "presets:"] + [f"  {k:<11} {v}" for k, v in PRESET_HELP.items()]
     return "\n".join(lines)
 

@@ -38,7 +38,7 @@ def c2w_from_cam_from_world(matrix_3x4: np.ndarray) -> np.ndarray:
 
 
 def read_colmap(root: Path, holdout_every: int = 8, masks: bool = True) -> Capture:
-    import pycolmap
+    from nerfkit._colmap import pycolmap
 
     model = find_model(root)
     if model is None:
@@ -71,7 +71,7 @@ def write_colmap(model_dir: Path, names: list[str], c2ws: np.ndarray, cameras: l
                  colors: np.ndarray | None = None, text: bool = True) -> Path:
     """A COLMAP sparse model (through pycolmap) of images `names` with OpenGL poses [N, 4, 4]
     and `cameras.Camera` intrinsics (identical cameras are shared); optional points [P, 3]."""
-    import pycolmap
+    from nerfkit._colmap import pycolmap
 
     rec = pycolmap.Reconstruction()
     ids: dict = {}

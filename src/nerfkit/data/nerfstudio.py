@@ -141,9 +141,14 @@ def camera_to_json(cam: Camera) -> dict:
     p = cam.params
     if cam.model == "OPENCV_FISHEYE":
         return {"camera_model": "OPENCV_FISHEYE", **out, "k1": p[4], "k2": p[5], "k3": p[6], "k4": p[7]}
-    k = {"SIMPLE_RADIAL": {"k1": p[3]}, "RADIAL": {"k1": p[3], "k2": p[4]},
-         "OPENCV": {"k1": p[4], "k2": p[5], "p1": p[6], "p2": p[7]}}.get(cam.model)
-    if cam.model == "FULL_OPENCV" and not any(p[9:12]):
+    k = None
+    if cam.model == "SIMPLE_RADIAL":
+        k = {"k1": p[3]}
+    elif cam.model == "RADIAL":
+        k = {"k1": p[3], "k2": p[4]}
+    elif cam.model == "OPENCV":
+        k = {"k1": p[4], "k2": p[5], "p1": p[6], "p2": p[7]}
+    elif cam.model == "FULL_OPENCV" and not any(p[9:12]):
         k = {"k1": p[4], "k2": p[5], "p1": p[6], "p2": p[7], "k3": p[8]}
     if k is None:
         raise DataError(f"camera model {cam.model} has no transforms.json form; use --camera-model OPENCV, "

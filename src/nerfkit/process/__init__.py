@@ -1,0 +1,1 @@
+"""From photos or a video to a capture folder: frames, structure from motion (pycolmap), files."""
