@@ -22,10 +22,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.config import preset, validate
-from nerfkit.data.blender import load_blender
+from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.inference import Renderer
 from nerfkit.metrics import psnr
 from nerfkit.model import build_model
+from nerfkit.resolve import resolve_config
 from nerfkit.train import evenly_spaced, init_state, make_optimizer, make_train_step
 from nerfkit.viz import plot_curves
 
@@ -35,7 +36,7 @@ DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / 
 def mean_psnr(renderer, state, data, ids) -> float:
     scores = []
     for k in ids:
-        r = renderer.render_image(state["params"], state["aux"], data.poses[k], data.height, data.width, data.focal)
+        r = renderer.render_camera(state["params"], state["aux"], data.poses[k], data.cameras[k])
         scores.append(psnr(r["rgb"], data.images[k]))
     return float(np.mean(scores))
 
@@ -62,8 +63,11 @@ def main():
 
     cfg = validate(preset(a.preset))
     d = cfg.data
-    train = load_blender(a.data, d.train_split, downscale=d.downscale, target_width=d.target_width)
-    val = load_blender(a.data, d.val_split, downscale=d.downscale, target_width=d.target_width)
+    d.train_split, d.val_split, d.target_width = "train,val[0:50]", "val[50:100]", 200  # the seed protocol
+    cap = read_capture(a.data, f"{d.train_split},{d.val_split}")
+    train = load_frames(cap, d.train_split, target_width=d.target_width)
+    val = load_frames(cap, d.val_split, target_width=d.target_width)
+    cfg = resolve_config(cfg, cap, train)
     model = build_model(cfg)
     opt, _ = make_optimizer(cfg)
     state = init_state(model, opt, cfg.train.seed)

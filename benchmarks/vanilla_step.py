@@ -18,9 +18,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.cameras import look_at
+from nerfkit.cameras import Camera, look_at
 from nerfkit.config import preset
-from nerfkit.data.blender import SceneData
+from nerfkit.data.capture import SceneData
 from nerfkit.model import build_model
 from nerfkit.train import init_state, make_optimizer, make_train_step
 
@@ -34,7 +34,7 @@ def fake_scene(n: int, size: int) -> SceneData:
         eye = 4.0 * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
         poses.append(look_at(eye, np.zeros(3)))
     focal = 0.5 * size / np.tan(0.5 * 0.6911112070083618)
-    return SceneData(images, np.stack(poses), float(focal), size, size)
+    return SceneData(images, np.stack(poses), [Camera.pinhole(size, size, float(focal))] * n)
 
 
 def time_preset(name: str, steps: int, size: int) -> dict:

@@ -124,6 +124,9 @@ class SamplerConfig:
     evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""
     max_samples: int = 65536
     """ngp: samples per training step; rays per step adapt to fill it (at most --batch-rays)."""
+    prune_factor: int = 1
+    """ngp: > 1 marches up to this many times --max-samples candidates, evaluates their density alone (no
+    gradient) and trains only on the samples a ray still sees (transmittance >= 1e-4); 1 trains on all."""
     eval_samples_per_ray: int = 48
     """ngp: average sample budget per ray when rendering (rays that overflow are re-queued)."""
 
@@ -158,6 +161,9 @@ class TrainConfig:
     """Validate every N steps (and at the end)."""
     val_views: int = 4
     """Number of validation views rendered at each validation (evenly spread over the val split)."""
+    val_max_fraction: float = 0.1
+    """Periodic validation takes at most this share of the wall time: a validation that took v seconds
+    is followed by at least v (1 - f) / f seconds of training before the next (the final one always runs)."""
     ckpt_every: int = 5000
     """Write a checkpoint every N steps (and at the end or on interrupt)."""
     keep_ckpts: int = 3
@@ -272,6 +278,7 @@ def validate(cfg: Config) -> Config:
     need(t.lr_decay_steps > 0, f"--lr-decay-steps must be positive (got {t.lr_decay_steps})")
     need(0 < t.lr_decay_rate <= 1, f"--lr-decay-rate must be in (0, 1] (got {t.lr_decay_rate})")
     need(0 < t.precrop_frac <= 1, f"--precrop-frac must be in (0, 1] (got {t.precrop_frac})")
+    need(0 < t.val_max_fraction <= 1, f"--val-max-fraction must be in (0, 1] (got {t.val_max_fraction})")
     need(t.precrop_steps >= 0, f"--precrop-steps must be >= 0 (got {t.precrop_steps})")
     for name in ("val_every", "ckpt_every", "log_every", "chunk", "val_views", "keep_ckpts", "max_bad_steps"):
         v = getattr(t, name)
@@ -288,6 +295,7 @@ def validate(cfg: Config) -> Config:
              "need --occ-res >= 2, --occ-update-every >= 1, --march-steps >= 2")
         need(s.max_samples >= s.march_steps, f"--max-samples must be >= --march-steps ({s.march_steps})")
         need(s.eval_samples_per_ray >= 1, "--eval-samples-per-ray must be >= 1")
+        need(s.prune_factor >= 1, f"--prune-factor must be >= 1 (got {s.prune_factor})")
     need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
     need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")
     return cfg

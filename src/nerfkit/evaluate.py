@@ -50,14 +50,16 @@ def appearance_note(cfg) -> str | None:
 
 
 def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
-                 chunk: int | None = None, progress: bool = True) -> dict:
+                 chunk: int | None = None, progress: bool = True, checkpoint: Path | None = None,
+                 write: bool = True) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
-    the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/."""
+    the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
+    `checkpoint`: evaluate that checkpoint instead of the newest."""
     if every < 1:
         raise ConfigError(f"--every must be >= 1 (got {every})")
     check_chunk(chunk)
     run_dir = Path(run_dir)
-    cfg, model, params, aux, step = load_trained(run_dir)
+    cfg, model, params, aux, step = load_trained(run_dir, checkpoint)
     data_dir = run_data_dir(run_dir, data_dir)
     d = cfg.data
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
@@ -75,7 +77,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
         renders.append(r)
     seconds = time.perf_counter() - t0
     depth_imgs, _ = colorize_renders(renders, background_rgb(cfg.data.background))
-    for k, r, depth_img in zip(ids, renders, depth_imgs):
+    for k, r, depth_img in zip(ids, renders, depth_imgs) if write else ():
         save_png(out_dir / f"view_{k:03d}_rgb.png", r["rgb"])
         save_png(out_dir / f"view_{k:03d}_depth.png", depth_img)
         save_png(out_dir / f"view_{k:03d}.png", side_by_side([data.images[k], r["rgb"], depth_img]))
@@ -89,7 +91,8 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     }
     if appearance_note(cfg):
         result["appearance"] = appearance_note(cfg)
-    (run_dir / f"eval_{split_slug(split)}.json").write_text(json.dumps(result, indent=2))
+    if write:
+        (run_dir / f"eval_{split_slug(split)}.json").write_text(json.dumps(result, indent=2))
     return result
 
 

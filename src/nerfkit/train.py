@@ -163,13 +163,13 @@ def init_state(model, optimizer, seed: int):
     return {"params": params, "opt_state": optimizer.init(params), "aux": aux}
 
 
-def load_trained(run_dir: Path):
-    """(cfg, model, params, aux, step) of the newest checkpoint in a run folder."""
+def load_trained(run_dir: Path, checkpoint: Path | None = None):
+    """(cfg, model, params, aux, step) of the newest checkpoint in a run folder (or of `checkpoint`)."""
     run_dir = Path(run_dir)
     cfg = load_run_config(run_dir)
     model = build_model(cfg)
     optimizer, _ = make_optimizer(cfg)
-    path = ckpt_lib.latest_checkpoint(run_dir / "checkpoints")
+    path = ckpt_lib.latest_checkpoint(run_dir / "checkpoints") if checkpoint is None else Path(checkpoint)
     if path is None:
         raise NerfkitError(f"{run_dir / 'checkpoints'}: no checkpoint yet; train first")
     step, state = ckpt_lib.restore_checkpoint(path, init_state(model, optimizer, cfg.train.seed), cfg.to_dict()["field"])
@@ -295,6 +295,7 @@ class Trainer:
         start = time.perf_counter()
         deadline = start + 60 * t.max_minutes if t.max_minutes else math.inf
         bad_streak, last_val, last_val_step = 0, None, -1
+        val_gate = 0.0  # no periodic validation before this clock time (keeps validation <= val_max_fraction)
         pending = []  # device metrics not yet logged
         first_step = step
         bar = tqdm(total=t.max_steps, initial=step, disable=not self.progress, dynamic_ncols=True,
@@ -341,10 +342,13 @@ class Trainer:
                 if stop.signal_name:
                     interrupted = True
                     break
-                if step % t.val_every == 0:
-                    last_val = self.validate(state, step, elapsed0 + time.perf_counter() - start)
+                if step % t.val_every == 0 and time.perf_counter() >= val_gate:
+                    v0 = time.perf_counter()
+                    last_val = self.validate(state, step, elapsed0 + v0 - start)
                     last_val_step = step
-                    tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB")
+                    took = time.perf_counter() - v0
+                    val_gate = time.perf_counter() + took * (1 - t.val_max_fraction) / t.val_max_fraction
+                    tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB ({took:.1f} s)")
                 if step % t.ckpt_every == 0:
                     self.save(state, step, elapsed0 + time.perf_counter() - start)
             bar.close()
