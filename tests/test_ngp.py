@@ -105,32 +105,3 @@ def test_ngp_render_requeues_rays_that_overflow_the_budget():
         np.testing.assert_allclose(small[k], ref[k], atol=1e-5, err_msg=k)
     assert ref["opacity"].max() > 0.1  # the comparison is not between two empty images
 
-
-def test_pruned_training_samples_render_the_same_rays():
-    """prune_factor > 1 drops only samples behind the point where transmittance is spent: every
-    ray complete in both renders gets the same colour, depth and opacity, from fewer samples."""
-    import jax.numpy as jnp
-
-    from nerfkit import occupancy
-    from nerfkit.cameras import look_at, rays_from_pixels
-
-    cfg = _ngp_config()
-    cfg.sampler.march_steps, cfg.sampler.max_samples = 128, 64 * 128
-    full = build_model(cfg)
-    params, aux = full.init(jax.random.PRNGKey(0))
-    bias = params["field"]["density"][1]["b"]
-    params["field"]["density"][1]["b"] = bias.at[0].set(4.0)  # sigma ~ e^4: rays end inside the box
-    aux = occupancy.init_occupancy(full.occ)  # everything occupied
-    c2w = jnp.asarray(look_at(np.array([0.0, -4.0, 1.0]), np.zeros(3)))
-    i, j = np.meshgrid(np.arange(8) * 4.0, np.arange(8) * 4.0, indexing="ij")
-    o, d = rays_from_pixels(c2w, jnp.asarray(i.ravel()), jnp.asarray(j.ravel()), 32, 32, 35.0)
-    key = jax.random.PRNGKey(1)
-    a = full.render_rays(params, aux, o, d, key, train=True)
-    cfg.sampler.prune_factor, cfg.sampler.max_samples = 8, 64 * 16
-    b = build_model(cfg).render_rays(params, aux, o, d, key, train=True)
-    both = np.asarray(a["complete"] & b["complete"])
-    assert both.sum() >= 48 and np.asarray(a["complete"]).all()
-    for k in ("rgb", "depth", "opacity"):
-        np.testing.assert_allclose(np.asarray(b[k])[both], np.asarray(a[k])[both], atol=2e-4)
-    assert np.asarray(a["opacity"])[both].min() > 0.99  # the rays do end inside
-    assert int(b["n_samples"]) < int(a["n_samples"]) / 3

@@ -81,7 +81,7 @@ class FieldConfig:
     background is part of the scene). auto: bounded for Blender scenes and masked captures, else unbounded."""
     appearance_dim: int | None = None
     """Per-image appearance embedding size (NeRF-W); absorbs exposure / white balance. Default: 16 for photo
-    captures, 0 (off) for Blender scenes. Held-out views use the mean embedding."""
+    captures, 0 (off) for Blender scenes and masked object captures. Held-out views use the mean embedding."""
     appearance_count: int = 0
     """Set from the data: number of training images that own an appearance embedding."""
 
@@ -124,9 +124,6 @@ class SamplerConfig:
     evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""
     max_samples: int = 65536
     """ngp: samples per training step; rays per step adapt to fill it (at most --batch-rays)."""
-    prune_factor: int = 1
-    """ngp: > 1 marches up to this many times --max-samples candidates, evaluates their density alone (no
-    gradient) and trains only on the samples a ray still sees (transmittance >= 1e-4); 1 trains on all."""
     eval_samples_per_ray: int = 48
     """ngp: average sample budget per ray when rendering (rays that overflow are re-queued)."""
 
@@ -295,7 +292,6 @@ def validate(cfg: Config) -> Config:
              "need --occ-res >= 2, --occ-update-every >= 1, --march-steps >= 2")
         need(s.max_samples >= s.march_steps, f"--max-samples must be >= --march-steps ({s.march_steps})")
         need(s.eval_samples_per_ray >= 1, "--eval-samples-per-ray must be >= 1")
-        need(s.prune_factor >= 1, f"--prune-factor must be >= 1 (got {s.prune_factor})")
     need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
     need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")
     return cfg

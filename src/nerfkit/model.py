@@ -22,8 +22,7 @@ from nerfkit.config import Config
 from nerfkit.coord import radial_stretch
 from nerfkit.fields.mlp import MLPField
 from nerfkit.fields.ngp import HashGridField
-from nerfkit.render import (packed_composite, packed_compositing_weights, segment_starts, segmented_cumsum,
-                            volume_render)
+from nerfkit.render import packed_composite, packed_compositing_weights, volume_render
 from nerfkit.sampling import midpoints, sample_pdf, stratified_samples
 
 
@@ -156,11 +155,7 @@ class NGPModel:
         n = o.shape[0]
         budget = s.max_samples if train else n * s.eval_samples_per_ray
         k_march, k_bg = jax.random.split(key)
-        prune = train and s.prune_factor > 1
-        m = self.march(aux, o, d, budget * s.prune_factor if prune else budget,
-                       k_march if (train and s.perturb) else None)
-        if prune:
-            m = self.prune(params, aux, m, o, d, budget)
+        m = self.march(aux, o, d, budget, k_march if (train and s.perturb) else None)
         ray = m["ray_idx"]
         valid = m["valid"] & m["complete"][ray]
         dir_norm = jnp.linalg.norm(d, axis=-1)
@@ -178,32 +173,6 @@ class NGPModel:
         out["complete"] = m["complete"]
         out["n_samples"] = jnp.sum(valid)
         return out
-
-    def prune(self, params, aux, m: dict, o, d, budget: int) -> dict:
-        """Keep only the samples each ray still sees, repacked into `budget` slots.
-
-        The density of every marched sample is evaluated without gradient; samples behind
-        the point where transmittance T_i = exp(-sum_{j<i} sigma_j delta_j) drops below
-        MIN_TRANSMITTANCE (which get weight 0 anyway) are dropped. Since T only decreases
-        along a ray, what is kept is a prefix of each ray's samples, so T of the kept samples
-        is unchanged. A ray is complete if it was and all its kept samples fit.
-        """
-        n = o.shape[0]
-        ray = m["ray_idx"]
-        valid = m["valid"] & m["complete"][ray]
-        t_mid = 0.5 * (m["t_start"] + m["t_end"])
-        x = o[ray] + t_mid[:, None] * d[ray]
-        sigma = jax.lax.stop_gradient(self.field.density(params["field"], x))
-        tau = jnp.where(valid, sigma * (m["t_end"] - m["t_start"]) * jnp.linalg.norm(d, axis=-1)[ray], 0.0)
-        trans = jnp.exp(-(segmented_cumsum(tau, segment_starts(ray)) - tau))
-        alive = valid & (trans >= self.MIN_TRANSMITTANCE)
-        counts = jax.ops.segment_sum(alive.astype(jnp.int32), ray, n)
-        (sel,) = jnp.nonzero(alive, size=budget, fill_value=0)
-        ok = jnp.arange(budget) < jnp.sum(counts)
-        pad = m["t_end"][-1]
-        return {"ray_idx": jnp.where(ok, ray[sel], n - 1), "t_start": jnp.where(ok, m["t_start"][sel], pad),
-                "t_end": jnp.where(ok, m["t_end"][sel], pad), "valid": ok,
-                "complete": m["complete"] & (jnp.cumsum(counts) <= budget)}
 
     @staticmethod
     def losses(out: dict, target: jnp.ndarray):
