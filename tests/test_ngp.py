@@ -76,9 +76,8 @@ def test_ngp_reaches_floor_faster_than_mlp(scene, tmp_path):
 
     # Resumable state includes the occupancy grid: the restored grid equals the trained one.
     cfg, model, params, aux, step = load_trained(tmp_path / "ngp")
-    # (In 300 steps no cell is carved yet: the EMA of a cell starting at sigma ~ 1 needs
-    # ~27 updates of x0.95 to fall below 0.01 / step = 0.25. Carving is tested on a known
-    # sphere in test_occupancy.py; on lego it brings the samples per ray down to ~16.)
+    # (Carving itself is tested on a known sphere in test_occupancy.py; on lego it brings the
+    # samples per ray down to ~16.)
     assert aux["bits"].shape == (32**3,) and aux["bits"].dtype == bool
     assert np.array_equal(np.asarray(aux["bits"]), np.asarray(aux["density"]) > min(
         0.01 / model.step_size, float(np.mean(np.asarray(aux["density"])))))
@@ -105,3 +104,35 @@ def test_ngp_render_requeues_rays_that_overflow_the_budget():
         np.testing.assert_allclose(small[k], ref[k], atol=1e-5, err_msg=k)
     assert ref["opacity"].max() > 0.1  # the comparison is not between two empty images
 
+
+
+@pytest.mark.parametrize("scene_type", ["bounded", "unbounded"])
+def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
+    """The wavefront renderer (rays retire once their transmittance is spent, empty space costs
+    only look-ups) shades the same samples with the same weights as the one-pass renderer."""
+    from nerfkit import occupancy
+    from nerfkit.cameras import image_rays, look_at
+    from nerfkit.inference import WavefrontRenderer
+
+    cfg = _ngp_config()
+    cfg.field.scene_type = scene_type
+    cfg.field.hash_levels, cfg.field.hash_max_res = 4, 32
+    cfg.sampler.occ_res, cfg.sampler.march_steps = 16, 256
+    cfg.sampler.eval_samples_per_ray = 600  # one pass holds every ray
+    if scene_type == "unbounded":
+        cfg.sampler.near, cfg.sampler.far, cfg.field.bound = 0.05, 1e3, 1.5
+    model = build_model(cfg)
+    params, aux = model.init(jax.random.PRNGKey(0))
+    params["field"]["density"][1]["b"] = params["field"]["density"][1]["b"].at[0].set(1.5)  # rays end
+    # Occupied: a ball of grid radius 0.8 (empty space around it to skip).
+    centres = np.asarray(occupancy.cell_centers(model.occ))
+    aux = dict(aux, bits=np.linalg.norm(centres, axis=-1) < 0.8 * model.occ.bound)
+    o, d = image_rays(look_at(np.array([0.0, -4.0, 1.0]), np.zeros(3)), 16, 16, 20.0)
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    ref = Renderer(model, chunk=256).render_rays(params, aux, o, d)
+    fast = WavefrontRenderer(model, chunk=64).render_rays(params, aux, o, d)
+    for k in ("rgb", "depth", "depth_normalized", "opacity"):
+        np.testing.assert_allclose(fast[k], ref[k], rtol=1e-5, atol=1e-5, err_msg=k)
+    assert ref["opacity"].max() > 0.99  # rays do end: the comparison covers early termination
+    if scene_type == "bounded":
+        assert ref["opacity"].min() < 0.01  # and rays that cross empty space only

@@ -112,6 +112,18 @@ def test_update_rule_is_exact():
     assert 0 < evaluated.sum() < 64
 
 
+def test_warmup_decay_applies_during_full_passes_only():
+    cfg = oc.OccupancyConfig(resolution=4, bound=1.0, ema_decay=0.9, warmup_decay=0.5, threshold=0.01)
+    fn = lambda x: oc.world_to_cell(x, cfg)[0].astype(jnp.float32) + 1.0  # noqa: E731
+    f = np.arange(1, 65, dtype=np.float32)
+    s = oc.update_occupancy(oc.init_occupancy(cfg), fn, jax.random.PRNGKey(0), 0, cfg, warmup_steps=4)
+    zero = lambda x: jnp.zeros(x.shape[0])  # noqa: E731
+    s = oc.update_occupancy(s, zero, jax.random.PRNGKey(1), 1, cfg, warmup_steps=4)  # warm-up: x 0.5
+    np.testing.assert_allclose(s["density"], 0.5 * f, rtol=1e-6)
+    s = oc.update_occupancy(s, zero, jax.random.PRNGKey(2), 8, cfg, warmup_steps=4)  # afterwards: x 0.9
+    np.testing.assert_allclose(s["density"], 0.45 * f, rtol=1e-6)
+
+
 def test_sphere_occupancy(sphere_state):
     bits = np.asarray(sphere_state["bits"])
     centers = np.asarray(oc.cell_centers(CFG), np.float64)

@@ -14,7 +14,7 @@ from tqdm.auto import tqdm
 from nerfkit.cameras import ellipse_orbit_poses, orbit_poses
 from nerfkit.data.loader import load_frames, read_capture, scene_cameras
 from nerfkit.errors import ConfigError, DataError
-from nerfkit.inference import Renderer
+from nerfkit.inference import make_renderer
 from nerfkit.metrics import psnr, ssim
 from nerfkit.train import load_trained
 from nerfkit.viz import background_rgb, colorize_renders, save_png, side_by_side, write_video
@@ -65,7 +65,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
     data = load_frames(cap, split, downscale=downscale if downscale is not None else d.downscale,
                        target_width=None if downscale is not None else d.target_width, background=d.background)
-    renderer = Renderer(model, cfg.train.chunk if chunk is None else chunk)
+    renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     out_dir = run_dir / f"eval_{split_slug(split)}"
     per_view, renders = [], []
     ids = list(range(0, len(data), every))
@@ -149,7 +149,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     if split is None:
         cams = [cams[0]] * len(poses)
     out = Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}"
-    renderer = Renderer(model, cfg.train.chunk if chunk is None else chunk)
+    renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     renders = []
     t0 = time.perf_counter()
     for k in tqdm(range(len(poses)), desc="render", disable=not progress, unit="view"):

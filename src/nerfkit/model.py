@@ -137,15 +137,19 @@ class NGPModel:
 
         return jax.lax.cond(step % s.occ_update_every == 0, update, lambda a: a, aux)
 
-    def march(self, aux, o, d, budget: int, key=None) -> dict:
-        """Packed samples of rays o, d [R, 3] (occupancy.pack_candidates)."""
+    def candidates(self, o, d, key=None, index=None):
+        """Candidate intervals of rays o, d [R, 3]: t_start, t_end, cand, [R, march_steps] or
+        shaped like `index` (int [R, W], the candidates to make; see occupancy.box_candidates)."""
         s = self.cfg.sampler
         if self.unbounded:
-            t0, t1, cand = occupancy.contracted_candidates(o.shape[0], self.near, self.far, self.field.radius,
-                                                           s.march_steps, key)
-        else:
-            t0, t1, cand = occupancy.box_candidates(o, d, self.near, self.far, self.field.radius, self.step_size,
-                                                    s.march_steps, key)
+            return occupancy.contracted_candidates(o.shape[0], self.near, self.far, self.field.radius,
+                                                   s.march_steps, key, index)
+        return occupancy.box_candidates(o, d, self.near, self.far, self.field.radius, self.step_size,
+                                        s.march_steps, key, index)
+
+    def march(self, aux, o, d, budget: int, key=None) -> dict:
+        """Packed samples of rays o, d [R, 3] (occupancy.pack_candidates)."""
+        t0, t1, cand = self.candidates(o, d, key)
         return occupancy.pack_candidates(aux, o, d, t0, t1, cand, self.occ, budget, to_grid=self.field.to_grid)
 
     def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None) -> dict:

@@ -17,7 +17,9 @@ Update (instant-ngp's schedule, Mueller et al. 2022, Sec. 4 / Appendix E.2):
       currently occupied ones (both with replacement);
     * new_c = max of the sigmas evaluated in cell c this update (0 if none);
     * rho_c <- new_c at the first update (it replaces the "everything occupied" initial
-      value), afterwards rho_c <- max(decay * rho_c, new_c);
+      value), afterwards rho_c <- max(decay * rho_c, new_c), decay = ema_decay (0.95), or
+      warmup_decay during the warm-up's full passes (nerfkit's ngp preset: 0.6, so that a
+      CPU run of a few hundred steps already skips empty space);
     * bits_c = rho_c > min(threshold, mean(rho)).
   `threshold` is in units of density sigma (1/length). instant-ngp stores optical thickness
   sigma * dt_min instead, with threshold 0.01; 0.01 in sigma units is more conservative
@@ -51,14 +53,15 @@ class OccupancyConfig:
       resolution: R, cells per axis.
       bound: B, the grid covers the axis-aligned box [-B, B]^3.
       ema_decay: decay of the running max, rho <- max(decay * rho, new).
-      warmup_decay: the decay during warm-up (full passes), when the young field changes fast.
+      warmup_decay: the decay during warm-up (full passes), when the young field changes fast
+        (None: ema_decay).
       threshold: a cell is occupied when rho > min(threshold, mean(rho)); sigma units.
     """
 
     resolution: int = 128
     bound: float = 1.5
     ema_decay: float = 0.95
-    warmup_decay: float = 0.95
+    warmup_decay: float | None = None
     threshold: float = 0.01
 
     @property
@@ -212,7 +215,8 @@ def update_occupancy(
         return _max_density_at_cells(cells, k_jit, density_fn, cfg, chunk_size)
 
     new = jax.lax.cond(full_pass, all_cells, subset, None)
-    decay = jnp.where(full_pass, jnp.float32(cfg.warmup_decay), jnp.float32(cfg.ema_decay))
+    warm = cfg.ema_decay if cfg.warmup_decay is None else cfg.warmup_decay
+    decay = jnp.where(full_pass, jnp.float32(warm), jnp.float32(cfg.ema_decay))
     decayed = jnp.maximum(state["density"] * decay, new)
     density = jnp.where(state["n_updates"] == 0, new, decayed)
     thresh = jnp.minimum(jnp.float32(cfg.threshold), jnp.mean(density))
@@ -314,37 +318,40 @@ def _jitter(key, n_rays: int):
     return jnp.zeros((n_rays,), jnp.float32) if key is None else jax.random.uniform(key, (n_rays,), jnp.float32)
 
 
-def box_candidates(o, d, near, far, bound: float, step_size: float, k_steps: int, key=None):
-    """Candidate intervals [R, K] at a fixed step inside the box [-B, B]^3 (see march_rays).
+def box_candidates(o, d, near, far, bound: float, step_size: float, k_steps: int, key=None, index=None):
+    """Candidate intervals at a fixed step inside the box [-B, B]^3 (see march_rays).
 
-    Returns t_start, t_end (float32 [R, K]) and cand (bool [R, K], the interval starts
-    before the ray leaves the box or passes far).
+    Candidate k of ray r starts at t_lo + (k + j_r) step. By default k = 0 .. k_steps - 1
+    for every ray ([R, K] outputs); `index` (int [R, W]) asks for other candidates of each
+    ray, as the wavefront renderer does. Returns t_start, t_end (float32) and cand (bool:
+    the interval starts before the ray leaves the box or passes far), shaped like index.
     """
     n_rays = o.shape[0]
     t_enter, t_exit = ray_box_intersect(o, d, bound)
     t_lo = jnp.maximum(jnp.broadcast_to(jnp.asarray(near, jnp.float32), (n_rays,)), t_enter)
     t_hi = jnp.minimum(jnp.broadcast_to(jnp.asarray(far, jnp.float32), (n_rays,)), t_exit)
-    steps = jnp.arange(k_steps, dtype=jnp.float32)
-    t_start = t_lo[:, None] + (steps[None, :] + _jitter(key, n_rays)[:, None]) * jnp.float32(step_size)
-    t_end = jnp.minimum(t_start + jnp.float32(step_size), t_hi[:, None])  # [R, K]
+    k = jnp.arange(k_steps, dtype=jnp.float32)[None, :] if index is None else index.astype(jnp.float32)
+    t_start = t_lo[:, None] + (k + _jitter(key, n_rays)[:, None]) * jnp.float32(step_size)
+    t_end = jnp.minimum(t_start + jnp.float32(step_size), t_hi[:, None])
     return t_start, t_end, t_start < t_hi[:, None]
 
 
-def contracted_candidates(n_rays: int, near, far, radius: float, k_steps: int, key=None):
-    """Candidate intervals [R, K] evenly spaced in s = coord.spacing(t, radius) over
-    [g(near), g(far)]: evenly in t up to t = radius, evenly in disparity beyond.
+def contracted_candidates(n_rays: int, near, far, radius: float, k_steps: int, key=None, index=None):
+    """Candidate intervals evenly spaced in s = coord.spacing(t, radius) over [g(near), g(far)]:
+    evenly in t up to t = radius, evenly in disparity beyond.
 
     With jitter j_r (0 without key) and ds = (g(far) - g(near)) / K, candidate k spans
     s in [g(near) + (k + j_r) ds, g(near) + (k + 1 + j_r) ds] clipped to g(far), mapped
-    back to t. Returns t_start, t_end (float32 [R, K]), cand (bool [R, K]).
+    back to t; k = 0 .. K - 1, or the candidates `index` (int [R, W]) of each ray. Returns
+    t_start, t_end (float32) and cand (bool), [R, K] or shaped like index.
     """
     from nerfkit.coord import spacing, spacing_inverse
 
     s_lo = spacing(jnp.float32(near), radius)
     s_hi = spacing(jnp.float32(far), radius)
     ds = (s_hi - s_lo) / k_steps
-    steps = jnp.arange(k_steps, dtype=jnp.float32)
-    s0 = s_lo + (steps[None, :] + _jitter(key, n_rays)[:, None]) * ds
+    k = jnp.arange(k_steps, dtype=jnp.float32)[None, :] if index is None else index.astype(jnp.float32)
+    s0 = s_lo + (k + _jitter(key, n_rays)[:, None]) * ds
     s1 = jnp.minimum(s0 + ds, s_hi)
     cand = s0 < s_hi
     return spacing_inverse(jnp.minimum(s0, s_hi), radius), spacing_inverse(s1, radius), cand

@@ -34,7 +34,7 @@ from nerfkit.config import Config, validate
 from nerfkit.data.capture import SceneData
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.inference import Renderer
+from nerfkit.inference import make_renderer
 from nerfkit.metrics import mse_to_psnr, psnr as psnr_np
 from nerfkit.model import build_model
 from nerfkit.resolve import default_splits, resolve_config
@@ -212,7 +212,7 @@ class Trainer:
         self.cfg = cfg
         self.model = build_model(cfg)
         self.optimizer, self.schedule = make_optimizer(cfg)
-        self.renderer = Renderer(self.model, cfg.train.chunk)
+        self.renderer = make_renderer(self.model, cfg.train.chunk)
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
 
     # -- run folder -------------------------------------------------------------------
