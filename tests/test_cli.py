@@ -97,6 +97,23 @@ def test_render_orbit(scene, run):
     assert len(list((run / "renders" / "orbit4_16x16").glob("rgb_*.png"))) == 4
 
 
+def test_render_camera_path(run, tmp_path, capsys):
+    from nerfkit.cameras import look_at
+    from nerfkit.viewer.camera_path import write_camera_path
+
+    keys = [look_at(np.array([4 * np.cos(a), 4 * np.sin(a), 1.0]), np.zeros(3)) for a in (0.0, 1.0, 2.0)]
+    path = write_camera_path(tmp_path / "camera_path.json", keys, [40.0] * 3, 24, 18, seconds=0.5, fps=10)
+    out = tmp_path / "p"
+    assert main(["render", str(run), "--camera-path", str(path), "--out", str(out)]) == 0  # data: the run's own
+    assert len(list(out.glob("rgb_*.png"))) == 5 and iio.imread(out / "rgb_0004.png").shape == (18, 24, 3)
+    info = json.loads((out / "render.json").read_text())
+    np.testing.assert_allclose(info["camera_to_world"][0], keys[0], atol=1e-5)  # Blender scene: identity transform
+    capsys.readouterr()
+    assert main(["render", str(run), "--camera-path", str(tmp_path / "none.json")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "none.json: no such camera path file" in err
+
+
 def test_render_needs_split_or_orbit(scene, run, capsys):
     assert main(["render", str(run), "--data", str(scene)]) == 1
     assert "--split" in capsys.readouterr().err

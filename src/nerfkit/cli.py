@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -77,8 +78,11 @@ class RenderArgs:
     """Output height in pixels."""
     out: Path | None = None
     """Output folder (default: RUN_DIR/renders/<split-or-orbit>_<W>x<H>)."""
-    fps: int = 24
-    """Video frame rate."""
+    camera_path: Path | None = None
+    """Render a camera path: nerfstudio's camera_path.json layout (written by `nerfkit view` or nerfstudio's
+    viewer); its frames, field of view, resolution and fps unless --width/--height/--fps are given."""
+    fps: int | None = None
+    """Video frame rate (default: the camera path's, else 24)."""
     chunk: int | None = None
     """Rays per rendering chunk (default: the run's --chunk)."""
 
@@ -107,8 +111,8 @@ class DemoArgs:
     """Model preset to train."""
     max_minutes: float = 3.0
     """Training time budget."""
-    size: int = 64
-    """Scene image size."""
+    size: int = 256
+    """Scene image size (training, evaluation and the orbit video)."""
     orbit_frames: int = 48
     """Frames in the orbit video."""
 
@@ -236,7 +240,8 @@ def cmd_render(argv: list[str]) -> int:
     from nerfkit.evaluate import render_run
 
     a = tyro.cli(RenderArgs, args=argv, prog="nerfkit render")
-    info = render_run(a.run_dir, a.data, a.split, a.orbit, a.width, a.height, a.out, a.fps, a.chunk)
+    info = render_run(a.run_dir, a.data, a.split, a.orbit, a.width, a.height, a.out, a.fps, a.chunk,
+                      camera_path=a.camera_path)
     print(f"rendered {info['frames']} frames at {info['width']}x{info['height']} "
           f"({info['seconds_per_frame']:.2f} s/frame) into {info['out']} (rgb.mp4, depth.mp4)")
     return 0
@@ -355,6 +360,22 @@ def usage() -> str:
     return "\n".join(lines)
 
 
+COMPILING = {"demo", "train", "eval", "render", "experiment"}
+
+
+def enable_compile_cache() -> None:
+    """Keep jit-compiled functions on disk between runs (JAX's persistent compilation cache), so
+    the second `nerfkit render` of a model starts in seconds. $NERFKIT_COMPILE_CACHE names the
+    folder (default ~/.cache/nerfkit/jax); "off" disables it."""
+    path = os.environ.get("NERFKIT_COMPILE_CACHE", str(Path.home() / ".cache" / "nerfkit" / "jax"))
+    if path.strip().lower() in ("", "0", "off", "none"):
+        return
+    import jax
+
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
@@ -364,6 +385,8 @@ def main(argv: list[str] | None = None) -> int:
     if verb not in COMMANDS:
         print(f"nerfkit: unknown command {verb!r}\n\n{usage()}", file=sys.stderr)
         return 2
+    if verb in COMPILING and "--help" not in rest and "-h" not in rest:
+        enable_compile_cache()
     try:
         return COMMANDS[verb][0](rest)
     except NerfkitError as e:

@@ -11,12 +11,13 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.cameras import ellipse_orbit_poses, orbit_poses
+from nerfkit.cameras import Camera, ellipse_orbit_poses, orbit_poses
 from nerfkit.data.loader import load_frames, read_capture, scene_cameras
 from nerfkit.errors import ConfigError, DataError
 from nerfkit.inference import make_renderer
 from nerfkit.metrics import psnr, ssim
 from nerfkit.train import load_trained
+from nerfkit.viewer.camera_path import focal_from_fov_y, read_camera_path
 from nerfkit.viz import background_rgb, colorize_renders, save_png, side_by_side, write_video
 
 
@@ -109,11 +110,13 @@ def format_eval_table(result: dict) -> str:
 
 def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, orbit: int | None = None,
                width: int | None = None, height: int | None = None, out: Path | None = None,
-               fps: int = 24, chunk: int | None = None, progress: bool = True) -> dict:
-    """Render a split's poses or an N-frame orbit at any resolution: RGB and colour-mapped
-    depth PNGs, depth as float32 .npy (sum_i w_i t_i), and an MP4 of each."""
-    if (split is None) == (orbit is None):
-        raise ConfigError("pass exactly one of --split SPLIT or --orbit N")
+               fps: int | None = None, chunk: int | None = None, progress: bool = True,
+               camera_path: Path | None = None) -> dict:
+    """Render a split's poses, an N-frame orbit or a camera path (nerfstudio's camera_path.json)
+    at any resolution: RGB and colour-mapped depth PNGs, depth as float32 .npy (sum_i w_i t_i),
+    and an MP4 of each."""
+    if sum(x is not None for x in (split, orbit, camera_path)) != 1:
+        raise ConfigError("pass exactly one of --split SPLIT, --orbit N or --camera-path FILE")
     check_chunk(chunk)
     if orbit is not None and orbit < 1:
         raise ConfigError(f"--orbit must be >= 1 frames (got {orbit})")
@@ -126,10 +129,17 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     scene = json.loads((run_dir / "scene.json").read_text())
     d = cfg.data
     cap = read_capture(data_dir, cfg.data.train_split if split is None else split, d.format, d.masks, d.holdout_every)
+    path = read_camera_path(camera_path) if camera_path is not None else None
     if split is not None:
         sel = scene_cameras(cap, split, d.downscale, d.target_width)
         name = split_slug(split)
         poses = sel.poses
+    elif path is not None:
+        sel = scene_cameras(cap, cfg.data.train_split, d.downscale, d.target_width)
+        poses = path["c2w"].astype(np.float32)
+        name = f"path_{split_slug(Path(camera_path).stem)}"
+        if width is None and height is None:
+            width, height = path["width"], path["height"]
     else:
         train = scene_cameras(cap, cfg.data.train_split, d.downscale, d.target_width)
         sel = train
@@ -137,7 +147,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
             train.poses, orbit, center=np.zeros(3))
         name = f"orbit{orbit}"
     cam0 = sel.cameras[0]
-    aspect = cam0.height / cam0.width
+    aspect = cam0.height / cam0.width if path is None else path["height"] / path["width"]
     if width is None and height is None:
         width, height = scene["width"], scene["height"]
     elif width is None:
@@ -146,8 +156,13 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
         height = max(1, round(width * aspect))
     native = split is not None and (width, height) == (cam0.width, cam0.height)
     cams = sel.cameras if native else [c.with_size(width, height) for c in sel.cameras]
-    if split is None:
+    if path is not None:  # the path's own field of view (vertical, degrees), principal point at the centre
+        cams = [Camera(width, height, f, f, 0.5 * width, 0.5 * height)
+                for f in (focal_from_fov_y(v, height) for v in path["fov_y"])]
+        fps = fps or path["fps"]
+    elif split is None:
         cams = [cams[0]] * len(poses)
+    fps = fps or 24
     out = Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}"
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     renders = []
