@@ -5,6 +5,7 @@ import os
 import tempfile
 
 import pytest
+from chromium import CHROMIUM_NAMES, find_chromium
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -20,3 +21,13 @@ def compile_cache():
             os.environ.pop("NERFKIT_COMPILE_CACHE", None)
         else:
             os.environ["NERFKIT_COMPILE_CACHE"] = old
+
+
+@pytest.fixture
+def chromium():
+    """The headless Chromium binary for the real-browser tests (skips, saying how to install it, when absent)."""
+    binary = find_chromium()
+    if binary is None:
+        pytest.skip("no Chromium found (looked for " + ", ".join(CHROMIUM_NAMES) + " and $NERFKIT_CHROMIUM); "
+                    "install the Debian package: apt-get install chromium (.ci/run does this)")
+    return binary

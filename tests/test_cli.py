@@ -133,3 +133,41 @@ def test_bad_config_value_is_reported(scene, tmp_path, capsys):
 def test_make_scene(tmp_path):
     assert main(["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1", "--n-test", "1"]) == 0
     assert (tmp_path / "s" / "transforms_test.json").is_file()
+
+
+def test_view_bad_input_is_a_one_line_error(tmp_path, run, capsys):
+    assert main(["view", str(tmp_path / "nope")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nope" in err
+    assert main(["view", str(run), "--port", "70000"]) == 1
+    assert "--port must be in 0..65535" in capsys.readouterr().err
+
+
+def test_view_serves_on_loopback_and_stops_on_ctrl_c(run):
+    """`nerfkit view` prints its loopback address, answers HTTP there, and exits 0 on SIGINT."""
+    import re
+    import signal
+    import time
+    import urllib.request
+
+    proc = subprocess.Popen([sys.executable, "-m", "nerfkit", "view", str(run), "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        url, lines, end = None, [], time.monotonic() + 120
+        while url is None and time.monotonic() < end:
+            line = proc.stdout.readline()
+            if not line:
+                break
+            lines.append(line)
+            m = re.search(r"at (http://127\.0\.0\.1:\d+)", line)
+            url = m.group(1) if m else None
+        assert url, "".join(lines)
+        with urllib.request.urlopen(url, timeout=30) as page:
+            assert page.status == 200 and b"<html" in page.read().lower()
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, out
+    assert "viewer stopped" in out and "Traceback" not in out

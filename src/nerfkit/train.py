@@ -214,6 +214,7 @@ class Trainer:
         self.optimizer, self.schedule = make_optimizer(cfg)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
+        self.viewer = None  # a nerfkit.viewer.server.Viewer, served between steps (nerfkit train --viewer)
 
     # -- run folder -------------------------------------------------------------------
     def _write_run_files(self):
@@ -291,6 +292,8 @@ class Trainer:
         images = jnp.asarray(self.train_data.images)
         poses = jnp.asarray(self.train_data.poses)
         step_fn = make_train_step(self.model, self.optimizer, self.train_data, cfg)
+        if self.viewer is not None:
+            self.viewer.set_params(state["params"], state["aux"], step)
 
         start = time.perf_counter()
         deadline = start + 60 * t.max_minutes if t.max_minutes else math.inf
@@ -311,6 +314,9 @@ class Trainer:
                 step += 1
                 pending.append((step, m))
                 bar.update(1)
+                if self.viewer is not None:  # renders only when its duty-cycle gate is open
+                    self.viewer.set_params(state["params"], state["aux"], step)
+                    self.viewer.render_pending()
                 if step % t.log_every == 0 or step == t.max_steps or stop.signal_name:
                     elapsed = elapsed0 + time.perf_counter() - start
                     for s, mm in pending:

@@ -1,0 +1,210 @@
+"""The arguments of each `nerfkit` verb, as typed dataclasses that tyro parses (cli.py calls)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Literal
+
+import tyro
+
+from nerfkit.config import DEFAULT_PRESET, PRESETS, Config
+
+PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+
+
+@dataclasses.dataclass
+class TrainArgs:
+    """Train a radiance field on a capture folder and write a run folder."""
+
+    data_dir: tyro.conf.Positional[Path]
+    """Capture folder: Blender (transforms_{split}.json), nerfstudio (transforms.json), LLFF (poses_bounds.npy)
+    or COLMAP (sparse/0); `nerfkit process-data` makes one from photos or a video."""
+    out: Path
+    """Run folder (config, metrics, plots, validation images, checkpoints)."""
+    preset: PresetName = DEFAULT_PRESET  # type: ignore[valid-type]
+    """Starting configuration: ngp (default) | seed | nerf | demo | tiny (see README)."""
+    resume: bool = False
+    """Continue the run in --out from its newest checkpoint (with its saved config)."""
+    progress: bool = True
+    """Show a progress bar."""
+    viewer: bool = False
+    """Open the interactive viewer while training (it takes at most 10% of the wall time; stays open after)."""
+    viewer_host: str = "127.0.0.1"
+    """Address the viewer listens on (another host only when asked: anyone who reaches it sees the scene)."""
+    viewer_port: int = 7007
+    """Viewer port (the next free one if taken; the address is printed)."""
+    cfg: tyro.conf.OmitArgPrefixes[Config] = dataclasses.field(default_factory=Config)
+
+
+@dataclasses.dataclass
+class EvalArgs:
+    """PSNR and SSIM of a trained run on a split; writes RUN_DIR/eval_<split>.json."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    data: Path | None = None
+    """The data folder the views come from (default: the one the run was trained on)."""
+    split: str = "test"
+    """Views to evaluate: 'split' or 'split[a:b]', e.g. 'val[50:100]'."""
+    downscale: int | None = None
+    """Image downscale factor (default: the run's training resolution)."""
+    every: int = 1
+    """Evaluate every K-th view."""
+    chunk: int | None = None
+    """Rays per rendering chunk (default: the run's --chunk)."""
+
+
+@dataclasses.dataclass
+class RenderArgs:
+    """Render a split's poses or an orbit: RGB and depth PNGs, depth .npy, MP4 videos."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    data: Path | None = None
+    """The data folder (poses, field of view, the orbit's path); default: the one the run was trained on."""
+    split: str | None = None
+    """Render the poses of this split, e.g. 'val[50:100]'."""
+    orbit: int | None = None
+    """Render an orbit of N frames: a circle at the cameras' typical radius and elevation (Blender scenes),
+    or an ellipse fitted to the camera centres (photo captures), looking at the scene centre."""
+    width: int | None = None
+    """Output width in pixels (default: training width; height follows the aspect ratio)."""
+    height: int | None = None
+    """Output height in pixels."""
+    out: Path | None = None
+    """Output folder (default: RUN_DIR/renders/<split-or-orbit>_<W>x<H>)."""
+    camera_path: Path | None = None
+    """Render a camera path: nerfstudio's camera_path.json layout (written by `nerfkit view` or nerfstudio's
+    viewer); its frames, field of view, resolution and fps unless --width/--height/--fps are given."""
+    fps: int | None = None
+    """Video frame rate (default: the camera path's, else 24)."""
+    chunk: int | None = None
+    """Rays per rendering chunk (default: the run's --chunk)."""
+
+
+@dataclasses.dataclass
+class ViewArgs:
+    """Interactive viewer in the browser (viser): orbit / fly, RGB / depth / opacity, the training cameras,
+    saved views and camera paths (render them with `nerfkit render RUN --camera-path FILE`)."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    port: int = 7007
+    """Port (the next free one if taken; the address is printed)."""
+    host: str = "127.0.0.1"
+    """Address to listen on; 0.0.0.0 makes the viewer reachable from other machines (a warning is printed)."""
+    chunk: int | None = None
+    """Rays per rendering chunk (default: the run's --chunk)."""
+
+
+@dataclasses.dataclass
+class MakeSceneArgs:
+    """Write nerfkit's procedural demo scene in Blender format (with exact depth maps)."""
+
+    out_dir: tyro.conf.Positional[Path]
+    """Folder to write transforms_{train,val,test}.json and the images into."""
+    size: int = 64
+    """Image width and height in pixels."""
+    n_train: int = 60
+    n_val: int = 10
+    n_test: int = 10
+    seed: int = 0
+
+
+@dataclasses.dataclass
+class DemoArgs:
+    """Generate the procedural scene, train on it, evaluate on its test views, render an orbit video."""
+
+    out: Path = Path("nerfkit-demo")
+    """Folder for the scene and the run."""
+    preset: PresetName = "demo"  # type: ignore[valid-type]
+    """Model preset to train."""
+    max_minutes: float = 3.0
+    """Training time budget."""
+    size: int = 256
+    """Scene image size (training, evaluation and the orbit video)."""
+    orbit_frames: int = 48
+    """Frames in the orbit video."""
+
+
+@dataclasses.dataclass
+class ExperimentArgs:
+    """Run an experiment. pe-ablation: train Model-1 (PE, L_xyz=10, L_dir=4), Model-2 (no PE) and
+    Model-3 (PE, L_xyz=5, L_dir=2) with the same preset, seed and budget; evaluate, render orbits;
+    write results.md/.json, overlaid curves, image grids and OUT/report.html."""
+
+    experiment: tyro.conf.Positional[Literal["pe-ablation"]]
+    """Which experiment: pe-ablation."""
+    data_dir: tyro.conf.Positional[Path]
+    """Folder with transforms_{split}.json and the images."""
+    out: Path
+    """Experiment folder (one run folder per model, results, plots, grids, report.html)."""
+    budget_minutes: float | None = None
+    """Wall-time budget per model, compile and validation included."""
+    max_steps: int | None = None
+    """Step budget per model (with --budget-minutes: whichever comes first)."""
+    preset: PresetName = "seed"  # type: ignore[valid-type]
+    """Configuration all three models start from (only the positional encoding differs)."""
+    seed: int | None = None
+    """Seed of all three models (default: the preset's)."""
+    eval_every: int = 2
+    """Evaluate every K-th view of the val split."""
+    orbit_frames: int = 40
+    """Frames of each model's orbit video (at the training resolution)."""
+    grid_views: int = 2
+    """Validation views shown in image grids (at least 2)."""
+    val_every: int | None = None
+    """Validate every N steps during training (default: the preset's)."""
+    train_split: str | None = None
+    """Frames to train on (default: the data's train split); the report's seed protocol is "train,val[0:50]"."""
+    val_split: str | None = None
+    """Frames to validate and evaluate on (default: val, else test); seed protocol: "val[50:100]"."""
+    target_width: int | None = None
+    """Shrink images to this width (seed protocol: 200)."""
+    downscale: int | None = None
+    """Shrink images by this factor (overrides --target-width)."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
+class ProcessArgs:
+    """Recover camera poses from photos or a video with structure from motion (pycolmap, on the CPU) and
+    write a capture folder that `nerfkit train` reads: transforms.json, images/, images_2/, images_4/,
+    masks/, sparse_pc.ply, cameras.png (check it), colmap.log."""
+
+    kind: tyro.conf.Positional[Literal["images", "video"]]
+    """images: a folder of photos; video: one video file."""
+    source: tyro.conf.Positional[Path]
+    """The folder of photos (.jpg, .png, ...) or the video file."""
+    out: Path
+    """The capture folder to write (built aside and renamed when complete)."""
+    masks: Path | None = None
+    """Folder of object masks named like the photos (any extension, optional _mask suffix; white = object):
+    SfM then sees only the object (needed for turntable captures) and training uses them as alpha."""
+    camera_model: Literal["SIMPLE_RADIAL", "OPENCV", "PINHOLE"] = "SIMPLE_RADIAL"
+    """One camera shared by all photos: SIMPLE_RADIAL (f, cx, cy, k), OPENCV (fx, fy, cx, cy, k1, k2, p1,
+    p2; mapped with SIMPLE_RADIAL, then refined) or PINHOLE."""
+    matching: Literal["auto", "exhaustive", "sequential"] = "auto"
+    """auto: exhaustive up to 150 photos, sequential beyond and for videos (no loop closure: COLMAP's needs a
+    downloaded vocabulary tree)."""
+    frames: int = 120
+    """video: number of frames to keep."""
+    max_image_size: int = 1600
+    """SIFT runs on photos shrunk to this longest side (poses stay in full-size pixels)."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
+    verbose: bool = False
+    """Show COLMAP's log (otherwise kept in OUT/colmap.log)."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
+class ReportArgs:
+    """Write a static HTML report that opens from disk: RUN_DIR/report.html for a run folder, or
+    the experiment report for a folder written by `nerfkit experiment`."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train` (or an experiment folder)."""

@@ -1,0 +1,116 @@
+"""Opening the viewer on a trained run folder (`nerfkit view`) or on a training run (`--viewer`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from nerfkit.cameras import Camera
+from nerfkit.errors import ConfigError
+from nerfkit.viewer.server import SceneView, Viewer
+from nerfkit.viz import background_rgb, to_uint8
+
+THUMB = 96  # longest side of the photos shown in the training-camera frustums
+
+
+def check_address(host: str, port: int) -> None:
+    if not 0 <= port <= 65535:
+        raise ConfigError(f"--port must be in 0..65535 (got {port})")
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(f"warning: the viewer listens on {host}:{port}, reachable from other machines on this network; "
+              f"anyone who can reach it sees the scene (default --host 127.0.0.1)", flush=True)
+
+
+def thumbnails(images: np.ndarray | list, side: int = THUMB) -> list[np.ndarray]:
+    """uint8 thumbnails (striding, longest side <= side) of float or uint8 images [H, W, 3]."""
+    out = []
+    for img in images:
+        step = max(1, int(np.ceil(max(img.shape[:2]) / side)))
+        small = np.asarray(img[::step, ::step, :3])
+        out.append(small if small.dtype == np.uint8 else to_uint8(small))
+    return out
+
+
+def _photo_thumbnails(data_dir: Path, names: list[str]) -> list[np.ndarray] | None:
+    from PIL import Image
+
+    out = []
+    for name in names:
+        path = Path(name) if Path(name).is_absolute() else data_dir / name
+        try:
+            with Image.open(path) as im:
+                im.thumbnail((THUMB, THUMB))
+                out.append(np.asarray(im.convert("RGB")))
+        except OSError:
+            return None  # photos moved away: frustums without pictures
+    return out
+
+
+def scene_view_of_run(run_dir: Path, cfg) -> SceneView:
+    """Training cameras (with thumbnails when the photos are still where the run found them), box, background."""
+    from nerfkit.data.loader import read_capture, scene_cameras
+    from nerfkit.errors import DataError
+
+    scene = json.loads((run_dir / "scene.json").read_text())
+    poses = np.asarray(scene["train_poses"], np.float64)
+    cams = [Camera.from_json(scene["camera"])] * len(poses)
+    thumbs = None
+    d = cfg.data
+    try:
+        cap = read_capture(Path(scene["data_dir"]), d.train_split, d.format, d.masks, d.holdout_every)
+        sel = scene_cameras(cap, d.train_split, d.downscale, d.target_width)
+        if len(sel.cameras) == len(poses):
+            cams = sel.cameras
+            thumbs = _photo_thumbnails(cap.root, sel.names)
+    except (DataError, OSError):
+        pass
+    f = cfg.field
+    return SceneView(poses, cams, thumbs, bound=f.resolved_bound() if not f.unbounded() else 1.0,
+                     unbounded=f.unbounded(), background=background_rgb(d.background))
+
+
+def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: int | None = None) -> None:
+    """`nerfkit view RUN`: serve the newest checkpoint of a run until Ctrl-C."""
+    from nerfkit.inference import make_renderer
+    from nerfkit.train import load_trained
+
+    run_dir = Path(run_dir)
+    check_address(host, port)
+    cfg, model, params, aux, step = load_trained(run_dir)
+    viewer = Viewer(make_renderer(model, cfg.train.chunk if chunk is None else chunk), scene_view_of_run(run_dir, cfg),
+                    run_dir, host=host, port=port)
+    viewer.set_params(params, aux, step)
+    print(f"viewer for {run_dir} (step {step}) at {viewer.url}  (Ctrl-C to stop)", flush=True)
+    try:
+        viewer.serve_forever()
+    except KeyboardInterrupt:
+        print("\nviewer stopped", flush=True)
+    finally:
+        viewer.close()
+
+
+TRAINING_FRACTION = 0.08  # the viewer's share of wall time while training (the issue's ceiling: 10%)
+
+
+def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
+    """Serve a Trainer's live parameters between its steps (it calls viewer.render_pending() each step)."""
+    check_address(host, port)
+    td, f = trainer.train_data, trainer.cfg.field
+    scene = SceneView(td.poses, td.cameras, thumbnails(td.images), bound=f.resolved_bound() if not f.unbounded()
+                      else 1.0, unbounded=f.unbounded(), background=background_rgb(trainer.cfg.data.background))
+    trainer.viewer = Viewer(trainer.renderer, scene, trainer.run_dir, host=host, port=port,
+                            max_fraction=TRAINING_FRACTION)
+    print(f"viewer at {trainer.viewer.url} (live while training)", flush=True)
+    return trainer.viewer
+
+
+def linger(viewer: Viewer) -> None:
+    """After training: keep the viewer open on the final parameters until Ctrl-C."""
+    viewer.max_fraction = 1.0
+    print(f"training finished; the viewer stays open at {viewer.url} (Ctrl-C to stop)", flush=True)
+    try:
+        viewer.serve_forever()
+    except KeyboardInterrupt:
+        print("\nviewer stopped", flush=True)

@@ -1,0 +1,308 @@
+"""nerfkit's interactive viewer: a viser server that renders the field for each connected browser.
+
+viser (the viewer library nerfstudio uses) owns the web page, the 3D scene (training cameras
+as frustums with their photos, the scene box, camera-path keyframes), the GUI and the
+browser's camera. nerfkit only renders: for every client whose camera or view settings
+changed, one frame, sent as the page's background image.
+
+Progressive rendering. While a camera moves (its last update is younger than STILL_AFTER s),
+frames are rendered at 1/PREVIEW_DIV of the chosen resolution (and stretched to the canvas by
+the browser); once it rests, the frame is rendered again at full resolution. Frames are
+rendered by whoever calls `render_pending()`: the viewer's own loop (`nerfkit view`), or the
+training loop between steps (`nerfkit train --viewer`), where a duty-cycle gate keeps the
+viewer's share of the wall time at most `max_fraction`: after a frame that took s seconds,
+the next is not started before s (1 - f) / f seconds have passed (the first frame, which
+compiles the renderer, is not gated).
+
+Cameras. viser reports a camera as position + wxyz quaternion of an OpenCV frame (x right,
+y down, z forward) in world coordinates; nerfkit's c2w is OpenGL (x right, y up, camera looks
+down -z), so c2w[:3, :3] = R_viser diag(1, -1, -1). `fov` is vertical, in radians.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from nerfkit.cameras import Camera, look_at
+from nerfkit.viewer.camera_path import write_camera_path
+from nerfkit.viz import colorize_depth, depth_range, save_png, to_uint8
+
+FLIP_YZ = np.diag([1.0, -1.0, -1.0])
+MODES = ("RGB", "Depth", "Opacity")
+
+
+def c2w_from_viser(wxyz, position) -> np.ndarray:
+    """OpenGL camera-to-world [4, 4] of a viser camera (wxyz quaternion of an OpenCV frame, position [3])."""
+    from scipy.spatial.transform import Rotation
+
+    w, x, y, z = np.asarray(wxyz, np.float64)
+    c2w = np.eye(4)
+    c2w[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix() @ FLIP_YZ
+    c2w[:3, 3] = np.asarray(position, np.float64)
+    return c2w
+
+
+def viser_from_c2w(c2w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(wxyz [4], position [3]) of the OpenCV frame of an OpenGL camera-to-world [4, 4] (or [3, 4])."""
+    from scipy.spatial.transform import Rotation
+
+    c2w = np.asarray(c2w, np.float64)
+    x, y, z, w = Rotation.from_matrix(c2w[:3, :3] @ FLIP_YZ).as_quat()
+    return np.array([w, x, y, z]), c2w[:3, 3].copy()
+
+
+def view_camera(fov_y: float, aspect: float, max_side: int) -> Camera:
+    """A pinhole camera of vertical field of view fov_y (radians), aspect W / H, longest side max_side."""
+    if aspect >= 1.0:
+        w, h = max_side, max(1, round(max_side / aspect))
+    else:
+        w, h = max(1, round(max_side * aspect)), max_side
+    return Camera.pinhole(w, h, 0.5 * h / math.tan(0.5 * fov_y))
+
+
+def shade_output(out: dict, mode: str, background) -> np.ndarray:
+    """The [H, W, 3] image a view mode shows: RGB, turbo-coloured depth (this frame's range), or opacity."""
+    if mode == "Depth":
+        lo, hi = depth_range([out["depth_normalized"]], [out["opacity"]])
+        return colorize_depth(out["depth_normalized"], out["opacity"], lo, hi, background)
+    if mode == "Opacity":
+        return np.repeat(out["opacity"][..., None], 3, axis=-1)
+    return out["rgb"]
+
+
+@dataclass
+class SceneView:
+    """What the viewer draws besides the field (normalised scene coordinates)."""
+
+    poses: np.ndarray  # [N, 4, 4] training camera-to-world (OpenGL)
+    cameras: list  # [N] Camera
+    thumbnails: list | None = None  # [N] uint8 [h, w, 3], or None
+    bound: float = 1.5  # box half-size (bounded) or the contraction radius (unbounded)
+    unbounded: bool = False
+    background: tuple = (1.0, 1.0, 1.0)
+
+
+@dataclass
+class _Client:
+    handle: object
+    version: int = 0  # bumped on every camera update
+    moved_at: float = 0.0
+    shown: tuple | None = None  # (version, params version, mode, resolution, full) of the frame on screen
+    last_image: np.ndarray | None = None
+    frames: list = field(default_factory=list)  # (wall time, seconds, full) of recent frames
+
+
+class Viewer:
+    """A viser server showing `model` with parameters that may change (training) or not."""
+
+    PREVIEW_DIV = 4
+    STILL_AFTER = 0.2
+
+    def __init__(self, renderer, scene: SceneView, out_dir: Path, host: str = "127.0.0.1", port: int = 7007,
+                 max_fraction: float = 1.0, verbose: bool = True):
+        import viser
+
+        self.renderer, self.scene, self.out_dir = renderer, scene, Path(out_dir)
+        self.max_fraction = max_fraction
+        self._lock = threading.Lock()
+        self._clients: dict[int, _Client] = {}
+        self._params = None
+        self._params_version = 0
+        self.step = 0
+        self._gate = 0.0
+        self._saves: list = []  # (client id, kind) requests, served by render_pending
+        self.spent: list[float] = []  # seconds of each rendered frame (frame time incl. encoding and sending)
+        self.frames_rendered = 0
+        self.keyframes: list[tuple[np.ndarray, float]] = []
+        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.host, self.port = host, self.server.get_port()
+        self.server.scene.set_up_direction("+z")
+        self._draw_scene()
+        self._build_gui()
+        self.server.on_client_connect(self._on_connect)
+        self.server.on_client_disconnect(lambda c: self._clients.pop(c.client_id, None))
+
+    # -- state ------------------------------------------------------------------------
+    def set_params(self, params, aux, step: int) -> None:
+        """New field parameters (JAX arrays are immutable: a reference is enough)."""
+        with self._lock:
+            self._params = (params, aux)
+            self._params_version += 1
+            self.step = step
+
+    def _on_connect(self, client) -> None:
+        st = _Client(client)
+        self._clients[client.client_id] = st
+        if len(self.scene.poses):  # start beside the first training camera (15 deg around the up axis)
+            a = math.radians(15.0)
+            rot = np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]])
+            wxyz, pos = viser_from_c2w(look_at(rot @ self.scene.poses[0][:3, 3], np.zeros(3)))
+            with client.atomic():
+                client.camera.wxyz, client.camera.position = wxyz, pos
+                client.camera.look_at = np.zeros(3)
+
+        @client.camera.on_update
+        def _(_cam) -> None:
+            st.version += 1
+            st.moved_at = time.perf_counter()
+
+    # -- scene and GUI ----------------------------------------------------------------
+    def _draw_scene(self) -> None:
+        s, sc = self.scene, self.server.scene
+        self._frustums = []
+        centres = s.poses[:, :3, 3] if len(s.poses) else np.zeros((1, 3))
+        size = 0.06 * float(np.median(np.linalg.norm(centres, axis=1)) or 1.0)
+        for k, (c2w, cam) in enumerate(zip(s.poses, s.cameras)):
+            wxyz, pos = viser_from_c2w(c2w)
+            thumb = s.thumbnails[k] if s.thumbnails is not None else None
+            self._frustums.append(sc.add_camera_frustum(f"/train_cameras/{k:04d}", fov=2 * math.atan(0.5 * cam.height / cam.fy),
+                                  aspect=cam.width / cam.height, scale=size, image=thumb, format="jpeg",
+                                  wxyz=wxyz, position=pos, color=(60, 90, 200)))
+        b = s.bound
+        corners = np.array([[x, y, z] for x in (-b, b) for y in (-b, b) for z in (-b, b)])
+        edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1]
+        sc.add_line_segments("/scene_box", corners[np.array(edges)], (230, 120, 30),
+                             thickness=2.0, thickness_units="screen")
+
+    def _build_gui(self) -> None:
+        gui = self.server.gui
+        self.info = gui.add_markdown("waiting for the first frame...")
+        self.mode = gui.add_dropdown("Output", MODES, initial_value="RGB")
+        self.resolution = gui.add_number("Max resolution", 256, min=32, max=2048, step=16,
+                                         hint="longest side of the live view (1/4 of it while the camera moves)")
+        self.out_res = gui.add_number("Save resolution", 800, min=32, max=4096, step=16,
+                                      hint="longest side of saved views and of camera-path renders")
+        show = gui.add_checkbox("Training cameras", True)
+
+        @show.on_update
+        def _(_e) -> None:
+            for h in self._frustums:
+                h.visible = show.value
+
+        gui.add_button("Save this view", hint="render at the save resolution into RUN/views/").on_click(
+            lambda e: self._request(e.client, "view"))
+        with gui.add_folder("Camera path"):
+            self.path_seconds = gui.add_number("Seconds", 4.0, min=0.5, max=600.0, step=0.5)
+            self.path_fps = gui.add_number("FPS", 24, min=1, max=120, step=1)
+            self.path_loop = gui.add_checkbox("Loop", False)
+            gui.add_button("Add keyframe").on_click(lambda e: self._add_keyframe(e.client))
+            gui.add_button("Clear keyframes").on_click(lambda _e: self._clear_keyframes())
+            gui.add_button("Save camera path", hint="RUN/camera_paths/*.json; render it with "
+                                                    "nerfkit render RUN --camera-path FILE").on_click(
+                lambda e: self._request(e.client, "path"))
+
+    def _request(self, client, kind: str) -> None:
+        with self._lock:
+            self._saves.append((client.client_id, kind))
+
+    def _add_keyframe(self, client) -> None:
+        cam = client.camera
+        c2w = c2w_from_viser(cam.wxyz, cam.position)
+        self.keyframes.append((c2w, math.degrees(cam.fov)))
+        k = len(self.keyframes) - 1
+        self.server.scene.add_camera_frustum(f"/keyframes/{k:03d}", fov=cam.fov, aspect=cam.aspect, scale=0.1,
+                                             wxyz=cam.wxyz, position=cam.position, color=(220, 40, 40))
+        client.add_notification(f"keyframe {k + 1}", "added", auto_close_seconds=2.0)
+
+    def _clear_keyframes(self) -> None:
+        for k in range(len(self.keyframes)):
+            self.server.scene.remove_by_name(f"/keyframes/{k:03d}")
+        self.keyframes.clear()
+
+    # -- rendering --------------------------------------------------------------------
+    def _render(self, client, max_side: int, mode: str) -> tuple[np.ndarray, float]:
+        cam = client.camera
+        c2w = c2w_from_viser(cam.wxyz, cam.position)
+        params, aux = self._params
+        t0 = time.perf_counter()
+        out = self.renderer.render_camera(params, aux, c2w.astype(np.float32),
+                                          view_camera(cam.fov, cam.aspect, max_side))
+        img = to_uint8(shade_output(out, mode, self.scene.background))
+        return img, time.perf_counter() - t0
+
+    def _serve_save(self, cid: int, kind: str) -> None:
+        st = self._clients.get(cid)
+        if st is None:
+            return
+        client, cam = st.handle, st.handle.camera
+        side = int(self.out_res.value)
+        if kind == "view":
+            img, _ = self._render(client, side, self.mode.value)
+            n = len(list((self.out_dir / "views").glob("view_*.png"))) if (self.out_dir / "views").is_dir() else 0
+            path = self.out_dir / "views" / f"view_{n:04d}.png"
+            save_png(path, img)
+        else:
+            if not self.keyframes:
+                client.add_notification("no keyframes", "add keyframes first", color="red", auto_close_seconds=4.0)
+                return
+            c = view_camera(cam.fov, cam.aspect, side)
+            n = len(list((self.out_dir / "camera_paths").glob("*.json"))) if (self.out_dir / "camera_paths").is_dir() else 0
+            path = write_camera_path(self.out_dir / "camera_paths" / f"camera_path_{n:03d}.json",
+                                     [k[0] for k in self.keyframes], [k[1] for k in self.keyframes], c.width,
+                                     c.height, float(self.path_seconds.value), int(self.path_fps.value),
+                                     bool(self.path_loop.value))
+        client.add_notification("saved", str(path), auto_close_seconds=6.0)
+        print(f"viewer: wrote {path}", flush=True)
+
+    def render_pending(self, force: bool = False) -> float:
+        """Serve one save request or render one frame for the client that needs it most; returns the
+        seconds spent (0 when there was nothing to do or the duty-cycle gate is closed)."""
+        now = time.perf_counter()
+        with self._lock:
+            save = self._saves.pop(0) if self._saves else None
+        if self._params is None:
+            return 0.0
+        if save is not None:
+            self._serve_save(*save)
+            return time.perf_counter() - now
+        if not force and now < self._gate:
+            return 0.0
+        side, mode = int(self.resolution.value), self.mode.value
+        todo = []
+        for st in list(self._clients.values()):
+            if st.version == 0:  # no camera from this browser yet
+                continue
+            full = now - st.moved_at >= self.STILL_AFTER
+            key = (st.version, self._params_version, mode, side, full)
+            if st.shown is not None and (st.shown == key or (st.shown[0] == st.version and st.shown[4] and not full)):
+                continue
+            todo.append((st.moved_at, st, key))
+        if not todo:
+            return 0.0
+        _, st, key = min(todo, key=lambda x: x[0])  # the longest-waiting client first
+        img, secs = self._render(st.handle, side if key[4] else max(16, side // self.PREVIEW_DIV), mode)
+        st.handle.scene.set_background_image(img, format="jpeg", jpeg_quality=90)
+        st.shown, st.last_image = key, img
+        st.frames = (st.frames + [(time.perf_counter(), secs, key[4])])[-30:]
+        self.frames_rendered += 1
+        spent = time.perf_counter() - now
+        self.spent.append(spent)
+        if self.max_fraction < 1.0 and len(self.spent) > 1:  # (the first frame compiles the renderer)
+            self._gate = time.perf_counter() + spent * (1.0 - self.max_fraction) / self.max_fraction
+        self._update_info(st, img, secs, key[4])
+        return spent
+
+    def _update_info(self, st: _Client, img: np.ndarray, secs: float, full: bool) -> None:
+        moving = [f for f in st.frames if not f[2]]
+        rate = f" · {1.0 / np.mean([f[1] for f in moving]):.1f} frames/s moving" if moving else ""
+        self.info.content = (f"**step {self.step}** · {img.shape[1]}x{img.shape[0]} "
+                             f"{'still' if full else 'preview'} in {secs:.2f} s{rate}")
+
+    def serve_forever(self, idle_sleep: float = 0.01) -> None:
+        """Render frames until Ctrl-C (KeyboardInterrupt reaches the caller, which closes the viewer)."""
+        while True:
+            if not self.render_pending():
+                time.sleep(idle_sleep)
+
+    def close(self) -> None:
+        self.server.stop()
+
+    @property
+    def url(self) -> str:
+        return f"http://{self.host}:{self.port}"

@@ -1,0 +1,185 @@
+"""The viewer in a real browser: headless Chromium opens the viser page of a small trained run.
+
+The browser connects, reports its camera, and the viewer renders a first frame into the page;
+the test then moves the browser's camera through viser's client messages (the server sets the
+client camera; the page reports the new pose back), waits for the new frame, and checks that
+the image changed and is not blank. Saved views and camera paths go through the same GUI
+handlers a click calls, and the saved path renders with `render_run(camera_path=...)`.
+A screenshot of the page is kept (NERFKIT_VIEWER_SCREENSHOT=/path.png to copy it out).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import threading
+import time
+
+import numpy as np
+import pytest
+from chromium import Chromium, find_chromium
+
+from nerfkit.config import preset
+from nerfkit.data.scene import make_scene
+from nerfkit.evaluate import render_run
+from nerfkit.inference import make_renderer
+from nerfkit.train import Trainer, load_trained
+from nerfkit.viewer.camera_path import read_camera_path
+from nerfkit.viewer.run import attach_viewer, scene_view_of_run
+from nerfkit.viewer.server import Viewer, viser_from_c2w
+
+pytest.importorskip("viser")
+
+
+def tiny_cfg(steps: int):
+    cfg = preset("demo")
+    cfg.field.hash_log2_size = 12
+    cfg.train.max_steps, cfg.train.val_every, cfg.train.val_views, cfg.train.ckpt_every = steps, 10_000, 1, 10_000
+    cfg.train.batch_rays = 1024
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A small run trained with the viewer open in a browser (`nerfkit train --viewer`): (run folder, stats)."""
+    binary = find_chromium()
+    if binary is None:
+        pytest.skip("no Chromium found (install the Debian package chromium; .ci/run does this)")
+    root = tmp_path_factory.mktemp("viewer")
+    scene = make_scene(root / "scene", size=48, n_train=12, n_val=2, n_test=2)
+    trainer = Trainer(scene, root / "run", tiny_cfg(150), progress=False)
+    viewer = attach_viewer(trainer, port=0)
+    browser = Chromium(binary, root / "profile", 480, 360)
+    try:
+        browser.open_page()
+        browser.navigate(viewer.url)
+        one_client(viewer)
+        t0 = time.perf_counter()
+        trainer.run()
+        wall = time.perf_counter() - t0
+    finally:
+        browser.close()
+        viewer.close()
+    return root / "run", {"wall": wall, "spent": list(viewer.spent), "step": viewer.step,
+                          "fraction": viewer.max_fraction, "frames": viewer.frames_rendered}
+
+
+@pytest.fixture(scope="module")
+def run(trained):
+    return trained[0]
+
+
+class Loop:
+    """Calls viewer.render_pending() in a thread, as `nerfkit view` does in its main loop."""
+
+    def __init__(self, viewer):
+        self.viewer, self.stop = viewer, False
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        while not self.stop:
+            if not self.viewer.render_pending():
+                time.sleep(0.01)
+
+    def close(self):
+        self.stop = True
+        self.thread.join(30)
+
+
+def wait_for(cond, timeout: float, what: str):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if cond():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}")
+
+
+def one_client(viewer):
+    wait_for(lambda: any(c.version > 0 for c in viewer._clients.values()), 60, "the browser to report its camera")
+    return next(c for c in viewer._clients.values() if c.version > 0)
+
+
+def still_frame_of(st, version: int | None = None):
+    """Condition: a full-resolution frame of the client's current (or a newer than `version`) camera is shown."""
+    return lambda: st.shown is not None and st.shown[4] and st.shown[0] == st.version and (
+        version is None or st.shown[0] > version)
+
+
+def test_viewer_renders_in_headless_chromium(chromium, run, tmp_path):
+    cfg, model, params, aux, step = load_trained(run)
+    viewer = Viewer(make_renderer(model, 4096), scene_view_of_run(run, cfg), run, port=0)
+    viewer.set_params(params, aux, step)
+    assert viewer.host == "127.0.0.1"
+    loop = Loop(viewer)
+    browser = Chromium(chromium, tmp_path / "profile", 640, 480)
+    try:
+        browser.open_page()
+        browser.navigate(viewer.url)
+        st = one_client(viewer)
+        wait_for(still_frame_of(st), 120, "the first full-resolution frame")
+        first, v0 = st.last_image.copy(), st.shown[0]
+        assert first.std() > 5, "the first frame is blank"
+
+        # Move the browser's camera to another training camera's pose; the page reports it back.
+        wxyz, pos = viser_from_c2w(viewer.scene.poses[5])
+        with st.handle.atomic():
+            st.handle.camera.wxyz, st.handle.camera.position = wxyz, pos
+        wait_for(still_frame_of(st, v0), 60, "a frame of the moved camera")
+        second = st.last_image.copy()
+        assert np.allclose(st.handle.camera.position, pos, atol=1e-3)
+        assert second.std() > 5, "the frame after the move is blank"
+        if second.shape == first.shape:
+            assert np.abs(second.astype(float) - first).mean() > 3, "the image did not change with the camera"
+
+        # The preview of a moving camera is 1/4 of the resolution, then refined.
+        assert max(second.shape[:2]) == 256
+        shot = tmp_path / "viewer.png"
+        browser.screenshot(shot)
+
+        # Save this view; keyframes -> camera path (the GUI buttons' handlers, for this browser's client).
+        viewer.out_res.value = 96
+        viewer._request(st.handle, "view")
+        viewer._add_keyframe(st.handle)
+        wxyz, pos = viser_from_c2w(viewer.scene.poses[7])
+        with st.handle.atomic():
+            st.handle.camera.wxyz, st.handle.camera.position = wxyz, pos
+        wait_for(lambda: np.allclose(st.handle.camera.position, pos, atol=1e-3), 30, "the second keyframe pose")
+        viewer._add_keyframe(st.handle)
+        viewer.path_seconds.value, viewer.path_fps.value = 1.0, 4
+        viewer._request(st.handle, "path")
+        wait_for(lambda: (run / "camera_paths").is_dir() and (run / "views").is_dir() and not viewer._saves, 120,
+                 "the saved view and camera path")
+    finally:
+        loop.close()
+        browser.close()
+        viewer.close()
+
+    import imageio.v3 as iio
+
+    img = iio.imread(shot)
+    assert img.shape[1] == 640 and img.shape[0] >= 300 and float(np.std(img[..., :3])) > 10, "screenshot is blank"
+    keep = os.environ.get("NERFKIT_VIEWER_SCREENSHOT")
+    if keep:
+        shutil.copy(shot, keep)
+
+    saved = sorted((run / "views").glob("view_*.png"))
+    assert len(saved) == 1 and max(iio.imread(saved[0]).shape[:2]) == 96
+    path_file = next((run / "camera_paths").glob("*.json"))
+    path = read_camera_path(path_file)
+    assert len(path["c2w"]) == 4 and max(path["width"], path["height"]) == 96
+    np.testing.assert_allclose(path["c2w"][0], viewer.keyframes[0][0], atol=1e-5)  # keyframes are hit exactly
+    info = render_run(run, None, camera_path=path_file, out=tmp_path / "path_render", progress=False)
+    assert info["frames"] == 4 and (tmp_path / "path_render" / "rgb.mp4").is_file()
+
+
+def test_viewer_during_training(trained):
+    """`nerfkit train --viewer`: frames of the live parameters, within the viewer's share of the wall time."""
+    _, st = trained
+    assert st["frames"] >= 2, "no frames while training"
+    assert st["step"] == 150  # the viewer saw the last step's parameters
+    # The duty-cycle gate: after a frame of s seconds the next waits s (1 - f) / f, so the frames after the
+    # first (which compiles the renderer) take at most f of the wall time, plus the last frame's overshoot.
+    later = st["spent"][1:]
+    assert sum(later) <= st["fraction"] * st["wall"] + max(later), st
