@@ -94,7 +94,7 @@ class WavefrontRenderer(Renderer):
     # sample than 65536 (cache), so a small CAP per round wins over fewer, larger rounds.
     WINDOW = 64
     CAP = 8
-    BUCKETS = (8, 2, 1)  # budgets chunk * CAP / b: one compile each
+    BUDGETS = (1, 4, 8)  # samples per slot: a round's budget is chunk * m for the smallest m that holds it
 
     def __post_init__(self):
         model = self.model
@@ -134,7 +134,7 @@ class WavefrontRenderer(Renderer):
                     "trans": trans * jnp.exp(-total(tau)), "k_next": jnp.where(over, k0 + first_left, k0 + w)}
 
         self._window = jax.jit(window)
-        self._shade = {b: jax.jit(partial(shade, budget=r * cap // b)) for b in self.BUCKETS}
+        self._shade = {m: jax.jit(partial(shade, budget=r * m)) for m in self.BUDGETS}
 
     def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray) -> dict:
         """Render rays [N, 3]; returns numpy arrays rgb [N, 3], depth, depth_normalized, opacity [N]."""
@@ -161,8 +161,8 @@ class WavefrontRenderer(Renderer):
             shaded = int(np.minimum(count, self.CAP).sum())
             done = exhausted & (count <= self.CAP)
             if shaded:
-                b = max(b for b in self.BUCKETS if r * self.CAP // b >= shaded)
-                res = self._shade[b](params, o, d, k0, keep, trans)
+                m = min(m for m in self.BUDGETS if r * m >= shaded)
+                res = self._shade[m](params, o, d, k0, keep, trans)
                 ids = slot_ray[live]
                 for key in acc:
                     acc[key][ids] += np.asarray(res[key])[live]

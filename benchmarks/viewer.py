@@ -1,0 +1,148 @@
+"""The viewer's frame rate (moving and still) and its cost to training, in headless Chromium.
+
+    python benchmarks/viewer.py RUN_DIR [--data DATA --steps 300]
+
+1. `nerfkit view RUN_DIR`'s renderer behind a viser server, a headless Chromium page connected to it.
+   The browser's camera is dragged along an orbit (a new pose every 1/30 s for --seconds; frames
+   while moving are rendered at 1/4 of --resolution); frames/s rendered during the drag. Then the
+   camera rests: the time of the full-resolution frame.
+2. With --data: the same preset trained for --steps steps with and without the viewer open (a browser
+   connected, camera at rest, the live parameters re-rendered under the duty-cycle gate); steps/s of both.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from chromium import Chromium, find_chromium
+
+from nerfkit.cameras import orbit_poses
+from nerfkit.inference import make_renderer
+from nerfkit.train import Trainer, load_run_config, load_trained
+from nerfkit.viewer.run import attach_viewer, scene_view_of_run
+from nerfkit.viewer.server import Viewer, viser_from_c2w
+
+
+def wait(cond, timeout=300.0):
+    end = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > end:
+            raise TimeoutError
+        time.sleep(0.002)
+
+
+def frame_rate(run: Path, binary: str, resolution: int, seconds: float) -> dict:
+    cfg, model, params, aux, step = load_trained(run)
+    viewer = Viewer(make_renderer(model, cfg.train.chunk), scene_view_of_run(run, cfg), run, port=0)
+    viewer.set_params(params, aux, step)
+    viewer.resolution.value = resolution
+    stop = threading.Event()
+
+    def loop():
+        while not stop.is_set():
+            if not viewer.render_pending():
+                time.sleep(0.002)
+
+    th = threading.Thread(target=loop, daemon=True)
+    th.start()
+    browser = Chromium(binary, Path(tempfile.mkdtemp()) / "profile", 1024, 768)
+    try:
+        browser.open_page()
+        browser.navigate(viewer.url)
+        wait(lambda: any(c.version for c in viewer._clients.values()))
+        st = next(c for c in viewer._clients.values() if c.version)
+        wait(lambda: st.shown is not None and st.shown[4])  # first still frame (compiles)
+        shapes = []
+        # A drag: a new pose every 1/30 s for `seconds`, as the browser reports a moving camera.
+        orbit = orbit_poses(viewer.scene.poses, int(30 * seconds))
+        n0, v0, t0 = viewer.frames_rendered, st.version, time.perf_counter()
+        for c2w in orbit:
+            wxyz, pos = viser_from_c2w(c2w)
+            with st.handle.atomic():
+                st.handle.camera.wxyz, st.handle.camera.position = wxyz, pos
+            time.sleep(max(0.0, t0 + (len(shapes) + 1) / 30 - time.perf_counter()))
+            shapes.append(st.last_image.shape[:2])
+        moving = (viewer.frames_rendered - n0) / (time.perf_counter() - t0)
+        previews = sum(not f[2] for f in st.frames)
+        updates = st.version - v0
+        v = st.version
+        t1 = time.perf_counter()
+        wait(lambda: st.shown[4] and st.shown[0] == st.version)
+        still = time.perf_counter() - t1
+        still_render = [f[1] for f in st.frames if f[2]][-1]
+    finally:
+        stop.set()
+        th.join(30)
+        browser.close()
+        viewer.close()
+    return {"moving_fps": moving, "camera_updates": updates, "drag_poses": len(orbit), "moving_frame": [int(x) for x in shapes[-1]], "previews": previews,
+            "still_seconds_after_rest": still, "still_render_seconds": still_render,
+            "still_frame": [int(x) for x in st.last_image.shape[:2]], "rested_version": v}
+
+
+def training_cost(run: Path, data: Path, binary: str, steps: int) -> dict:
+    out = {}
+    for label in ("without viewer", "with viewer"):
+        cfg = load_run_config(run)
+        cfg.train.max_steps, cfg.train.max_minutes, cfg.train.val_every = steps, None, 10**9
+        cfg.train.ckpt_every = 10**9
+        tmp = Path(tempfile.mkdtemp())
+        trainer = Trainer(data, tmp / "run", cfg, progress=False)
+        browser = None
+        if label == "with viewer":
+            viewer = attach_viewer(trainer, port=0)
+            browser = Chromium(binary, tmp / "profile", 1024, 768)
+            browser.open_page()
+            browser.navigate(viewer.url)
+            print("  browser connected; waiting for its camera", flush=True)
+            wait(lambda v=viewer: any(c.version for c in v._clients.values()), 120)
+            print("  training with the viewer open", flush=True)
+        try:
+            res = trainer.run()
+        finally:
+            if browser is not None:
+                browser.close()
+                trainer.viewer.close()
+        rows = [json.loads(x) for x in (tmp / "run" / "metrics.jsonl").read_text().splitlines()]
+        # steps/s after the first 50 steps (compiles excluded), from the logged elapsed times
+        a = next(r for r in rows if r["step"] >= 50)
+        b = rows[-1]
+        out[label] = {"steps_per_second": (b["step"] - a["step"]) / (b["elapsed"] - a["elapsed"]),
+                      "overall": res.steps_per_second}
+        if label == "with viewer":
+            out[label]["frames"] = trainer.viewer.frames_rendered
+            out[label]["viewer_seconds"] = sum(trainer.viewer.spent[1:])
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run", type=Path)
+    ap.add_argument("--data", type=Path)
+    ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--resolution", type=int, default=256)
+    ap.add_argument("--seconds", type=float, default=6.0, help="length of the simulated drag")
+    a = ap.parse_args()
+    binary = find_chromium()
+    if binary is None:
+        sys.exit("no Chromium found: apt-get install chromium")
+    fr = frame_rate(a.run, binary, a.resolution, a.seconds)
+    print(f"viewer, {a.resolution} px: {fr['moving_fps']:.1f} frames/s while moving ({fr['moving_frame'][1]}x"
+          f"{fr['moving_frame'][0]} previews; the page reported {fr['camera_updates']} of {fr['drag_poses']} poses); at rest a {fr['still_frame'][1]}x{fr['still_frame'][0]} frame "
+          f"renders in {fr['still_render_seconds']:.2f} s ({fr['still_seconds_after_rest']:.2f} s after the last move)")
+    if a.data:
+        tc = training_cost(a.run, a.data, binary, a.steps)
+        w, v = tc["without viewer"]["steps_per_second"], tc["with viewer"]["steps_per_second"]
+        print(f"training: {w:.2f} steps/s without the viewer, {v:.2f} with it open ({100 * (1 - v / w):.1f}% slower; "
+              f"{tc['with viewer']['frames']} frames, {tc['with viewer']['viewer_seconds']:.1f} s of rendering)")
+
+
+if __name__ == "__main__":
+    main()
