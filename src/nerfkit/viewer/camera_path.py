@@ -53,7 +53,7 @@ def write_camera_path(path: Path, keyframes: list[np.ndarray], fovs: list[float]
     """Write keyframes (c2w [4, 4], vertical fov in degrees) and the interpolated frames."""
     if not keyframes:
         raise DataError("a camera path needs at least one keyframe")
-    n = max(1, int(round(seconds * fps)))
+    n = max(1, round(seconds * fps))
     frames, ffovs = interpolate(np.stack(keyframes), np.asarray(fovs), n, cycle)
     aspect = width / height
     meta = {
@@ -100,7 +100,7 @@ def read_camera_path(path: Path) -> dict:
     if not isinstance(h, int) or h < 1:
         h = 480
     if not isinstance(w, int) or w < 1:
-        w = max(1, int(round(h * aspect)))
+        w = max(1, round(h * aspect))
     fps = meta.get("fps", 24)
     return {"c2w": np.stack(c2w), "fov_y": np.asarray(fov), "width": w, "height": h,
             "fps": int(fps) if isinstance(fps, (int, float)) and fps > 0 else 24}

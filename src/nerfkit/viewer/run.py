@@ -66,9 +66,14 @@ def scene_view_of_run(run_dir: Path, cfg) -> SceneView:
             thumbs = _photo_thumbnails(cap.root, sel.names)
     except (DataError, OSError):
         pass
+    return scene_view(poses, cams, thumbs, cfg)
+
+
+def scene_view(poses: np.ndarray, cameras: list, thumbs: list | None, cfg) -> SceneView:
+    """Cameras plus what the config says of the scene: its box (bounded) or the contraction's unit ball."""
     f = cfg.field
-    return SceneView(poses, cams, thumbs, bound=f.resolved_bound() if not f.unbounded() else 1.0,
-                     unbounded=f.unbounded(), background=background_rgb(d.background))
+    return SceneView(poses, cameras, thumbs, bound=1.0 if f.unbounded() else f.resolved_bound(),
+                     unbounded=f.unbounded(), background=background_rgb(cfg.data.background))
 
 
 def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: int | None = None) -> None:
@@ -97,9 +102,8 @@ TRAINING_FRACTION = 0.08  # the viewer's share of wall time while training (the 
 def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
     """Serve a Trainer's live parameters between its steps (it calls viewer.render_pending() each step)."""
     check_address(host, port)
-    td, f = trainer.train_data, trainer.cfg.field
-    scene = SceneView(td.poses, td.cameras, thumbnails(td.images), bound=f.resolved_bound() if not f.unbounded()
-                      else 1.0, unbounded=f.unbounded(), background=background_rgb(trainer.cfg.data.background))
+    td = trainer.train_data
+    scene = scene_view(td.poses, td.cameras, thumbnails(td.images), trainer.cfg)
     trainer.viewer = Viewer(trainer.renderer, scene, trainer.run_dir, host=host, port=port,
                             max_fraction=TRAINING_FRACTION)
     print(f"viewer at {trainer.viewer.url} (live while training)", flush=True)

@@ -166,7 +166,7 @@ class Viewer:
                                   wxyz=wxyz, position=pos, color=(60, 90, 200)))
         b = s.bound
         corners = np.array([[x, y, z] for x in (-b, b) for y in (-b, b) for z in (-b, b)])
-        edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1]
+        edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if (i ^ j).bit_count() == 1]
         sc.add_line_segments("/scene_box", corners[np.array(edges)], (230, 120, 30),
                              thickness=2.0, thickness_units="screen")
 
@@ -254,10 +254,10 @@ class Viewer:
         """Serve one save request or render one frame for the client that needs it most; returns the
         seconds spent (0 when there was nothing to do or the duty-cycle gate is closed)."""
         now = time.perf_counter()
-        with self._lock:
-            save = self._saves.pop(0) if self._saves else None
         if self._params is None:
             return 0.0
+        with self._lock:
+            save = self._saves.pop(0) if self._saves else None
         if save is not None:
             self._serve_save(*save)
             return time.perf_counter() - now
