@@ -89,11 +89,17 @@ def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: in
     viewer.set_params(params, aux, step)
     print(f"viewer for {run_dir} (step {step}) at {viewer.url}  (Ctrl-C to stop)", flush=True)
     try:
+        serve_until_interrupted(viewer)
+    finally:
+        viewer.close()
+
+
+def serve_until_interrupted(viewer: Viewer) -> None:
+    """Render frames until Ctrl-C, then say so (the caller closes the viewer)."""
+    try:
         viewer.serve_forever()
     except KeyboardInterrupt:
         print("\nviewer stopped", flush=True)
-    finally:
-        viewer.close()
 
 
 TRAINING_FRACTION = 0.08  # the viewer's share of wall time while training (the issue's ceiling: 10%)
@@ -114,7 +120,4 @@ def linger(viewer: Viewer) -> None:
     """After training: keep the viewer open on the final parameters until Ctrl-C."""
     viewer.max_fraction = 1.0
     print(f"training finished; the viewer stays open at {viewer.url} (Ctrl-C to stop)", flush=True)
-    try:
-        viewer.serve_forever()
-    except KeyboardInterrupt:
-        print("\nviewer stopped", flush=True)
+    serve_until_interrupted(viewer)

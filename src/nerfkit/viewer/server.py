@@ -76,6 +76,14 @@ def shade_output(out: dict, mode: str, background) -> np.ndarray:
     return out["rgb"]
 
 
+def _unused_path(folder: Path, pattern: str) -> Path:
+    """folder / pattern.format(k) for the smallest k not yet taken (earlier saves are never overwritten)."""
+    k = 0
+    while (folder / pattern.format(k)).exists():
+        k += 1
+    return folder / pattern.format(k)
+
+
 @dataclass
 class SceneView:
     """What the viewer draws besides the field (normalised scene coordinates)."""
@@ -234,23 +242,21 @@ class Viewer:
         side = int(self.out_res.value)
         if kind == "view":
             img, _ = self._render(client, side, self.mode.value)
-            n = len(list((self.out_dir / "views").glob("view_*.png"))) if (self.out_dir / "views").is_dir() else 0
-            path = self.out_dir / "views" / f"view_{n:04d}.png"
+            path = _unused_path(self.out_dir / "views", "view_{:04d}.png")
             save_png(path, img)
         else:
             if not self.keyframes:
                 client.add_notification("no keyframes", "add keyframes first", color="red", auto_close_seconds=4.0)
                 return
             c = view_camera(cam.fov, cam.aspect, side)
-            n = len(list((self.out_dir / "camera_paths").glob("*.json"))) if (self.out_dir / "camera_paths").is_dir() else 0
-            path = write_camera_path(self.out_dir / "camera_paths" / f"camera_path_{n:03d}.json",
+            path = write_camera_path(_unused_path(self.out_dir / "camera_paths", "camera_path_{:03d}.json"),
                                      [k[0] for k in self.keyframes], [k[1] for k in self.keyframes], c.width,
                                      c.height, float(self.path_seconds.value), int(self.path_fps.value),
                                      bool(self.path_loop.value))
         client.add_notification("saved", str(path), auto_close_seconds=6.0)
         print(f"viewer: wrote {path}", flush=True)
 
-    def render_pending(self, force: bool = False) -> float:
+    def render_pending(self) -> float:
         """Serve one save request or render one frame for the client that needs it most; returns the
         seconds spent (0 when there was nothing to do or the duty-cycle gate is closed)."""
         now = time.perf_counter()
@@ -261,7 +267,7 @@ class Viewer:
         if save is not None:
             self._serve_save(*save)
             return time.perf_counter() - now
-        if not force and now < self._gate:
+        if now < self._gate:
             return 0.0
         side, mode = int(self.resolution.value), self.mode.value
         todo = []
