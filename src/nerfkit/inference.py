@@ -16,7 +16,6 @@ import numpy as np
 
 from nerfkit import occupancy
 from nerfkit.cameras import Camera, camera_rays
-from nerfkit.render import segment_starts, segmented_cumsum
 
 OUTPUT_KEYS = ("rgb", "depth", "depth_normalized", "opacity")
 
@@ -74,25 +73,61 @@ class Renderer:
         return {k: v.reshape(camera.height, camera.width, *v.shape[1:]) for k, v in out.items()}
 
 
+def first_set_bits(words: jnp.ndarray, k: int):
+    """Positions of the k lowest set bits of each row of a bit mask, and of the next one.
+
+    words: uint32 [R, M], bit b of words[:, m] is candidate 32 m + b. Returns pos int32
+    [R, k] (ascending; valid only where ok), ok bool [R, k] (a prefix of each row: True for
+    the first min(popcount, k) entries), and rest int32 [R] (the position of the (k+1)-th
+    set bit, -1 when there is none). The lowest set bit of a word v is v & -v, its position
+    popcount((v & -v) - 1); clearing it is v & (v - 1).
+    """
+    rows = jnp.arange(words.shape[0])
+
+    def lowest(w):
+        m = jnp.argmax(w != 0, axis=1)  # first non-zero word (0 when all are zero)
+        v = w[rows, m]
+        low = v & (~v + jnp.uint32(1))
+        pos = 32 * m.astype(jnp.int32) + jax.lax.population_count(low - jnp.uint32(1)).astype(jnp.int32)
+        return pos, v != 0, w.at[rows, m].set(v & (v - jnp.uint32(1)))
+
+    pos, ok = [], []
+    for _ in range(k):
+        p, o, words = lowest(words)
+        pos.append(p)
+        ok.append(o)
+    p, o, _ = lowest(words)
+    return jnp.stack(pos, axis=1), jnp.stack(ok, axis=1), jnp.where(o, p, -1)
+
+
+def pack_bits(keep: jnp.ndarray) -> jnp.ndarray:
+    """bool [R, 32 M] -> uint32 [R, M] with bit b of word m set where keep[:, 32 m + b]."""
+    r, w = keep.shape
+    shifts = jnp.arange(32, dtype=jnp.uint32)
+    return jnp.sum(keep.reshape(r, w // 32, 32).astype(jnp.uint32) << shifts, axis=-1, dtype=jnp.uint32)
+
+
 class WavefrontRenderer(Renderer):
     """Full-image rendering for occupancy-marched fields that stops each ray where it is spent.
 
     `chunk` slots each hold one ray. Every round, each live ray looks at its next WINDOW
     candidate intervals (model.candidates; the same t grid as training's march, without
-    jitter), keeps those in occupied cells, and shades at most CAP of them: density and
-    colour, weights w_i = T_i (1 - exp(-sigma_i delta_i)) with T carried over from earlier
-    rounds, accumulated into the ray's colour, depth and opacity. A ray retires when
-    T < MIN_TRANSMITTANCE or its candidates run out, and the next pending ray takes its slot.
-    So empty space costs only occupancy look-ups, and nothing behind a surface is shaded
-    (beyond the last window). Samples are packed into the smallest of a few fixed budgets
-    that holds them, so padding stays small. Pixels equal the one-pass renderer's (same
-    samples, same weights) up to float summation order.
+    jitter) and marks those in occupied cells in a bit mask; the first CAP marked ones are
+    shaded: density and colour, weights w_i = T_i (1 - exp(-sigma_i delta_i)) with T
+    carried over from earlier rounds, accumulated into the ray's colour, depth and opacity.
+    A ray retires when T < MIN_TRANSMITTANCE or its candidates run out, and the next
+    pending ray takes its slot. So empty space costs only occupancy look-ups, and nothing
+    behind a surface is shaded (beyond the last window). The shaded samples of all slots
+    are packed (ray-major, offsets from a prefix sum of per-ray counts) into the smallest of
+    a few fixed budgets that holds them, so padding stays small; compositing then runs on a
+    dense [chunk, CAP] layout. Pixels equal the one-pass renderer's (same samples, same
+    weights) up to float summation order.
     """
 
     # Measured on maryrose at 432x432 (2 CPU cores): CAP 8 / WINDOW 64 / chunk 4096 took 5.4 s, CAP 16
     # 9.1 s, CAP 4 6.8 s; the one-pass renderer 14 s. Budgets of 32768 samples run ~1.5x faster per
     # sample than 65536 (cache), so a small CAP per round wins over fewer, larger rounds.
-    WINDOW = 64
+    WINDOW = 64  # a multiple of 32 (bit-mask words)
     CAP = 8
     BUDGETS = (1, 4, 8)  # samples per slot: a round's budget is chunk * m for the smallest m that holds it
 
@@ -106,32 +141,30 @@ class WavefrontRenderer(Renderer):
             x = o[:, None, :] + (0.5 * (t0 + t1))[..., None] * d[:, None, :]
             occ = occupancy.query_occupancy(aux, model.field.to_grid(x.reshape(-1, 3)), model.occ).reshape(r, w)
             keep = cand & occ
-            return keep, jnp.sum(keep, axis=1), ~cand[:, -1]
+            return pack_bits(keep), jnp.sum(jnp.minimum(jnp.sum(keep, axis=1), cap)), ~cand[:, -1]
 
-        def shade(params, o, d, k0, keep, trans, budget):
-            rank = jnp.cumsum(keep, axis=1)
-            take = keep & (rank <= cap)
-            (sel,) = jnp.nonzero(take.reshape(-1), size=budget, fill_value=0)
-            ok = jnp.arange(budget) < jnp.sum(take)
-            ray = jnp.where(ok, sel // w, r)  # invalid slots: an extra segment after the last ray
-            rr = jnp.minimum(ray, r - 1)
-            t0, t1, _ = model.candidates(o[rr], d[rr], None, (k0[rr] + sel % w)[:, None])
-            t0, t1 = t0[:, 0], t1[:, 0]
+        def shade(params, o, d, k0, bits, trans, budget):
+            pos, ok, rest = first_set_bits(bits, cap)  # [r, cap]
+            count = jnp.sum(ok, axis=1)
+            start = jnp.cumsum(count) - count  # first packed sample of each ray
+            slot = jnp.where(ok, start[:, None] + jnp.arange(cap)[None, :], budget)
+            # Inverse map of the packing: packed sample s -> (ray, j); slots past the total stay ray 0.
+            src = jnp.zeros(budget, jnp.int32).at[slot.reshape(-1)].set(jnp.arange(r * cap, dtype=jnp.int32),
+                                                                           mode="drop")
+            ray = src // cap
+            t0, t1, _ = model.candidates(o, d, None, k0[:, None] + pos)  # [r, cap]
             t_mid = 0.5 * (t0 + t1)
-            norm = jnp.linalg.norm(d[rr], axis=-1)
+            norm = jnp.linalg.norm(d, axis=-1)
             emb = model.field.embedding(params["field"], None)
-            rgb, sigma = model.field(params["field"], o[rr] + t_mid[:, None] * d[rr], d[rr] / norm[:, None], emb)
-            tau = jnp.where(ok, sigma * (t1 - t0) * norm, 0.0)
-            t_i = jnp.concatenate([trans, jnp.ones(1)])[ray] * jnp.exp(-(segmented_cumsum(tau, segment_starts(ray)) - tau))
+            rgb, sigma = model.field(params["field"], o[ray] + t_mid.reshape(-1)[src][:, None] * d[ray],
+                                     d[ray] / norm[ray][:, None], emb)
+            back = jnp.minimum(slot, budget - 1)  # [r, cap]: each sample's packed position
+            tau = jnp.where(ok, sigma[back] * (t1 - t0) * norm[:, None], 0.0)
+            t_i = trans[:, None] * jnp.exp(-(jnp.cumsum(tau, axis=1) - tau))
             wgt = jnp.where(ok & (t_i >= model.MIN_TRANSMITTANCE), t_i * (1.0 - jnp.exp(-tau)), 0.0)
-
-            def total(v):
-                return jax.ops.segment_sum(v, ray, r + 1)[:r]
-
-            over = jnp.sum(keep, axis=1) > cap
-            first_left = jnp.argmax(keep & (rank > cap), axis=1)
-            return {"rgb": total(wgt[:, None] * rgb), "depth": total(wgt * t_mid), "opacity": total(wgt),
-                    "trans": trans * jnp.exp(-total(tau)), "k_next": jnp.where(over, k0 + first_left, k0 + w)}
+            return {"rgb": jnp.sum(wgt[..., None] * rgb[back], axis=1), "depth": jnp.sum(wgt * t_mid, axis=1),
+                    "opacity": jnp.sum(wgt, axis=1), "trans": trans * jnp.exp(-jnp.sum(tau, axis=1)),
+                    "k_next": jnp.where(rest >= 0, k0 + rest, k0 + w)}
 
         self._window = jax.jit(window)
         self._shade = {m: jax.jit(partial(shade, budget=r * m)) for m in self.BUDGETS}
@@ -156,21 +189,21 @@ class WavefrontRenderer(Renderer):
             live = slot_ray >= 0
             if not live.any():
                 break
-            keep, count, exhausted = self._window(aux, o, d, k0)
-            count, exhausted = np.asarray(count), np.asarray(exhausted)
-            shaded = int(np.minimum(count, self.CAP).sum())
-            done = exhausted & (count <= self.CAP)
+            bits, shaded, exhausted = self._window(aux, o, d, k0)
+            shaded, exhausted = int(shaded), np.asarray(exhausted)
             if shaded:
                 m = min(m for m in self.BUDGETS if r * m >= shaded)
-                res = self._shade[m](params, o, d, k0, keep, trans)
+                res = self._shade[m](params, o, d, k0, bits, trans)
                 ids = slot_ray[live]
                 for key in acc:
                     acc[key][ids] += np.asarray(res[key])[live]
                 trans = np.asarray(res["trans"]).copy()
-                k0 = np.asarray(res["k_next"]).astype(np.int32)
+                k_next = np.asarray(res["k_next"]).astype(np.int32)
             else:
-                k0 = k0 + self.WINDOW
-            done |= trans < self.model.MIN_TRANSMITTANCE
+                k_next = k0 + self.WINDOW
+            # Spent: past the last candidate with nothing left in the window, or opaque.
+            done = (exhausted & (k_next - k0 >= self.WINDOW)) | (trans < self.model.MIN_TRANSMITTANCE)
+            k0 = k_next
             retire = live & done
             slot_ray[retire] = -1
             k0[retire] = 1 << 30
