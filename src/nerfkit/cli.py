@@ -18,6 +18,9 @@ import tyro
 from nerfkit.cli_args import (
     DemoArgs,
     EvalArgs,
+    ExportCamerasArgs,
+    ExportMeshArgs,
+    ExportPointcloudArgs,
     ExperimentArgs,
     MakeSceneArgs,
     ProcessArgs,
@@ -96,6 +99,43 @@ def cmd_view(argv: list[str]) -> int:
 
     a = tyro.cli(ViewArgs, args=argv, prog="nerfkit view")
     view_run(a.run_dir, a.host, a.port, a.chunk)
+    return 0
+
+
+EXPORT_KINDS = ("mesh", "pointcloud", "cameras")
+
+
+def cmd_export(argv: list[str]) -> int:
+    if not argv or argv[0] not in EXPORT_KINDS:
+        if argv and argv[0] in ("-h", "--help"):
+            print("usage: nerfkit export {mesh,pointcloud,cameras} RUN_DIR [--out FILE] ...  "
+                  "(nerfkit export KIND --help for its options)")
+            return 0
+        got = f" (got {argv[0]!r})" if argv else ""
+        raise ConfigError(f"export needs a kind: nerfkit export mesh|pointcloud|cameras RUN_DIR{got}")
+    kind, rest = argv[0], argv[1:]
+    prog = f"nerfkit export {kind}"
+    if kind == "mesh":
+        from nerfkit.export.mesh import export_mesh
+
+        a = tyro.cli(ExportMeshArgs, args=rest, prog=prog)
+        rec = export_mesh(a.run_dir, a.out, a.resolution, a.threshold, a.max_faces, a.visible_only, a.every, a.data,
+                          progress=a.progress)
+        print(f"wrote {rec['file']}: {rec['vertices']} vertices, {rec['faces']} faces ({rec['seconds']:.1f} s)")
+    elif kind == "pointcloud":
+        from nerfkit.export.pointcloud import export_pointcloud
+
+        a = tyro.cli(ExportPointcloudArgs, args=rest, prog=prog)
+        rec = export_pointcloud(a.run_dir, a.out, a.split, a.every, a.min_opacity, a.voxel_size, a.data, a.chunk,
+                                progress=a.progress)
+        print(f"wrote {rec['file']}: {rec['points']} points ({rec['seconds']:.1f} s)")
+    else:
+        from nerfkit.export.cameras import export_cameras
+
+        a = tyro.cli(ExportCamerasArgs, args=rest, prog=prog)
+        rec = export_cameras(a.run_dir, a.out, a.split, a.data)
+        print(f"wrote {rec['file']}: {rec['frames']} cameras")
+    print(f"picture: {Path(a.run_dir) / 'exports' / rec['picture']} (and in the run report: nerfkit report RUN_DIR)")
     return 0
 
 
@@ -201,6 +241,8 @@ COMMANDS = {
     "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --orbit N"),
     "view": (cmd_view, "interactive viewer in the browser (viser): nerfkit view RUN_DIR [--port 7007]; "
                        "or nerfkit train ... --viewer"),
+    "export": (cmd_export, "mesh, point cloud or cameras in standard formats: nerfkit export mesh|pointcloud|cameras "
+                           "RUN_DIR [--out FILE]"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation DATA_DIR --out DIR "
                                    "--budget-minutes M"),
     "report": (cmd_report, "static HTML report of a run or experiment (opens from disk): nerfkit report RUN_DIR"),
@@ -214,7 +256,7 @@ def usage() -> str:
     return "\n".join(lines)
 
 
-COMPILING = {"demo", "train", "eval", "render", "experiment", "view"}
+COMPILING = {"demo", "train", "eval", "render", "experiment", "view", "export"}
 
 
 def enable_compile_cache() -> None:

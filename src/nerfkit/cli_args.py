@@ -84,6 +84,71 @@ class RenderArgs:
 
 
 @dataclasses.dataclass
+class ExportMeshArgs:
+    """Export the run's geometry as a vertex-coloured triangle mesh (marching cubes of the density on a grid
+    over the scene box), in the capture's own coordinates; a picture goes into RUN_DIR/exports/mesh.png."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    out: Path | None = None
+    """Mesh file: .ply, .obj or .glb (default: RUN_DIR/exports/mesh.ply)."""
+    resolution: int = 256
+    """Grid points per axis of the scene box."""
+    threshold: float | None = None
+    """Density level of the surface (default: ln 2 / grid spacing, where one grid cell is half opaque; printed)."""
+    max_faces: int | None = None
+    """Simplify the mesh to at most this many faces (quadric decimation)."""
+    visible_only: bool = True
+    """Keep only faces some training view sees (drops the arbitrary surfaces inside objects and under them)."""
+    every: int | None = None
+    """Visibility from every K-th training view (default: about 32 views)."""
+    data: Path | None = None
+    """The data folder (for the training cameras); default: the one the run was trained on."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
+class ExportPointcloudArgs:
+    """Export a coloured point cloud (PLY): the rendered depth of every K-th view of a split, back-projected,
+    fused and voxel-downsampled, in the capture's own coordinates."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    out: Path | None = None
+    """PLY file (default: RUN_DIR/exports/pointcloud.ply)."""
+    split: str | None = None
+    """Views to render (default: the run's training split)."""
+    every: int | None = None
+    """Use every K-th view (default: about 32 views, evenly spaced)."""
+    min_opacity: float = 0.9
+    """Keep pixels at least this opaque."""
+    voxel_size: float | None = None
+    """Fuse points into voxels of this size, in the capture's units (default: the box side / 512; 0: keep all)."""
+    data: Path | None = None
+    """The data folder; default: the one the run was trained on."""
+    chunk: int | None = None
+    """Rays per rendering chunk (default: the run's --chunk)."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
+class ExportCamerasArgs:
+    """Export the run's cameras as nerfstudio's transforms.json (OpenGL camera-to-world in the capture's own
+    coordinates, intrinsics and lens at the photos' size, image paths relative to the written file)."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    out: Path | None = None
+    """JSON file (default: RUN_DIR/exports/cameras.json)."""
+    split: str | None = None
+    """Frames to export (default: the run's training split)."""
+    data: Path | None = None
+    """The data folder; default: the one the run was trained on."""
+
+
+@dataclasses.dataclass
 class ViewArgs:
     """Interactive viewer in the browser (viser): orbit / fly, RGB / depth / opacity, the training cameras,
     saved views and camera paths (render them with `nerfkit render RUN --camera-path FILE`)."""

@@ -321,6 +321,26 @@ def _videos_html(run: Path, base: Path | None = None, label: str = "") -> str:
     return "".join(parts)
 
 
+def _exports_html(run: Path) -> str:
+    """The latest export of each kind (nerfkit export): its picture, file and figures."""
+    from nerfkit.export.run import read_records
+
+    figs = []
+    for kind, rec in read_records(run).items():
+        pic = run / "exports" / str(rec.get("picture", ""))
+        facts = {"mesh": "{vertices} vertices, {faces} faces, threshold {threshold:.4g}",
+                 "pointcloud": "{points} points from {views} views",
+                 "cameras": "{frames} cameras"}[kind]
+        try:
+            facts = facts.format(**rec)
+        except (KeyError, ValueError, TypeError):
+            facts = ""
+        caption = _e(f"{kind}: {Path(str(rec.get('file', ''))).name} ({facts}, step {rec.get('step', '-')})")
+        if pic.is_file():
+            figs.append(_img(pic, run, kind, caption))
+    return f'<div class="gallery">{"".join(figs)}</div>' if figs else ""
+
+
 def write_report(run_dir: str | Path) -> Path:
     """Write RUN_DIR/report.html: config, curves, latest validation images beside ground
     truth, depth maps, the eval tables if present and the rendered videos. Safe to call on a
@@ -345,6 +365,7 @@ def write_report(run_dir: str | Path) -> Path:
         ("validation", "Validation images", _validation_html(run, vrows)),
         ("eval", "Evaluation", _eval_html(run)),
         ("videos", "Videos", videos),
+        ("exports", "Exports", _exports_html(run)),
         ("depth", "Depth", f'<p class="note">{depth}</p>' if depth else ""),
         ("config", "Config", _config_html(cfg, run, run / "config.json")),
     ]

@@ -1,0 +1,116 @@
+"""Silhouette consistency of an exported mesh: do its vertices project inside the object in held-out photos?
+
+    python benchmarks/export_silhouette.py RUN_DIR [--mesh FILE] [--split "val[50:100]"] [--data DIR]
+
+Exports the run's mesh (`nerfkit export mesh RUN_DIR`, defaults) unless --mesh names one, then
+projects every vertex (the mesh is in the capture's coordinates) into every view of the split
+at the photos' own size (or --width: the photo's alpha averaged over each bigger pixel), and counts, per vertex, the views where it lands inside the image and
+on the object (alpha > 0.5, or the mask where the capture has masks). A mesh whose surfaces lie
+on the object passes the issue's bar when every vertex is inside the silhouette in >= 95% of
+the views that see it in the image. Prints the fraction of vertices that pass, the quantiles
+of the per-vertex inside fraction, and per-view figures; writes RUN_DIR/exports/silhouette.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+import trimesh
+from PIL import Image
+
+from nerfkit.data.loader import read_capture
+from nerfkit.evaluate import run_data_dir
+from nerfkit.train import load_run_config
+
+
+def alpha_of(frame, width: int | None = None) -> np.ndarray:
+    """float [H, W] in [0, 1]: the mask where the frame has one, else the photo's alpha channel;
+    shrunk to `width` by area averaging (the coverage of each bigger pixel) when given."""
+    if frame.mask is not None:
+        m = iio.imread(frame.mask)
+        a = m[..., 0] if m.ndim == 3 else m
+    else:
+        img = iio.imread(frame.image)
+        if img.ndim != 3 or img.shape[2] != 4:
+            raise SystemExit(f"{frame.image}: no alpha channel and no mask; the silhouette check needs one")
+        a = img[..., 3]
+    if width is not None and width != a.shape[1]:
+        h = max(1, round(a.shape[0] * width / a.shape[1]))
+        a = np.asarray(Image.fromarray(a).resize((width, h), Image.BOX))
+    return a.astype(np.float32) / 255.0
+
+
+def project(verts: np.ndarray, c2w: np.ndarray, cam) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel coordinates (u, v) and in-front flag of points [N, 3] in an OpenGL camera (lens included)."""
+    p = (verts - c2w[:3, 3]) @ c2w[:3, :3]
+    z = -p[:, 2]
+    front = z > 1e-6
+    zs = np.where(front, z, 1.0)
+    u, v = cam.project(p[:, 0] / zs, -p[:, 1] / zs)
+    return u, v, front
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run", type=Path)
+    ap.add_argument("--mesh", type=Path, default=None, help="a mesh file (default: export one now)")
+    ap.add_argument("--split", default=None, help="held-out views (default: the run's validation split)")
+    ap.add_argument("--data", type=Path, default=None)
+    ap.add_argument("--width", type=int, default=None,
+                    help="judge silhouettes at this width (default: the photos' own)")
+    ap.add_argument("--need", type=float, default=0.95, help="per-vertex fraction of views that must agree")
+    args = ap.parse_args()
+    mesh_path = args.mesh
+    if mesh_path is None:
+        mesh_path = args.run / "exports" / "mesh.ply"
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "nerfkit", "export", "mesh", str(args.run), "--out", str(mesh_path),
+                        "--no-progress"], check=True)
+        print(f"export mesh: {time.perf_counter() - t0:.1f} s (whole CLI)")
+    verts = np.asarray(trimesh.load(mesh_path, process=False).vertices, np.float64)
+    cfg = load_run_config(args.run)
+    d = cfg.data
+    split = args.split or d.val_split
+    cap = read_capture(run_data_dir(args.run, args.data), split, d.format, d.masks, d.holdout_every)
+    frames = cap.frames(split)
+    width = args.width
+    in_image = np.zeros(len(verts), np.int64)
+    on_object = np.zeros(len(verts), np.int64)
+    per_view = []
+    for f in frames:
+        a = alpha_of(f, width)
+        h, w = a.shape
+        u, v, front = project(verts, f.c2w, f.camera.scaled(w / f.camera.width, w, h))
+        vis = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+        iu = np.clip(np.floor(u[vis]).astype(int), 0, w - 1)
+        iv = np.clip(np.floor(v[vis]).astype(int), 0, h - 1)
+        ok = a[iv, iu] > 0.5
+        in_image[vis] += 1
+        on_object[np.flatnonzero(vis)[ok]] += 1
+        per_view.append({"view": f.image.name, "in_image": int(vis.sum()), "inside_fraction": float(ok.mean())})
+    seen = in_image > 0
+    frac = on_object[seen] / in_image[seen]
+    passing = float(np.mean(frac >= args.need))
+    q = {f"q{p}": float(np.percentile(frac, p)) for p in (0.1, 1, 5, 50)}
+    res = {"mesh": str(mesh_path), "vertices": len(verts), "views": len(frames), "split": split, "width": w,
+           "vertices_in_some_image": int(seen.sum()), "need": args.need,
+           "vertices_passing": passing, "per_vertex_inside_fraction": q,
+           "all_projections_inside": float(on_object.sum() / max(in_image.sum(), 1)), "per_view": per_view}
+    (args.run / "exports").mkdir(exist_ok=True)
+    (args.run / "exports" / "silhouette.json").write_text(json.dumps(res, indent=2))
+    print(f"{len(verts)} vertices, {len(frames)} views of {split} at {w}x{h}: {100 * passing:.2f}% of vertices lie inside the "
+          f"silhouette in >= {100 * args.need:g}% of the views that see them in the image")
+    print("per-vertex inside fraction, quantiles: " + ", ".join(f"{k} {v:.3f}" for k, v in q.items()))
+    print(f"all vertex projections: {100 * res['all_projections_inside']:.2f}% inside; worst view "
+          f"{min(per_view, key=lambda r: r['inside_fraction'])}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,233 @@
+"""A trained field as a coloured triangle mesh: density on a grid, marching cubes, colours from the field.
+
+The density sigma is sampled at the N^3 points x_ijk = -B + (i, j, k) h of the scene box
+[-B, B]^3 (h = 2B / (N - 1)), only where the occupancy grid says a cell is occupied (the other
+points are empty by construction: their density was below the grid's threshold, far below any
+surface level), slab by slab and in fixed-size chunks so memory stays bounded. The surface
+is the level set sigma = T (scikit-image's marching cubes). The default level is
+
+    T = ln 2 / h,
+
+the density at which a ray crossing one grid cell gathers opacity 1 - exp(-T h) = 1/2: the
+surface sits where one cell of the export grid would look half opaque. Each vertex takes the
+colour the field gives there seen along the inverse normal (looking straight at the surface).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+from scipy import ndimage
+from tqdm.auto import tqdm
+
+from nerfkit import occupancy
+from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.export.run import TrainedRun, check_out, load_run, to_capture, write_atomic, write_record
+
+MESH_SUFFIXES = (".ply", ".obj", ".glb")
+CHUNK = 65536
+
+
+def default_threshold(bound: float, resolution: int) -> float:
+    """T = ln 2 / h with h = 2B / (N - 1): the density where one grid cell is half opaque."""
+    return math.log(2.0) * (resolution - 1) / (2.0 * bound)
+
+
+def grid_axis(bound: float, resolution: int) -> np.ndarray:
+    """The N sample coordinates -B + i h, i = 0..N-1, of each axis (float32 [N])."""
+    return np.linspace(-bound, bound, resolution, dtype=np.float32)
+
+
+def chunked(fn, *arrays: np.ndarray, chunk: int = CHUNK) -> np.ndarray:
+    """fn applied to rows of arrays [M, ...] in fixed-size chunks (the last one padded, so fn
+    compiles once); returns the concatenated numpy result [M, ...]."""
+    m = len(arrays[0])
+    outs = []
+    for s in range(0, m, chunk):
+        part = [a[s:s + chunk] for a in arrays]
+        n = len(part[0])
+        if n < chunk:
+            part = [np.concatenate([p, np.zeros((chunk - n, *p.shape[1:]), p.dtype)]) for p in part]
+        outs.append(np.asarray(fn(*part))[:n])
+    return np.concatenate(outs) if outs else np.zeros((0,), np.float32)
+
+
+def slab_points(axis: np.ndarray, i0: int, i1: int) -> np.ndarray:
+    """Grid points [(i1 - i0) N^2, 3] of x-slices i0..i1-1, in C order (i, j, k)."""
+    gx, gy, gz = np.meshgrid(axis[i0:i1], axis, axis, indexing="ij")
+    return np.stack([gx, gy, gz], axis=-1).reshape(-1, 3)
+
+
+def occupied_mask(occupied_fn, axis: np.ndarray, cell: float, slab: int = 8) -> np.ndarray:
+    """bool [N, N, N]: grid points in (or within one cell of) an occupied occupancy cell.
+
+    occupied_fn: points [M, 3] -> bool [M]; cell: the occupancy cell's size in world units (the
+    mask is dilated by that much, in case the grid's running maximum missed a thin part)."""
+    n = len(axis)
+    mask = np.zeros((n, n, n), bool)
+    for i0 in range(0, n, slab):
+        i1 = min(n, i0 + slab)
+        mask[i0:i1] = chunked(occupied_fn, slab_points(axis, i0, i1)).reshape(i1 - i0, n, n)
+    h = float(axis[1] - axis[0])
+    k = max(1, math.ceil(cell / h))
+    return ndimage.maximum_filter(mask, size=2 * k + 1)
+
+
+def density_volume(density_fn, axis: np.ndarray, mask: np.ndarray | None, slab: int = 8,
+                   progress: bool = False) -> np.ndarray:
+    """float32 [N, N, N]: sigma at the grid points where `mask` (all when None), 0 elsewhere."""
+    n = len(axis)
+    vol = np.zeros((n, n, n), np.float32)
+    for i0 in tqdm(range(0, n, slab), desc="density", unit="slab", disable=not progress, leave=False):
+        i1 = min(n, i0 + slab)
+        pts = slab_points(axis, i0, i1)
+        sub = np.ones(len(pts), bool) if mask is None else mask[i0:i1].reshape(-1)
+        if sub.any():
+            part = vol[i0:i1].reshape(-1)
+            part[sub] = chunked(density_fn, pts[sub])
+            vol[i0:i1] = part.reshape(i1 - i0, n, n)
+    return vol
+
+
+def extract_surface(volume: np.ndarray, threshold: float, bound: float):
+    """Marching cubes of the level set volume = threshold on the grid of `grid_axis(bound, N)`.
+
+    The volume is padded with one layer of zeros, so a surface cut by the box is closed there
+    (a watertight mesh). Faces wind so their normals point out of the dense region.
+    Returns vertices float32 [V, 3] (normalised frame), faces int64 [F, 3]."""
+    from skimage.measure import marching_cubes
+
+    n = volume.shape[0]
+    h = 2.0 * bound / (n - 1)
+    padded = np.pad(volume, 1)
+    verts, faces, _, _ = marching_cubes(padded, level=threshold, spacing=(h, h, h), gradient_direction="ascent",
+                                        allow_degenerate=False)
+    verts = np.clip(verts - (bound + h), -bound, bound)  # the closing layer lies on the box
+    return verts.astype(np.float32), faces.astype(np.int64)
+
+
+def field_functions(run: TrainedRun):
+    """(density_fn, color_fn, occupied_fn or None, occupancy cell size) of a trained model,
+    jitted, in the normalised frame. color_fn(x, d) is the field's colour at x seen along unit d
+    (held-out appearance: the mean embedding)."""
+    model, params, aux = run.model, run.params, run.aux
+    if run.cfg.field.kind == "ngp":
+        field, p = model.field, params["field"]
+        cell = model.occ.cell_size * (field.radius if field.unbounded else 1.0)
+
+        def occupied(x):
+            return occupancy.query_occupancy(aux, field.to_grid(x), model.occ)
+
+        occupied_fn = jax.jit(occupied)
+    else:  # the MLP NeRF: the fine field when there is one; no occupancy grid, every point is sampled
+        key = "fine" if model.fine is not None else "coarse"
+        field, p = getattr(model, key), params[key]
+        occupied_fn, cell = None, 0.0
+    emb = field.embedding(p, None)
+    density_fn = jax.jit(lambda x: field.density(p, x))
+    color_fn = jax.jit(lambda x, d: field(p, x, d, emb)[0])
+    return density_fn, color_fn, occupied_fn, cell
+
+
+def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit outward normals [V, 3]: area-weighted means of the incident faces' normals."""
+    import trimesh
+
+    return np.asarray(trimesh.Trimesh(verts, faces, process=False).vertex_normals, np.float32)
+
+
+def mesh_colors(color_fn, verts: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """uint8 [V, 4] RGBA: the field's colour at each vertex seen along -normal."""
+    rgb = chunked(color_fn, verts.astype(np.float32), -normals.astype(np.float32))
+    rgba = np.concatenate([np.clip(rgb, 0, 1) * 255 + 0.5, np.full((len(rgb), 1), 255.0)], axis=1)
+    return rgba.astype(np.uint8)
+
+
+def simplify(verts: np.ndarray, faces: np.ndarray, max_faces: int):
+    """Quadric-error decimation to at most max_faces faces (trimesh with fast-simplification)."""
+    import trimesh
+
+    if len(faces) <= max_faces:
+        return verts, faces
+    m = trimesh.Trimesh(verts, faces, process=False).simplify_quadric_decimation(face_count=max_faces)
+    return np.asarray(m.vertices, np.float32), np.asarray(m.faces, np.int64)
+
+
+def write_mesh(out: Path, verts: np.ndarray, faces: np.ndarray, colors: np.ndarray) -> None:
+    """Write a vertex-coloured mesh (.ply binary, .obj or .glb, by extension) with trimesh."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(verts, faces, vertex_colors=colors, process=False)
+    write_atomic(Path(out), lambda tmp: mesh.export(tmp))
+
+
+def seen_faces(verts: np.ndarray, faces: np.ndarray, seen_fn):
+    """The faces whose centroid some view sees (visibility.make_visibility), and only the vertices
+    they use: (verts [V', 3], faces [F', 3])."""
+    keep = chunked(seen_fn, verts[faces].mean(axis=1).astype(np.float32))
+    faces = faces[keep]
+    used, inverse = np.unique(faces, return_inverse=True)
+    return verts[used], inverse.reshape(faces.shape)
+
+
+def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, threshold: float | None = None,
+                max_faces: int | None = None, visible_only: bool = True, every: int | None = None,
+                data: Path | None = None, progress: bool = True, log=print) -> dict:
+    """`nerfkit export mesh`: write the run's mesh to `out` (default RUN/exports/mesh.ply) in the
+    capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
+    visible_only: keep only faces that some training view (every `every`-th) sees."""
+    if not 16 <= resolution <= 1024:
+        raise ConfigError(f"--resolution must be between 16 and 1024 grid points per axis (got {resolution})")
+    if threshold is not None and not threshold > 0:
+        raise ConfigError(f"--threshold must be a positive density (got {threshold})")
+    if max_faces is not None and max_faces < 4:
+        raise ConfigError(f"--max-faces must be at least 4 (got {max_faces})")
+    out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "mesh.ply", MESH_SUFFIXES)
+    t0 = time.perf_counter()
+    run = load_run(run_dir)
+    bound = run.bound
+    level = default_threshold(bound, resolution) if threshold is None else float(threshold)
+    rule = "ln 2 / h (one grid cell half opaque)" if threshold is None else "--threshold"
+    log(f"mesh: {resolution}^3 grid over the box [-{bound:g}, {bound:g}]^3 (h = {2 * bound / (resolution - 1):.4g}), "
+        f"density threshold {level:.4g} ({rule})")
+    density_fn, color_fn, occupied_fn, cell = field_functions(run)
+    axis = grid_axis(bound, resolution)
+    mask = None if occupied_fn is None else occupied_mask(occupied_fn, axis, cell)
+    vol = density_volume(density_fn, axis, mask, progress=progress)
+    peak = float(vol.max())
+    if not peak >= level:
+        raise NerfkitError(f"nothing above the threshold {level:.4g} (the density peaks at {peak:.4g} in the box); "
+                           f"try a lower --threshold")
+    verts, faces = extract_surface(vol, level, bound)
+    n_level_set = len(faces)
+    if visible_only:
+        from nerfkit.export.visibility import make_visibility, render_views
+
+        views = render_views(run, every=every, data=data, pinhole=True, progress=progress)
+        verts, faces = seen_faces(verts, faces, make_visibility(views, 2.0 * bound / (resolution - 1)))
+        log(f"mesh: {len(faces)} of the level set's {n_level_set} faces are seen by {len(views.c2w)} training views "
+            f"(the others lie inside objects or under them: --no-visible-only keeps them)")
+        if not len(faces):
+            raise NerfkitError(f"no face of the level set at {level:.4g} is seen by the training views; try a lower "
+                               f"--threshold or --no-visible-only")
+    n_faces = len(faces)
+    if max_faces is not None:
+        verts, faces = simplify(verts, faces, max_faces)
+    colors = mesh_colors(color_fn, verts, vertex_normals(verts, faces))
+    write_mesh(out, to_capture(verts, run.transform), faces, colors)
+    from nerfkit.export.pictures import mesh_picture
+
+    picture = mesh_picture(run.run_dir / "exports" / "mesh.png", verts, faces, colors,
+                           f"{out.name}: {len(verts)} vertices, {len(faces)} faces (step {run.step})")
+    record = {"kind": "mesh", "file": str(out.resolve()), "step": run.step, "resolution": resolution,
+              "threshold": level, "threshold_rule": rule, "bound": bound, "vertices": len(verts), "faces": len(faces),
+              "faces_before_simplification": n_faces, "faces_of_level_set": n_level_set,
+              "visible_only": visible_only, "occupied_fraction": None if mask is None else float(mask.mean()),
+              "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
+              "coordinates": "the capture's own (pose normalisation undone)"}
+    write_record(run.run_dir, "mesh", record)
+    return record

@@ -1,0 +1,92 @@
+"""A trained field as a coloured point cloud: rendered depth of chosen views, back-projected and fused.
+
+For each pixel of a rendered view with opacity a = sum_i w_i >= min_opacity, the point is
+
+    x = o + t_bar d,   t_bar = sum_i w_i t_i / a     (the expected termination depth)
+
+on the pixel's ray o + t d, coloured with the surface colour un-composited from the
+background b: c = (rgb - (1 - a) b) / a. Points of all views are fused by voxel
+downsampling: one point per occupied voxel of size v, the mean of its points and colours.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.export.run import check_out, load_run, to_capture, write_atomic, write_record
+from nerfkit.export.visibility import render_views, view_points
+
+VOXELS_PER_BOX = 512  # default voxel: the box's side / this
+
+
+def voxel_downsample(points: np.ndarray, colors: np.ndarray, voxel: float):
+    """One point per voxel of side `voxel` (<= 0: unchanged): the mean point and colour of each
+    occupied voxel floor(x / voxel). Returns points [M, 3], colours [M, 3]."""
+    if voxel <= 0 or not len(points):
+        return points, colors
+    keys = np.floor(points / voxel).astype(np.int64)
+    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(-1)
+    m = len(counts)
+    out_p = np.zeros((m, 3), np.float64)
+    out_c = np.zeros((m, 3), np.float64)
+    np.add.at(out_p, inverse, points)
+    np.add.at(out_c, inverse, colors)
+    return (out_p / counts[:, None]).astype(np.float32), (out_c / counts[:, None]).astype(np.float32)
+
+
+def write_pointcloud(out: Path, points: np.ndarray, colors_u8: np.ndarray) -> None:
+    """A binary PLY of coloured points (trimesh)."""
+    import trimesh
+
+    pc = trimesh.PointCloud(points, colors=colors_u8)
+    write_atomic(Path(out), lambda tmp: pc.export(tmp))
+
+
+def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None = None, every: int | None = None,
+                      min_opacity: float = 0.9, voxel_size: float | None = None, data: Path | None = None,
+                      chunk: int | None = None, progress: bool = True, log=print) -> dict:
+    """`nerfkit export pointcloud`: fuse the depth of every `every`-th view of `split` (default:
+    the run's training split) into RUN/exports/pointcloud.ply (or `out`), in the capture's units."""
+    from nerfkit.evaluate import check_chunk
+
+    if every is not None and every < 1:
+        raise ConfigError(f"--every must be >= 1 (got {every})")
+    if not 0.0 < min_opacity <= 1.0:
+        raise ConfigError(f"--min-opacity must be in (0, 1] (got {min_opacity})")
+    if voxel_size is not None and voxel_size < 0:
+        raise ConfigError(f"--voxel-size must be >= 0 (0: no downsampling; got {voxel_size})")
+    check_chunk(chunk)
+    out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "pointcloud.ply", (".ply",))
+    t0 = time.perf_counter()
+    run = load_run(run_dir)
+    scale = float(np.cbrt(np.linalg.det(run.transform[:3, :3])))  # capture -> normalised lengths
+    voxel_n = 2.0 * run.bound / VOXELS_PER_BOX if voxel_size is None else voxel_size * scale
+    views = render_views(run, split, every, data, chunk, progress=progress)
+    background = np.asarray(run.model.background, np.float32)
+    pts, cols = zip(*(view_points(views, k, background, min_opacity) for k in range(len(views.c2w))))
+    split, n_views = views.split, len(views.c2w)
+    pts, cols = np.concatenate(pts), np.concatenate(cols)
+    if not len(pts):
+        raise NerfkitError(f"no pixel of the {n_views} rendered views of {split} reaches opacity {min_opacity:g}; "
+                           f"try a lower --min-opacity")
+    n_raw = len(pts)
+    pts, cols = voxel_downsample(pts, cols, voxel_n)
+    colors_u8 = (cols * 255 + 0.5).astype(np.uint8)
+    write_pointcloud(out, to_capture(pts, run.transform), colors_u8)
+    log(f"pointcloud: {n_raw} pixels with opacity >= {min_opacity:g} in {n_views} views of {split} "
+        f"-> {len(pts)} points (voxel {voxel_n / scale:.4g} capture units)")
+    from nerfkit.export.pictures import pointcloud_picture
+
+    picture = pointcloud_picture(run.run_dir / "exports" / "pointcloud.png", pts, colors_u8,
+                                 f"{out.name}: {len(pts)} points from {n_views} views (step {run.step})")
+    record = {"kind": "pointcloud", "file": str(out.resolve()), "step": run.step, "split": split, "every": views.every,
+              "views": n_views, "min_opacity": min_opacity, "pixels": n_raw, "points": len(pts),
+              "voxel_size": voxel_n / scale, "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
+              "coordinates": "the capture's own (pose normalisation undone)"}
+    write_record(run.run_dir, "pointcloud", record)
+    return record
