@@ -135,7 +135,13 @@ def cmd_export(argv: list[str]) -> int:
         a = tyro.cli(ExportCamerasArgs, args=rest, prog=prog)
         rec = export_cameras(a.run_dir, a.out, a.split, a.data)
         print(f"wrote {rec['file']}: {rec['frames']} cameras")
-    print(f"picture: {Path(a.run_dir) / 'exports' / rec['picture']} (and in the run report: nerfkit report RUN_DIR)")
+    picture = Path(a.run_dir) / "exports" / rec["picture"]
+    if (Path(a.run_dir) / "report.html").is_file():
+        from nerfkit.report import write_report
+
+        print(f"picture: {picture}, also in {write_report(a.run_dir)}")
+    else:
+        print(f"picture: {picture} (and in the run report: nerfkit report {a.run_dir})")
     return 0
 
 

@@ -27,6 +27,7 @@ from nerfkit.export.cameras import export_cameras
 from nerfkit.export.mesh import default_threshold, export_mesh
 from nerfkit.export.pointcloud import export_pointcloud, voxel_downsample
 from nerfkit.export.run import to_capture
+from nerfkit.report import write_report
 from nerfkit.train import Trainer
 
 SCENE_SIZE = 2 * proc.SCENE_BOUNDS
@@ -188,6 +189,8 @@ def test_cameras_round_trip_through_nerfstudio(trained, tmp_path):
         np.testing.assert_allclose(b.c2w, a.c2w, atol=1e-6)
         assert (b.camera.fx, b.camera.cx, b.camera.width) == pytest.approx((a.camera.fx, a.camera.cx, a.camera.width))
     assert json.loads((run / "exports" / "export_cameras.json").read_text())["file"] == str(out.resolve())
+    html = write_report(run).read_text()
+    assert 'id="exports"' in html and 'src="exports/cameras.png"' in html
 
 
 def test_empty_field_is_a_clear_error_and_writes_nothing(trained, tmp_path, capsys):
