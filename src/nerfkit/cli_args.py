@@ -100,6 +100,8 @@ class ExportMeshArgs:
     """Simplify the mesh to at most this many faces (quadric decimation)."""
     visible_only: bool = True
     """Keep only faces some training view sees (drops the arbitrary surfaces inside objects and under them)."""
+    snap: bool = True
+    """Move each vertex along its normal (within one grid cell) to where a ray from outside turns half opaque."""
     every: int | None = None
     """Visibility from every K-th training view (default: about 32 views)."""
     data: Path | None = None

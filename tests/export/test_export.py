@@ -12,6 +12,7 @@ import json
 import shutil
 from pathlib import Path
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 import trimesh
@@ -24,7 +25,7 @@ from nerfkit.data.loader import read_capture
 from nerfkit.data.nerfstudio import read_nerfstudio
 from nerfkit.data.scene import make_scene
 from nerfkit.export.cameras import export_cameras
-from nerfkit.export.mesh import default_threshold, export_mesh
+from nerfkit.export.mesh import default_threshold, export_mesh, half_opacity_snapper
 from nerfkit.export.pointcloud import export_pointcloud, voxel_downsample
 from nerfkit.export.run import to_capture
 from nerfkit.report import write_report
@@ -84,9 +85,12 @@ def visible_surface(poses: np.ndarray, size: int = 64) -> np.ndarray:
     return np.concatenate(pts)
 
 
-def chamfer(points: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
+def chamfer(points: np.ndarray, truth: np.ndarray, mesh: trimesh.Trimesh | None = None) -> tuple[float, float]:
     """(accuracy, completeness): mean distance of points to the true surface, and of the true
-    visible surface points to the nearest point."""
+    visible surface points to the nearest point (to the mesh's surface, when given)."""
+    if mesh is not None:  # its surface, densely sampled
+        dense = trimesh.sample.sample_surface(mesh, 20 * len(truth), seed=0)[0]
+        return float(surface_distance(points).mean()), float(cKDTree(dense).query(truth)[0].mean())
     return float(surface_distance(points).mean()), float(cKDTree(points).query(truth)[0].mean())
 
 
@@ -123,7 +127,7 @@ def test_mesh_lies_on_the_true_surfaces_in_capture_coordinates(trained, tmp_path
     out = tmp_path / "mesh.ply"
     rec = export_mesh(moved, out, resolution=128, progress=False)
     assert rec["threshold"] == pytest.approx(default_threshold(rec["bound"], 128))
-    assert rec["faces"] < rec["faces_of_level_set"]  # the unseen insides are dropped
+    assert rec["faces"] < rec["faces_of_level_set"] and rec["snapped_to_half_opacity"]  # unseen insides dropped
     mesh = trimesh.load(out, process=False)
     assert len(mesh.faces) == rec["faces"] > 1000
     assert mesh.visual.vertex_colors.shape == (len(mesh.vertices), 4)
@@ -131,14 +135,23 @@ def test_mesh_lies_on_the_true_surfaces_in_capture_coordinates(trained, tmp_path
     acc, comp = chamfer(verts, visible_surface(poses))
     print(f"mesh: accuracy {acc / SCENE_SIZE:.4f}, completeness {comp / SCENE_SIZE:.4f} of the scene size")
     assert acc < 1.3 * PIXEL * SCENE_SIZE and comp < 1.3 * PIXEL * SCENE_SIZE
-    # On the big sphere: normals face out, and the colour is its red/yellow checkerboard (more red than blue).
-    on_big = (surface_distance(verts) < 0.03) & (np.linalg.norm(verts - proc.BIG_SPHERE_CENTER, axis=-1)
-                                                 < proc.BIG_SPHERE_RADIUS + 0.03)
-    normals = to_scene(np.asarray(mesh.vertex_normals)) - to_scene(np.zeros((1, 3)))
-    outward = np.einsum("ij,ij->i", normals[on_big], verts[on_big] - proc.BIG_SPHERE_CENTER)
-    # (inner sides of the shell within the visibility tolerance, a cell plus a pixel, face in: measured 8%)
-    print(f"big sphere: {on_big.sum()} vertices, {np.mean(outward > 0):.3f} with outward normals")
-    assert on_big.sum() > 100 and np.mean(outward > 0) > 0.85
+    # On the big sphere: the surface faces out (by area: marching cubes winds faces outwards), and the
+    # colour is its red/yellow checkerboard (more red than blue).
+    def near_big(p):
+        return (surface_distance(p) < 0.03) & (np.linalg.norm(p - proc.BIG_SPHERE_CENTER, axis=-1)
+                                               < proc.BIG_SPHERE_RADIUS + 0.03)
+
+    tri = verts[np.asarray(mesh.faces)]
+    centre = tri.mean(1)
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # 2 x area x unit normal (scene frame)
+    big = near_big(centre)
+    out_area = np.abs(cross[big]).sum(1) * (np.einsum("ij,ij->i", cross[big], centre[big] - proc.BIG_SPHERE_CENTER) > 0)
+    share = out_area.sum() / np.abs(cross[big]).sum()
+    print(f"big sphere: {big.sum()} faces, {share:.3f} of their area faces out")
+    # Reversed winding would give ~0.1; the rest is the bumpiness of a field fit to 64 px images
+    # (measured 0.91 before the snap to half opacity, 0.86-0.87 after).
+    assert big.sum() > 100 and share > 0.8
+    on_big = near_big(verts)
     col = mesh.visual.vertex_colors[on_big, :3].astype(float).mean(0)
     assert col[0] > col[2] + 60
     assert (moved / "exports" / "mesh.png").is_file()
@@ -149,7 +162,7 @@ def test_simplified_mesh_keeps_the_shape(trained, tmp_path):
     rec = export_mesh(run, tmp_path / "mesh.obj", resolution=96, max_faces=4000, progress=False)
     assert rec["faces"] <= 4000 < rec["faces_before_simplification"]
     mesh = trimesh.load(tmp_path / "mesh.obj", process=False)
-    acc, comp = chamfer(np.asarray(mesh.vertices), visible_surface(poses[::3]))
+    acc, comp = chamfer(np.asarray(mesh.vertices), visible_surface(poses[::3]), mesh)
     print(f"simplified mesh: accuracy {acc / SCENE_SIZE:.4f}, completeness {comp / SCENE_SIZE:.4f}")
     assert acc < 1.5 * PIXEL * SCENE_SIZE and comp < 2 * PIXEL * SCENE_SIZE
 
@@ -215,3 +228,18 @@ def test_bad_export_arguments_are_one_line_errors(trained, tmp_path, capsys, arg
     assert main(argv) == 1
     err = capsys.readouterr().err.strip()
     assert match in err and len(err.splitlines()) == 1
+
+
+def test_snap_moves_vertices_to_the_half_opaque_depth_of_a_known_slab():
+    """sigma = S below the plane z = 0: a ray coming down the normal +z turns half opaque at
+    z* = -ln 2 / S (opacity 1 - exp(-S |z|)); within half a sample spacing (the trapezoid rule
+    smears the step over one spacing)."""
+    s, delta, k = 20.0, 0.1, 16
+    snap = half_opacity_snapper(lambda x: jnp.where(x[:, 2] < 0, s, 0.0), delta, k)
+    x = np.array([[0.0, 0.0, 0.03], [0.5, -0.2, -0.01], [0.0, 0.0, 5.0]], np.float32)
+    n = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (3, 1))
+    out = np.asarray(snap(x, n))
+    dt = 2 * delta / (k - 1)
+    np.testing.assert_allclose(out[:2, 2], -np.log(2) / s, atol=dt / 2)
+    np.testing.assert_array_equal(out[:2, :2], x[:2, :2])  # moved along the normal only
+    np.testing.assert_array_equal(out[2], x[2])  # nothing within reach: unchanged

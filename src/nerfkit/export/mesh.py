@@ -9,8 +9,10 @@ is the level set sigma = T (scikit-image's marching cubes). The default level is
     T = ln 2 / h,
 
 the density at which a ray crossing one grid cell gathers opacity 1 - exp(-T h) = 1/2: the
-surface sits where one cell of the export grid would look half opaque. Each vertex takes the
-colour the field gives there seen along the inverse normal (looking straight at the surface).
+surface sits where one cell of the export grid would look half opaque. Faces no training view
+sees are dropped (visibility.py), each vertex is then moved along its normal, within one cell,
+to where a ray coming in from outside turns half opaque (half_opacity_snapper: the surface the
+renders show), and takes the colour the field gives there seen along the inverse normal.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import time
 from pathlib import Path
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 from scipy import ndimage
 from tqdm.auto import tqdm
@@ -30,6 +33,7 @@ from nerfkit.export.run import TrainedRun, check_out, load_run, to_capture, writ
 
 MESH_SUFFIXES = (".ply", ".obj", ".glb")
 CHUNK = 65536
+SNAP_CELLS = 1.0  # how far (in grid cells) a vertex may move onto the half-opaque surface
 
 
 def default_threshold(bound: float, resolution: int) -> float:
@@ -110,6 +114,38 @@ def extract_surface(volume: np.ndarray, threshold: float, bound: float):
     return verts.astype(np.float32), faces.astype(np.int64)
 
 
+def half_opacity_snapper(density_fn, delta: float, k: int = 16):
+    """A jitted function (x [M, 3], n [M, 3]) -> x' [M, 3] that moves each vertex x along its unit
+    outward normal n onto the point where a ray coming in from outside becomes half opaque:
+
+        t_j = delta - 2 delta j / (k - 1),  j = 0..k-1       (from x + delta n inwards to x - delta n)
+        tau_j = sum_{i < j} (sigma_i + sigma_{i+1}) dt / 2,  sigma_i = sigma(x + t_i n),  dt = 2 delta / (k - 1)
+        x' = x + t* n,  t* where 1 - exp(-tau) crosses 1/2 (linear between samples)
+
+    The level set sigma = T is where the field is dense, not where it looks opaque; this moves
+    the surface to where a pixel looking straight at it is half covered (the silhouette, for
+    alpha > 0.5). Vertices whose short ray never reaches opacity 1/2 stay where they are."""
+    t = jnp.asarray(np.linspace(delta, -delta, k), jnp.float32)
+    dt = 2.0 * delta / (k - 1)
+
+    @jax.jit
+    def snap(x, n):
+        sigma = density_fn((x[:, None, :] + t[None, :, None] * n[:, None, :]).reshape(-1, 3)).reshape(-1, k)
+        trapezoids = 0.5 * (sigma[:, 1:] + sigma[:, :-1]) * dt
+        tau = jnp.concatenate([jnp.zeros_like(sigma[:, :1]), jnp.cumsum(trapezoids, axis=1)], axis=1)
+        opacity = 1.0 - jnp.exp(-tau)
+        hit = opacity >= 0.5
+        j = jnp.argmax(hit, axis=1)
+        prev_j = jnp.maximum(j - 1, 0)
+        prev = jnp.where(j > 0, jnp.take_along_axis(opacity, prev_j[:, None], 1)[:, 0], 0.0)
+        cur = jnp.take_along_axis(opacity, j[:, None], 1)[:, 0]
+        frac = jnp.clip((0.5 - prev) / jnp.maximum(cur - prev, 1e-6), 0.0, 1.0)
+        t_star = jnp.where(j > 0, t[prev_j] + frac * (t[j] - t[prev_j]), t[0])
+        return jnp.where(jnp.any(hit, axis=1)[:, None], x + t_star[:, None] * n, x)
+
+    return snap
+
+
 def field_functions(run: TrainedRun):
     """(density_fn, color_fn, occupied_fn or None, occupancy cell size) of a trained model,
     jitted, in the normalised frame. color_fn(x, d) is the field's colour at x seen along unit d
@@ -166,20 +202,24 @@ def write_mesh(out: Path, verts: np.ndarray, faces: np.ndarray, colors: np.ndarr
 
 
 def seen_faces(verts: np.ndarray, faces: np.ndarray, seen_fn):
-    """The faces whose centroid some view sees (visibility.make_visibility), and only the vertices
-    they use: (verts [V', 3], faces [F', 3])."""
-    keep = chunked(seen_fn, verts[faces].mean(axis=1).astype(np.float32))
+    """The faces some view sees (visibility.make_visibility: the centroid is the first surface
+    there and the face turns towards the camera), and only the vertices they use:
+    (verts [V', 3], faces [F', 3])."""
+    tri = verts[faces]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    keep = chunked(seen_fn, tri.mean(axis=1).astype(np.float32), normals.astype(np.float32))
     faces = faces[keep]
     used, inverse = np.unique(faces, return_inverse=True)
     return verts[used], inverse.reshape(faces.shape)
 
 
 def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, threshold: float | None = None,
-                max_faces: int | None = None, visible_only: bool = True, every: int | None = None,
+                max_faces: int | None = None, visible_only: bool = True, snap: bool = True, every: int | None = None,
                 data: Path | None = None, progress: bool = True, log=print) -> dict:
     """`nerfkit export mesh`: write the run's mesh to `out` (default RUN/exports/mesh.ply) in the
     capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
-    visible_only: keep only faces that some training view (every `every`-th) sees."""
+    visible_only: keep only faces that some training view (every `every`-th) sees; snap: move the
+    vertices onto the half-opaque surface (half_opacity_snapper)."""
     if not 16 <= resolution <= 1024:
         raise ConfigError(f"--resolution must be between 16 and 1024 grid points per axis (got {resolution})")
     if threshold is not None and not threshold > 0:
@@ -214,6 +254,9 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
         if not len(faces):
             raise NerfkitError(f"no face of the level set at {level:.4g} is seen by the training views; try a lower "
                                f"--threshold or --no-visible-only")
+    if snap:  # onto the half-opaque surface, searched within SNAP_CELLS grid cells
+        snapper = half_opacity_snapper(density_fn, SNAP_CELLS * 2.0 * bound / (resolution - 1))
+        verts = chunked(snapper, verts, vertex_normals(verts, faces), chunk=16384)
     n_faces = len(faces)
     if max_faces is not None:
         verts, faces = simplify(verts, faces, max_faces)
@@ -226,7 +269,8 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     record = {"kind": "mesh", "file": str(out.resolve()), "step": run.step, "resolution": resolution,
               "threshold": level, "threshold_rule": rule, "bound": bound, "vertices": len(verts), "faces": len(faces),
               "faces_before_simplification": n_faces, "faces_of_level_set": n_level_set,
-              "visible_only": visible_only, "occupied_fraction": None if mask is None else float(mask.mean()),
+              "visible_only": visible_only, "snapped_to_half_opacity": snap,
+              "occupied_fraction": None if mask is None else float(mask.mean()),
               "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (pose normalisation undone)"}
     write_record(run.run_dir, "mesh", record)

@@ -1,10 +1,11 @@
 """What the training cameras saw: rendered depth of chosen views, and per-point visibility tests.
 
 A view is a pinhole camera (K, c2w) with its rendered z-depth d(u, v) = sum_i w_i t_i / a and
-opacity a(u, v). A point x projects to pixel (u, v) at depth z (along the viewing axis); with a tolerance m
-(a grid cell plus one pixel's footprint at that depth, z / f), x is
+opacity a(u, v). A point x with outward normal n projects to pixel (u, v) at depth z (along the viewing axis);
+with a tolerance m (a grid cell plus one pixel's footprint at that depth, z / f), x is
 
-    seen      by the view when it is the first surface there:  a >= A_MIN and |z - d| <= m.
+    seen      by the view when it is the first surface there and faces the camera at o:
+              a >= A_MIN,  |z - d| <= m  and  n . (o - x) > 0.
 
 The mesh export keeps the faces some view sees: no camera sees inside a solid object or under
 its base, so the field's density there is arbitrary (measured on the procedural scene: 57% of
@@ -83,14 +84,15 @@ def view_points(views: Views, k: int, background: np.ndarray, min_opacity: float
 
 
 def make_visibility(views: Views, margin: float):
-    """A jitted function x [M, 3] -> seen bool [M]: some view sees x (see the module docstring);
-    margin: the tolerance in units of length, to which one pixel's footprint z / f is added."""
+    """A jitted function (x [M, 3], n [M, 3]) -> seen bool [M]: some view sees the surface at x with
+    outward normal n (see the module docstring); margin: the tolerance in units of length, to
+    which one pixel's footprint z / f is added."""
     c2w = jnp.asarray(views.c2w)
     k = jnp.asarray(views.intrinsics)
     depth, opac = jnp.asarray(views.depth), jnp.asarray(views.opacity)
     h, w = views.depth.shape[1:]
 
-    def one_view(c2w_v, k_v, d_v, a_v, x):
+    def one_view(c2w_v, k_v, d_v, a_v, x, n):
         p = (x - c2w_v[:3, 3]) @ c2w_v[:3, :3]  # camera frame (OpenGL: looking down -z)
         z = -p[:, 2]
         zs = jnp.maximum(z, 1e-6)
@@ -101,10 +103,11 @@ def make_visibility(views: Views, margin: float):
         iv = jnp.clip(jnp.floor(v).astype(jnp.int32), 0, h - 1)
         d, a = d_v[iv, iu], a_v[iv, iu]
         m = margin + z / k_v[0]
-        return inside & (a >= A_MIN) & (jnp.abs(z - d) <= m)
+        facing = jnp.sum(n * (c2w_v[:3, 3] - x), axis=-1) > 0
+        return inside & facing & (a >= A_MIN) & (jnp.abs(z - d) <= m)
 
     @jax.jit
-    def visibility(x):
-        return jnp.any(jax.vmap(one_view, in_axes=(0, 0, 0, 0, None))(c2w, k, depth, opac, x), axis=0)
+    def visibility(x, n):
+        return jnp.any(jax.vmap(one_view, in_axes=(0, 0, 0, 0, None, None))(c2w, k, depth, opac, x, n), axis=0)
 
     return visibility
