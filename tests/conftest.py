@@ -23,6 +23,14 @@ def compile_cache():
             os.environ["NERFKIT_COMPILE_CACHE"] = old
 
 
+@pytest.fixture(scope="session")
+def procedural_run(tmp_path_factory):
+    """(run, moved copy, training poses) of the shared procedural-scene run (procedural_run.py)."""
+    from procedural_run import train_scene
+
+    return train_scene(tmp_path_factory.mktemp("procedural_run"))
+
+
 @pytest.fixture
 def chromium():
     """The headless Chromium binary for the real-browser tests (skips, saying how to install it, when absent)."""

@@ -16,6 +16,7 @@ from pathlib import Path
 import tyro
 
 from nerfkit.cli_args import (
+    BakeArgs,
     DemoArgs,
     EvalArgs,
     ExportCamerasArgs,
@@ -77,9 +78,9 @@ def cmd_eval(argv: list[str]) -> int:
     from nerfkit.evaluate import evaluate_run, format_eval_table, split_slug
 
     a = tyro.cli(EvalArgs, args=argv, prog="nerfkit eval")
-    res = evaluate_run(a.run_dir, a.data, a.split, a.downscale, a.every, a.chunk)
+    res = evaluate_run(a.run_dir, a.data, a.split, a.downscale, a.every, a.chunk, baked=a.baked)
     print(format_eval_table(res))
-    print(f"wrote {a.run_dir / ('eval_' + split_slug(a.split) + '.json')}")
+    print(f"wrote {a.run_dir / ('eval_' + split_slug(a.split) + ('_baked' if a.baked else '') + '.json')}")
     return 0
 
 
@@ -142,6 +143,15 @@ def cmd_export(argv: list[str]) -> int:
         print(f"picture: {picture}, also in {write_report(a.run_dir)}")
     else:
         print(f"picture: {picture} (and in the run report: nerfkit report {a.run_dir})")
+    return 0
+
+
+def cmd_bake(argv: list[str]) -> int:
+    from nerfkit.bake.bake import bake_run
+
+    a = tyro.cli(BakeArgs, args=argv, prog="nerfkit bake")
+    bake_run(a.run_dir, a.out, a.resolution, progress=a.progress)
+    print(f"next: nerfkit eval {a.run_dir} --baked {a.out} (PSNR/SSIM of the baked scene)")
     return 0
 
 
@@ -249,6 +259,7 @@ COMMANDS = {
                        "or nerfkit train ... --viewer"),
     "export": (cmd_export, "mesh, point cloud or cameras in standard formats: nerfkit export mesh|pointcloud|cameras "
                            "RUN_DIR [--out FILE]"),
+    "bake": (cmd_bake, "distil a fast field into a sparse brick grid (nerfkit-baked-v0): nerfkit bake RUN_DIR --out DIR"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation DATA_DIR --out DIR "
                                    "--budget-minutes M"),
     "report": (cmd_report, "static HTML report of a run or experiment (opens from disk): nerfkit report RUN_DIR"),
@@ -262,7 +273,7 @@ def usage() -> str:
     return "\n".join(lines)
 
 
-COMPILING = {"demo", "train", "eval", "render", "experiment", "view", "export"}
+COMPILING = {"demo", "train", "eval", "render", "experiment", "view", "export", "bake"}
 
 
 def enable_compile_cache() -> None:

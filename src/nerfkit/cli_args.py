@@ -53,6 +53,8 @@ class EvalArgs:
     """Evaluate every K-th view."""
     chunk: int | None = None
     """Rays per rendering chunk (default: the run's --chunk)."""
+    baked: Path | None = None
+    """Score this baked scene (nerfkit bake RUN --out DIR) instead of the field; writes eval_<split>_baked.json."""
 
 
 @dataclasses.dataclass
@@ -148,6 +150,21 @@ class ExportCamerasArgs:
     """Frames to export (default: the run's training split)."""
     data: Path | None = None
     """The data folder; default: the one the run was trained on."""
+
+
+@dataclasses.dataclass
+class BakeArgs:
+    """Distil a trained fast field (bounded scenes) into a sparse brick grid of density and spherical-harmonics
+    colour (nerfkit-baked-v0, see src/nerfkit/bake/format.py); score it with nerfkit eval RUN --baked DIR."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train` (fast field, bounded scene)."""
+    out: Path
+    """Folder to write the baked scene into."""
+    resolution: int = 256
+    """Grid cells per axis of the scene box (a multiple of 8)."""
+    progress: bool = True
+    """Show progress bars."""
 
 
 @dataclasses.dataclass

@@ -52,7 +52,7 @@ def appearance_note(cfg) -> str | None:
 
 def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
                  chunk: int | None = None, progress: bool = True, checkpoint: Path | None = None,
-                 write: bool = True) -> dict:
+                 write: bool = True, baked: Path | None = None) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
     `checkpoint`: evaluate that checkpoint instead of the newest."""
@@ -61,13 +61,21 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     check_chunk(chunk)
     run_dir = Path(run_dir)
     cfg, model, params, aux, step = load_trained(run_dir, checkpoint)
+    if baked is not None:
+        from nerfkit.bake.format import load_baked
+        from nerfkit.bake.model import BakedModel
+
+        scene = load_baked(baked)
+        model = BakedModel(scene)
+        (params, aux), step = model.params_and_aux(scene), scene.meta.get("step_trained", step)
     data_dir = run_data_dir(run_dir, data_dir)
     d = cfg.data
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
     data = load_frames(cap, split, downscale=downscale if downscale is not None else d.downscale,
                        target_width=None if downscale is not None else d.target_width, background=d.background)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
-    out_dir = run_dir / f"eval_{split_slug(split)}"
+    name = f"eval_{split_slug(split)}" + ("_baked" if baked is not None else "")
+    out_dir = run_dir / name
     per_view, renders = [], []
     ids = list(range(0, len(data), every))
     t0 = time.perf_counter()
@@ -92,8 +100,10 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     }
     if appearance_note(cfg):
         result["appearance"] = appearance_note(cfg)
+    if baked is not None:
+        result["baked"] = str(Path(baked).resolve())
     if write:
-        (run_dir / f"eval_{split_slug(split)}.json").write_text(json.dumps(result, indent=2))
+        (run_dir / f"{name}.json").write_text(json.dumps(result, indent=2))
     return result
 
 

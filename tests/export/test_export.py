@@ -9,7 +9,6 @@ that capture frame, where S^-1 maps it back onto the scene's analytic surfaces.
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import jax.numpy as jnp
@@ -19,31 +18,17 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from nerfkit.cli import main
-from nerfkit.config import preset
 from nerfkit.data import scene as proc
 from nerfkit.data.loader import read_capture
 from nerfkit.data.nerfstudio import read_nerfstudio
-from nerfkit.data.scene import make_scene
 from nerfkit.export.cameras import export_cameras
 from nerfkit.export.mesh import default_threshold, export_mesh, half_opacity_snapper
 from nerfkit.export.pointcloud import export_pointcloud, voxel_downsample
 from nerfkit.export.run import to_capture
 from nerfkit.report import write_report
-from nerfkit.train import Trainer
+from procedural_run import SIZE, similarity
 
 SCENE_SIZE = 2 * proc.SCENE_BOUNDS
-SIZE = 64  # training images, pixels
-STEPS = 400
-SCALE = 2.5
-
-
-def similarity() -> np.ndarray:
-    rng = np.random.default_rng(3)
-    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-    q *= np.sign(np.linalg.det(q))
-    s = np.eye(4)
-    s[:3, :3], s[:3, 3] = SCALE * q, [1.0, -4.0, 2.5]
-    return s
 
 
 def to_scene(points: np.ndarray) -> np.ndarray:
@@ -94,27 +79,9 @@ def chamfer(points: np.ndarray, truth: np.ndarray, mesh: trimesh.Trimesh | None 
     return float(surface_distance(points).mean()), float(cKDTree(points).query(truth)[0].mean())
 
 
-def train_scene(root):
-    """(run folder, a copy whose capture frame is moved by S, the training poses)."""
-    scene = make_scene(root / "scene", size=SIZE, n_train=24, n_val=2, n_test=2)
-    cfg = preset("demo")
-    cfg.field.hash_log2_size = 14
-    cfg.train.max_steps, cfg.train.val_every, cfg.train.val_views, cfg.train.ckpt_every = STEPS, 10_000, 1, 10_000
-    cfg.train.batch_rays = 2048
-    Trainer(scene, root / "run", cfg, progress=False).run()
-    moved = root / "moved"
-    shutil.copytree(root / "run", moved)
-    info = json.loads((moved / "scene.json").read_text())
-    info["transform"] = np.linalg.inv(similarity()).tolist()  # capture x_c = S x_n, so M = S^-1
-    (moved / "scene.json").write_text(json.dumps(info))
-    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
-    poses = np.array([f["transform_matrix"] for f in frames])
-    return root / "run", moved, poses
-
-
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory):
-    return train_scene(tmp_path_factory.mktemp("export"))
+def trained(procedural_run):
+    return procedural_run
 
 
 # One training pixel (64 px images, focal 89 px, cameras 4 units away) spans 0.045 units at the

@@ -1,0 +1,1 @@
+"""Baking a trained field into a format a browser can ray-march (format.py: the specification)."""

@@ -1,0 +1,122 @@
+"""`nerfkit bake`: distil a trained fast field into the baked format (format.py).
+
+For each brick of BRICK^3 cells that touches an occupied cell of the run's occupancy grid,
+the field is sampled at the brick's (BRICK + 1)^3 cell vertices: the density sigma(x), and
+the colour c(x, d_j) along D fixed directions d_j (a Fibonacci sphere). The view-dependent
+colour is fitted, per vertex and channel, by least squares in the real SH basis Y of
+sh_bands bands:
+
+    coeff = argmin_a sum_j (Y(d_j) . a - c(x, d_j))^2 = pinv(Y) c,     Y: [D, SH]
+
+(the PlenOctrees design: no network at render time). Bricks whose density never reaches the
+field's occupancy threshold are dropped.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from tqdm.auto import tqdm
+
+from nerfkit.bake.format import BRICK, FORMAT, SH_BANDS, Baked, save_baked
+from nerfkit.encoding.sh import sh_encode
+from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.export.run import load_run
+
+N_DIRECTIONS = 32
+BRICKS_PER_CALL = 16
+
+
+def fibonacci_directions(n: int) -> np.ndarray:
+    """n unit vectors [n, 3] spread evenly over the sphere (golden-angle spiral)."""
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], -1).astype(np.float32)
+
+
+def brick_vertices(bricks: np.ndarray, bound: float, resolution: int) -> np.ndarray:
+    """World positions [K, S, S, S, 3] of the cell vertices of bricks [K, 3] (S = BRICK + 1)."""
+    h = 2.0 * bound / resolution
+    local = np.arange(BRICK + 1)
+    g = np.stack(np.meshgrid(local, local, local, indexing="ij"), -1)  # [S, S, S, 3]
+    return (-bound + (bricks[:, None, None, None, :] * BRICK + g[None]) * h).astype(np.float32)
+
+
+def occupied_bricks(run, resolution: int) -> np.ndarray:
+    """Integer coordinates [K, 3] of the bricks that contain a point of an occupied cell (each brick's
+    vertices and cell centres are tested against the run's occupancy grid)."""
+    from nerfkit import occupancy
+
+    model, aux = run.model, run.aux
+    m = resolution // BRICK
+    allb = np.stack(np.meshgrid(*[np.arange(m)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    h = 2.0 * run.bound / resolution
+    q = jax.jit(lambda x: occupancy.query_occupancy(aux, model.field.to_grid(x), model.occ))
+    keep = np.zeros(len(allb), bool)
+    for s in range(0, len(allb), 512):
+        b = allb[s:s + 512]
+        pts = brick_vertices(b, run.bound, resolution)
+        centres = pts[:, :-1, :-1, :-1] + 0.5 * h
+        x = np.concatenate([pts.reshape(len(b), -1, 3), centres.reshape(len(b), -1, 3)], 1)
+        keep[s:s + 512] = np.asarray(q(jnp.asarray(x.reshape(-1, 3)))).reshape(len(b), -1).any(1)
+    return allb[keep]
+
+
+def bake_run(run_dir: Path, out: Path, resolution: int = 256, progress: bool = True, log=print) -> dict:
+    """Bake a fast-field run into `out` (format.py); returns its summary (bricks, size, seconds)."""
+    if resolution % BRICK or not 2 * BRICK <= resolution <= 1024:
+        raise ConfigError(f"--resolution must be a multiple of {BRICK} between {2 * BRICK} and 1024 (got {resolution})")
+    t0 = time.perf_counter()
+    run = load_run(run_dir)
+    if run.cfg.field.kind != "ngp" or run.model.unbounded:
+        raise ConfigError(f"{run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a masked "
+                          f"capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")
+    model, p = run.model, run.params["field"]
+    bricks = occupied_bricks(run, resolution)
+    if not len(bricks):
+        raise NerfkitError(f"{run_dir}: the occupancy grid is empty; nothing to bake (train longer)")
+    dirs = jnp.asarray(fibonacci_directions(N_DIRECTIONS))
+    pinv = jnp.asarray(np.linalg.pinv(np.asarray(sh_encode(dirs, SH_BANDS))))  # [SH, D]
+    emb = model.field.embedding(p, None)
+
+    @jax.jit
+    def sample(x):  # [P, 3] -> sigma [P], coefficients [P, 3 * SH]
+        def colour(d):
+            return model.field(p, x, jnp.broadcast_to(d, x.shape), emb)[0]  # [P, 3]
+
+        rgb = jax.lax.map(colour, dirs)  # [D, P, 3]
+        coeff = jnp.einsum("kd,dpc->pck", pinv, rgb)
+        return model.field.density(p, x), coeff.reshape(x.shape[0], -1)
+
+    s = BRICK + 1
+    dens, sh = [], []
+    for i in tqdm(range(0, len(bricks), BRICKS_PER_CALL), desc="bake", unit="call", disable=not progress):
+        b = bricks[i:i + BRICKS_PER_CALL]
+        x = brick_vertices(b, run.bound, resolution).reshape(-1, 3)
+        pad = BRICKS_PER_CALL * s**3 - len(x)
+        sig, co = sample(jnp.asarray(np.concatenate([x, np.zeros((pad, 3), np.float32)])))
+        dens.append(np.asarray(sig)[:len(x)].reshape(len(b), s, s, s))
+        sh.append(np.asarray(co)[:len(x)].reshape(len(b), s, s, s, -1))
+    dens, sh = np.concatenate(dens), np.concatenate(sh)
+    alive = dens.reshape(len(bricks), -1).max(1) >= model.occ.threshold
+    bricks, dens, sh = bricks[alive], dens[alive], sh[alive]
+    m = resolution // BRICK
+    index = np.full((m, m, m), -1, np.int32)
+    index[bricks[:, 0], bricks[:, 1], bricks[:, 2]] = np.arange(len(bricks), dtype=np.int32)
+    meta = {"format": FORMAT, "bound": run.bound, "resolution": resolution, "brick": BRICK, "sh_bands": SH_BANDS,
+            "step": min(model.step_size, run.bound / resolution), "near": float(model.near),
+            "far": float(model.far), "background": run.cfg.data.background, "transform": run.transform.tolist(),
+            "run": str(Path(run_dir).resolve()), "step_trained": run.step, "bricks": int(len(bricks))}
+    baked = Baked(meta, index, dens.astype(np.float16), sh.astype(np.float16))
+    save_baked(out, baked)
+    mb = baked.nbytes() / 2**20
+    seconds = time.perf_counter() - t0
+    log(f"baked {len(bricks)} bricks of {BRICK}^3 cells ({len(bricks) / m**3:.1%} of the {resolution}^3 grid) into "
+        f"{out}: {mb:.1f} MB, {seconds:.0f} s")
+    return {"bricks": int(len(bricks)), "mb": mb, "seconds": seconds, "out": str(out)}
