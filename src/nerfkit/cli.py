@@ -29,6 +29,7 @@ from nerfkit.cli_args import (
     ReportArgs,
     TrainArgs,
     ViewArgs,
+    ViewBakedArgs,
 )
 from nerfkit.config import DEFAULT_PRESET, PRESET_HELP, PRESETS, preset
 from nerfkit.errors import ConfigError, NerfkitError
@@ -96,6 +97,12 @@ def cmd_render(argv: list[str]) -> int:
 
 
 def cmd_view(argv: list[str]) -> int:
+    if any(x == "--baked" or x.startswith("--baked=") for x in argv):
+        from nerfkit.bake.web import serve_baked
+
+        b = tyro.cli(ViewBakedArgs, args=argv, prog="nerfkit view")
+        serve_baked(b.baked, b.host, b.port)
+        return 0
     from nerfkit.viewer.run import view_run
 
     a = tyro.cli(ViewArgs, args=argv, prog="nerfkit view")
@@ -150,8 +157,9 @@ def cmd_bake(argv: list[str]) -> int:
     from nerfkit.bake.bake import bake_run
 
     a = tyro.cli(BakeArgs, args=argv, prog="nerfkit bake")
-    bake_run(a.run_dir, a.out, a.resolution, progress=a.progress)
-    print(f"next: nerfkit eval {a.run_dir} --baked {a.out} (PSNR/SSIM of the baked scene)")
+    bake_run(a.run_dir, a.out, a.resolution, a.sh_bands, a.finetune_minutes, a.max_mb, progress=a.progress)
+    print(f"next: nerfkit view --baked {a.out} (open it in a browser); nerfkit eval {a.run_dir} --baked {a.out} "
+          f"(PSNR/SSIM of the baked scene)")
     return 0
 
 
@@ -256,10 +264,11 @@ COMMANDS = {
     "eval": (cmd_eval, "PSNR/SSIM of a run on a split: nerfkit eval RUN_DIR --split SPLIT [--data DATA_DIR]"),
     "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --orbit N"),
     "view": (cmd_view, "interactive viewer in the browser (viser): nerfkit view RUN_DIR [--port 7007]; "
-                       "or nerfkit train ... --viewer"),
+                       "or nerfkit train ... --viewer; a baked scene's WebGL page: nerfkit view --baked DIR"),
     "export": (cmd_export, "mesh, point cloud or cameras in standard formats: nerfkit export mesh|pointcloud|cameras "
                            "RUN_DIR [--out FILE]"),
-    "bake": (cmd_bake, "distil a fast field into a sparse brick grid (nerfkit-baked-v0): nerfkit bake RUN_DIR --out DIR"),
+    "bake": (cmd_bake, "a web page that renders a trained scene in real time in any browser (WebGL2): "
+                       "nerfkit bake RUN_DIR --out DIR"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation DATA_DIR --out DIR "
                                    "--budget-minutes M"),
     "report": (cmd_report, "static HTML report of a run or experiment (opens from disk): nerfkit report RUN_DIR"),

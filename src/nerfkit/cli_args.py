@@ -155,14 +155,21 @@ class ExportCamerasArgs:
 @dataclasses.dataclass
 class BakeArgs:
     """Distil a trained fast field (bounded scenes) into a sparse brick grid of density and spherical-harmonics
-    colour (nerfkit-baked-v0, see src/nerfkit/bake/format.py); score it with nerfkit eval RUN --baked DIR."""
+    colour plus a WebGL2 page that renders it in any browser (nerfkit-baked-v1, see src/nerfkit/bake/format.py);
+    score it with nerfkit eval RUN --baked DIR, open it with nerfkit view --baked DIR."""
 
     run_dir: tyro.conf.Positional[Path]
     """A run folder written by `nerfkit train` (fast field, bounded scene)."""
     out: Path
-    """Folder to write the baked scene into."""
+    """Folder to write the baked scene into (created; an existing baked scene there is replaced)."""
     resolution: int = 256
     """Grid cells per axis of the scene box (a multiple of 8)."""
+    sh_bands: int = 2
+    """Spherical-harmonics bands of the view-dependent colour: 1 (diffuse), 2 or 3 (3 doubles the size)."""
+    finetune_minutes: float = 2.0
+    """Optimise the baked values against the training images for this long (0: no fine-tuning)."""
+    max_mb: float = 50.0
+    """Size budget in MB: fail before writing when the bake would be larger (lower --resolution or --sh-bands)."""
     progress: bool = True
     """Show progress bars."""
 
@@ -180,6 +187,18 @@ class ViewArgs:
     """Address to listen on; 0.0.0.0 makes the viewer reachable from other machines (a warning is printed)."""
     chunk: int | None = None
     """Rays per rendering chunk (default: the run's --chunk)."""
+
+
+@dataclasses.dataclass
+class ViewBakedArgs:
+    """Serve a baked scene's WebGL page (nerfkit bake RUN --out DIR) and print its address."""
+
+    baked: Path
+    """A baked scene folder written by `nerfkit bake`."""
+    port: int = 7007
+    """Port (the next free one if taken; the address is printed)."""
+    host: str = "127.0.0.1"
+    """Address to listen on; 0.0.0.0 makes the page reachable from other machines (a warning is printed)."""
 
 
 @dataclasses.dataclass

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from nerfkit.bake.bake import bake_run, fibonacci_directions
-from nerfkit.bake.format import BRICK, FORMAT, Baked, load_baked, lookup, save_baked
+from nerfkit.bake.format import BRICK, FORMAT, Baked, load_baked, lookup, quantise, save_baked
 from nerfkit.bake.model import BakedModel
 from nerfkit.cli import main
 from nerfkit.data.loader import load_scene
+from nerfkit.evaluate import evaluate_run
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.inference import make_renderer
 from nerfkit.metrics import psnr
@@ -20,29 +21,42 @@ from nerfkit.train import load_trained
 
 
 def test_lookup_is_trilinear_inside_stored_bricks_and_empty_elsewhere(tmp_path):
-    """Trilinear interpolation reproduces any affine function exactly: sigma = 3 + x - 2y + 0.5z in
-    the one stored brick; zero in the empty bricks and outside the box."""
+    """Trilinear interpolation reproduces any affine function exactly: log sigma = 1 + x - 2y + 0.5z and
+    the uint8 codes q = 10 + 5i + 3j + 2k (i, j, k: vertex indices) in the one stored brick, so
+    sigma = exp(affine) and the dequantised coefficient lo + (hi - lo) q / 255 is affine in x;
+    sigma is zero in the empty bricks and outside the box."""
     bound, n = 1.0, 2 * BRICK
     h = 2 * bound / n
     s = BRICK + 1
     g = np.stack(np.meshgrid(*[np.arange(s)] * 3, indexing="ij"), -1)
     x = -bound + (np.array([1, 0, 1]) * BRICK + g) * h  # vertices of brick (1, 0, 1)
-    dens = (3 + x[..., 0] - 2 * x[..., 1] + 0.5 * x[..., 2])[None]
-    sh = np.repeat(dens[..., None], 27, axis=-1)
+    dens = (1 + x[..., 0] - 2 * x[..., 1] + 0.5 * x[..., 2])[None]
+    q = (10 + 5 * g[..., 0] + 3 * g[..., 1] + 2 * g[..., 2])[None, ..., None]
+    sh = np.repeat(q, 12, axis=-1).astype(np.uint8)
     index = np.full((2, 2, 2), -1, np.int32)
     index[1, 0, 1] = 0
-    meta = {"format": FORMAT, "bound": bound, "resolution": n, "brick": BRICK, "sh_bands": 3, "step": 0.01,
-            "near": 0.0, "far": 6.0, "background": "white"}
-    save_baked(tmp_path, Baked(meta, index, dens.astype(np.float32), sh.astype(np.float32)))
+    meta = {"format": FORMAT, "bound": bound, "resolution": n, "brick": BRICK, "sh_bands": 2, "step": 0.01,
+            "near": 0.0, "far": 6.0, "background": "white", "sh_range": [[-1.0, 3.0]] * 12}
+    save_baked(tmp_path, Baked(meta, index, dens.astype(np.float32), sh))
     b = load_baked(tmp_path)
     rng = np.random.default_rng(0)
     p_in = rng.uniform([0, -1, 0], [1, 0, 1], (200, 3)).astype(np.float32)
     sigma, coeff = lookup(b.arrays(), jnp.asarray(p_in), bound, n)
-    want = 3 + p_in[:, 0] - 2 * p_in[:, 1] + 0.5 * p_in[:, 2]
-    np.testing.assert_allclose(np.asarray(sigma), want, rtol=1e-5)
-    np.testing.assert_allclose(np.asarray(coeff)[:, 5], want, rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(sigma), np.exp(1 + p_in[:, 0] - 2 * p_in[:, 1] + 0.5 * p_in[:, 2]),
+                               rtol=1e-5)
+    u = (p_in - [0, -1, 0]) / h  # vertex coordinates inside the brick
+    want = -1.0 + 4.0 * (10 + 5 * u[:, 0] + 3 * u[:, 1] + 2 * u[:, 2]) / 255.0
+    np.testing.assert_allclose(np.asarray(coeff)[:, 5], want, rtol=1e-5, atol=1e-6)
     p_out = np.array([[-0.5, -0.5, -0.5], [0.5, 0.5, 0.5], [1.5, -0.5, 0.5]], np.float32)
     np.testing.assert_array_equal(np.asarray(lookup(b.arrays(), jnp.asarray(p_out), bound, n)[0]), 0.0)
+
+
+def test_quantise_round_trips_within_half_a_code():
+    c = np.random.default_rng(2).normal(size=(50, 12)).astype(np.float32) * np.repeat([1, 2, 3, 4], 3)
+    q, rng = quantise(c)
+    lo, hi = np.asarray(rng).T
+    back = lo + (hi - lo) * q / 255.0
+    assert np.all(np.abs(back - c) <= 0.5 * (hi - lo) / 255.0 + 1e-6)
 
 
 def test_sh_fit_directions_determine_the_three_bands():
@@ -99,3 +113,17 @@ def test_bad_bake_arguments_are_one_line_errors(procedural_run, tmp_path, capsys
     assert main(argv) == 1
     err = capsys.readouterr().err.strip()
     assert match in err and len(err.splitlines()) == 1
+
+
+def test_finetuning_brings_the_baked_scene_closer_to_the_images(procedural_run, baked, tmp_path):
+    """Bake, then fine-tune (finetune.py): 40 Adam steps on the baked values raise the held-out PSNR."""
+    run, plain, _ = baked
+    out = tmp_path / "tuned"
+    info = bake_run(run, out, resolution=128, progress=False, finetune_steps=40)
+    meta = load_baked(out).meta
+    assert meta["finetune"]["steps"] == 40 and meta["finetune"]["psnr_last"] > meta["finetune"]["psnr_first"]
+    before = evaluate_run(run, None, "test", progress=False, write=False, baked=plain)["psnr"]
+    after = evaluate_run(run, None, "test", progress=False, write=False, baked=out)["psnr"]
+    print(f"baked {before:.2f} dB, fine-tuned {after:.2f} dB on the test views ({info['seconds']:.0f} s)")
+    # Measured +0.3 dB after 22 steps at this size.
+    assert after > before + 0.2

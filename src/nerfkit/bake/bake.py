@@ -1,15 +1,16 @@
 """`nerfkit bake`: distil a trained fast field into the baked format (format.py).
 
 For each brick of BRICK^3 cells that touches an occupied cell of the run's occupancy grid,
-the field is sampled at the brick's (BRICK + 1)^3 cell vertices: the density sigma(x), and
-the colour c(x, d_j) along D fixed directions d_j (a Fibonacci sphere). The view-dependent
+the field is sampled at the brick's (BRICK + 1)^3 cell vertices: the log-density log sigma(x),
+and the colour c(x, d_j) along D fixed directions d_j (a Fibonacci sphere). The view-dependent
 colour is fitted, per vertex and channel, by least squares in the real SH basis Y of
 sh_bands bands:
 
     coeff = argmin_a sum_j (Y(d_j) . a - c(x, d_j))^2 = pinv(Y) c,     Y: [D, SH]
 
 (the PlenOctrees design: no network at render time). Bricks whose density never reaches the
-field's occupancy threshold are dropped.
+field's occupancy threshold are dropped. finetune.py then optimises the baked values against
+the training images through the reference renderer, and the coefficients are quantised.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.bake.format import BRICK, FORMAT, SH_BANDS, Baked, save_baked
+from nerfkit.bake.format import BRICK, FORMAT, LOG_SIGMA_MIN, Baked, quantise, save_baked
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.export.run import load_run
@@ -68,21 +69,18 @@ def occupied_bricks(run, resolution: int) -> np.ndarray:
     return allb[keep]
 
 
-def bake_run(run_dir: Path, out: Path, resolution: int = 256, progress: bool = True, log=print) -> dict:
-    """Bake a fast-field run into `out` (format.py); returns its summary (bricks, size, seconds)."""
-    if resolution % BRICK or not 2 * BRICK <= resolution <= 1024:
-        raise ConfigError(f"--resolution must be a multiple of {BRICK} between {2 * BRICK} and 1024 (got {resolution})")
-    t0 = time.perf_counter()
-    run = load_run(run_dir)
+def sample_field(run, resolution: int, sh_bands: int, progress: bool = True):
+    """The field at the cell vertices of its occupied bricks: (bricks int [K, 3], log sigma [K, S, S, S],
+    SH coefficients [K, S, S, S, 3 * sh_bands^2]) as float32 arrays, dead bricks dropped."""
     if run.cfg.field.kind != "ngp" or run.model.unbounded:
-        raise ConfigError(f"{run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a masked "
-                          f"capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")
+        raise ConfigError(f"{run.run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a "
+                          f"masked capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")
     model, p = run.model, run.params["field"]
     bricks = occupied_bricks(run, resolution)
     if not len(bricks):
-        raise NerfkitError(f"{run_dir}: the occupancy grid is empty; nothing to bake (train longer)")
+        raise NerfkitError(f"{run.run_dir}: the occupancy grid is empty; nothing to bake (train longer)")
     dirs = jnp.asarray(fibonacci_directions(N_DIRECTIONS))
-    pinv = jnp.asarray(np.linalg.pinv(np.asarray(sh_encode(dirs, SH_BANDS))))  # [SH, D]
+    pinv = jnp.asarray(np.linalg.pinv(np.asarray(sh_encode(dirs, sh_bands))))  # [SH, D]
     emb = model.field.embedding(p, None)
 
     @jax.jit
@@ -92,7 +90,8 @@ def bake_run(run_dir: Path, out: Path, resolution: int = 256, progress: bool = T
 
         rgb = jax.lax.map(colour, dirs)  # [D, P, 3]
         coeff = jnp.einsum("kd,dpc->pck", pinv, rgb)
-        return model.field.density(p, x), coeff.reshape(x.shape[0], -1)
+        a = jnp.log(jnp.maximum(model.field.density(p, x), np.exp(LOG_SIGMA_MIN)))
+        return a, coeff.reshape(x.shape[0], -1)
 
     s = BRICK + 1
     dens, sh = [], []
@@ -104,18 +103,45 @@ def bake_run(run_dir: Path, out: Path, resolution: int = 256, progress: bool = T
         dens.append(np.asarray(sig)[:len(x)].reshape(len(b), s, s, s))
         sh.append(np.asarray(co)[:len(x)].reshape(len(b), s, s, s, -1))
     dens, sh = np.concatenate(dens), np.concatenate(sh)
-    alive = dens.reshape(len(bricks), -1).max(1) >= model.occ.threshold
-    bricks, dens, sh = bricks[alive], dens[alive], sh[alive]
+    alive = dens.reshape(len(bricks), -1).max(1) >= np.log(model.occ.threshold)
+    return bricks[alive], dens[alive], sh[alive]
+
+
+def bake_run(run_dir: Path, out: Path, resolution: int = 256, sh_bands: int = 2, finetune_minutes: float = 0.0,
+             max_mb: float = 50.0, progress: bool = True, log=print, finetune_steps: int | None = None) -> dict:
+    """Bake a fast-field run into `out` (format.py); returns its summary (bricks, size, seconds).
+    finetune_steps: fine-tune for that many steps instead of finetune_minutes (tests)."""
+    if resolution % BRICK or not 2 * BRICK <= resolution <= 1024:
+        raise ConfigError(f"--resolution must be a multiple of {BRICK} between {2 * BRICK} and 1024 (got {resolution})")
+    if not 1 <= sh_bands <= 3:
+        raise ConfigError(f"--sh-bands must be 1, 2 or 3 (got {sh_bands})")
+    t0 = time.perf_counter()
+    run = load_run(run_dir)
+    bricks, dens, sh = sample_field(run, resolution, sh_bands, progress)
+    if not len(bricks):
+        raise NerfkitError(f"{run_dir}: no baked brick reaches the occupancy threshold; nothing to bake (train longer)")
     m = resolution // BRICK
     index = np.full((m, m, m), -1, np.int32)
     index[bricks[:, 0], bricks[:, 1], bricks[:, 2]] = np.arange(len(bricks), dtype=np.int32)
-    meta = {"format": FORMAT, "bound": run.bound, "resolution": resolution, "brick": BRICK, "sh_bands": SH_BANDS,
+    mb = (index.nbytes + dens.size * 2 + sh.size) / 2**20
+    if mb > max_mb:
+        raise NerfkitError(f"the bake would take {mb:.1f} MB, over --max-mb {max_mb:g}; lower --resolution or "
+                           f"--sh-bands, or raise --max-mb")
+    model = run.model
+    meta = {"format": FORMAT, "bound": run.bound, "resolution": resolution, "brick": BRICK, "sh_bands": sh_bands,
             "step": min(model.step_size, run.bound / resolution), "near": float(model.near),
             "far": float(model.far), "background": run.cfg.data.background, "transform": run.transform.tolist(),
             "run": str(Path(run_dir).resolve()), "step_trained": run.step, "bricks": int(len(bricks))}
-    baked = Baked(meta, index, dens.astype(np.float16), sh.astype(np.float16))
+    tuned = None
+    if finetune_minutes > 0 or finetune_steps:
+        from nerfkit.bake.finetune import finetune
+
+        dens, sh, tuned = finetune(run, Baked(meta, index, dens, sh), dens, sh, finetune_minutes, progress, log,
+                                   finetune_steps)
+        meta["finetune"] = tuned
+    q, meta["sh_range"] = quantise(sh)
+    baked = Baked(meta, index, dens.astype(np.float16), q)
     save_baked(out, baked)
-    mb = baked.nbytes() / 2**20
     seconds = time.perf_counter() - t0
     log(f"baked {len(bricks)} bricks of {BRICK}^3 cells ({len(bricks) / m**3:.1%} of the {resolution}^3 grid) into "
         f"{out}: {mb:.1f} MB, {seconds:.0f} s")

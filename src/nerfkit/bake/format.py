@@ -1,23 +1,35 @@
-"""The baked scene format (nerfkit-baked-v0) and its look-up: the specification a renderer must follow.
+"""The baked scene format (nerfkit-baked-v1) and its look-up: the specification a renderer must follow.
 
 A baked scene samples a trained field on the vertices of an N^3 grid of cells over the box
 [-B, B]^3 (cell size h = 2B / N), stored only in occupied bricks of BRICK^3 cells:
 
-    DIR/baked.json     {"format", "bound" B, "resolution" N, "brick", "sh_bands", "step", "near", "far",
-                        "background", "transform", ...}
+    DIR/baked.json     {"format", "bound" B, "resolution" N, "brick", "sh_bands", "sh_range",
+                        "step", "near", "far", "background", "transform", ...}
     DIR/index.npy      int32 [M, M, M], M = N / BRICK: brick id of each brick of cells, -1 when empty
-    DIR/density.npy    float16 [K, S, S, S], S = BRICK + 1: sigma at the brick's cell vertices
-    DIR/sh.npy         float16 [K, S, S, S, 3 * SH], SH = sh_bands^2: colour coefficients (r's, g's, b's)
+    DIR/density.npy    float16 [K, S, S, S], S = BRICK + 1: log-density a = log sigma at the
+                       brick's cell vertices (at least LOG_SIGMA_MIN)
+    DIR/sh.npy         uint8 [K, S, S, S, C], C = 3 * sh_bands^2: colour coefficients, quantised
+                       per channel j to [lo_j, hi_j] = sh_range[j] (channels: r's, then g's, b's)
 
 A point x lies in cell c = floor((x + B) / h) (clamped to [0, N-1]) of brick c // BRICK at
-local cell c % BRICK; its values are the trilinear interpolation of that cell's 8 vertices
-(each brick holds its own boundary vertices, so interpolation never crosses bricks). Empty
-bricks and points outside the box have sigma = 0. The colour seen along unit direction d is
+local cell c % BRICK, with fraction f = (x + B) / h - c. Its values are the trilinear
+interpolation of that cell's 8 vertices (each brick holds its own boundary vertices, so
+interpolation never crosses bricks; this is what a GPU's filtered 3D texture look-up does):
 
-    rgb = clip(sum_k coeff[c, k] Y_k(d), 0, 1)        (Y: encoding/sh.py, bands 0..sh_bands-1)
+    sigma  = exp(trilinear(a))                       (the activation after interpolation, as in
+                                                      SNeRG and MERF: surfaces stay sharp)
+    coeff  = lo + (hi - lo) * trilinear(q) / 255     (affine, so it commutes with interpolation)
+    rgb(d) = clip(sum_k coeff[c, k] Y_k(d), 0, 1)    (Y: encoding/sh.py, bands 0..sh_bands-1)
 
-Rays march like the fast field's (model.py / occupancy.box_candidates) with t-step "step",
-skipping empty bricks, and composite with w_i = T_i (1 - exp(-sigma_i delta_i)).
+Empty bricks and points outside the box have sigma = 0. A ray o + t d (|d| need not be 1)
+marches from t_lo = max(near, box entry) to t_hi = min(far, box exit) at t-step "step":
+sample k sits at t_lo + (k + 1/2) step with delta_k = (min(t_lo + (k+1) step, t_hi) -
+(t_lo + k step)) |d|, and the samples composite as
+
+    w_k = T_k (1 - exp(-sigma_k delta_k)),  T_k = prod_{j<k} exp(-sigma_j delta_j),
+    rgb = sum_k w_k rgb_k + (1 - sum_k w_k) background,
+
+stopping once T_k < 1e-4 (model.py; index.html's shader does the same).
 """
 
 from __future__ import annotations
@@ -31,17 +43,17 @@ import numpy as np
 
 from nerfkit.errors import ConfigError
 
-FORMAT = "nerfkit-baked-v0"
+FORMAT = "nerfkit-baked-v1"
 BRICK = 8
-SH_BANDS = 3
+LOG_SIGMA_MIN = -12.0
 
 
 @dataclass
 class Baked:
     meta: dict
     index: np.ndarray  # int32 [M, M, M]
-    density: np.ndarray  # float16 [K, S, S, S]
-    sh: np.ndarray  # float16 [K, S, S, S, 3 * SH]
+    density: np.ndarray  # float16 [K, S, S, S], log sigma
+    sh: np.ndarray  # uint8 [K, S, S, S, C]
 
     @property
     def bound(self) -> float:
@@ -54,10 +66,24 @@ class Baked:
     def nbytes(self) -> int:
         return int(self.index.nbytes + self.density.nbytes + self.sh.nbytes)
 
+    def sh_float(self) -> np.ndarray:
+        """Dequantised coefficients [K, S, S, S, C] (float32)."""
+        lo, hi = np.asarray(self.meta["sh_range"], np.float32).T
+        return lo + (hi - lo) * (self.sh.astype(np.float32) / 255.0)
+
     def arrays(self) -> dict:
-        """Device arrays for `lookup` (float32)."""
+        """Device arrays for `lookup` (float32, dequantised: interpolation commutes with the affine map)."""
         return {"index": jnp.asarray(self.index), "density": jnp.asarray(self.density, jnp.float32),
-                "sh": jnp.asarray(self.sh, jnp.float32)}
+                "sh": jnp.asarray(self.sh_float())}
+
+
+def quantise(coeff: np.ndarray) -> tuple[np.ndarray, list]:
+    """uint8 codes of float coefficients [..., C] and the per-channel ranges [[lo, hi]] * C."""
+    flat = coeff.reshape(-1, coeff.shape[-1])
+    lo, hi = flat.min(0), flat.max(0)
+    hi = np.maximum(hi, lo + 1e-6)
+    q = np.clip(np.rint((coeff - lo) / (hi - lo) * 255.0), 0, 255).astype(np.uint8)
+    return q, np.stack([lo, hi], 1).astype(float).tolist()
 
 
 def save_baked(out: Path, baked: Baked) -> None:
@@ -85,7 +111,8 @@ def load_baked(path: Path) -> Baked:
 
 
 def lookup(arrays: dict, x: jnp.ndarray, bound: float, resolution: int):
-    """(sigma [P], coefficients [P, 3 * SH]) at points x [P, 3] (see the module docstring)."""
+    """(sigma [P], coefficients [P, C]) at points x [P, 3] (see the module docstring); arrays holds
+    index [M, M, M], density [K, S, S, S] (log sigma) and sh [K, S, S, S, C] (dequantised)."""
     n = resolution
     h = 2.0 * bound / n
     u = (x + bound) / h
@@ -97,7 +124,7 @@ def lookup(arrays: dict, x: jnp.ndarray, bound: float, resolution: int):
     bid = arrays["index"][b[:, 0], b[:, 1], b[:, 2]]
     valid = inside & (bid >= 0)
     k = jnp.maximum(bid, 0)
-    sigma = jnp.zeros(x.shape[0], jnp.float32)
+    a = jnp.zeros(x.shape[0], jnp.float32)
     coeff = jnp.zeros((x.shape[0], arrays["sh"].shape[-1]), jnp.float32)
     for dx in (0, 1):
         for dy in (0, 1):
@@ -105,6 +132,6 @@ def lookup(arrays: dict, x: jnp.ndarray, bound: float, resolution: int):
                 w = ((f[:, 0] if dx else 1 - f[:, 0]) * (f[:, 1] if dy else 1 - f[:, 1])
                      * (f[:, 2] if dz else 1 - f[:, 2]))
                 i, j, l_ = local[:, 0] + dx, local[:, 1] + dy, local[:, 2] + dz
-                sigma = sigma + w * arrays["density"][k, i, j, l_]
+                a = a + w * arrays["density"][k, i, j, l_]
                 coeff = coeff + w[:, None] * arrays["sh"][k, i, j, l_]
-    return jnp.where(valid, jnp.maximum(sigma, 0.0), 0.0), coeff
+    return jnp.where(valid, jnp.exp(jnp.minimum(a, 15.0)), 0.0), coeff

@@ -15,6 +15,7 @@ import numpy as np
 from nerfkit import occupancy
 from nerfkit.bake.format import Baked, lookup
 from nerfkit.encoding.sh import sh_encode
+from nerfkit.render import packed_composite, packed_compositing_weights
 
 
 class BakedField:
@@ -59,8 +60,31 @@ class BakedModel:
 
     def params_and_aux(self, baked: Baked):
         """(params, aux) for the renderer: the look-up arrays, and the brick index as occupancy bits."""
-        return {"field": baked.arrays()}, {"bits": jnp.asarray(baked.index.reshape(-1) >= 0)}
+        return {"field": baked.arrays()}, self.occupancy(baked.index)
+
+    @staticmethod
+    def occupancy(index: np.ndarray) -> dict:
+        """The brick index [M, M, M] as the occupancy bits of the marcher (a brick is occupied when stored)."""
+        return {"bits": jnp.asarray(index.reshape(-1) >= 0)}
 
     def candidates(self, o, d, key=None, index=None):
         return occupancy.box_candidates(o, d, self.near, self.far, self.field.bound, self.step_size,
                                         self.march_steps, key, index)
+
+    def render_rays(self, params, aux, o, d, budget: int) -> dict:
+        """Differentiable render of rays o, d [R, 3] at the reference renderer's sample positions, packed
+        into `budget` samples (occupancy.pack_candidates); rays whose samples do not all fit are marked
+        incomplete (out["complete"] [R]) and must not be scored. Used by finetune.py."""
+        t0, t1, cand = self.candidates(o, d)
+        m = occupancy.pack_candidates(aux, o, d, t0, t1, cand, self.occ, budget)
+        ray = m["ray_idx"]
+        valid = m["valid"] & m["complete"][ray]
+        norm = jnp.linalg.norm(d, axis=-1)
+        t_mid = 0.5 * (m["t_start"] + m["t_end"])
+        rgb, sigma = self.field(params["field"], o[ray] + t_mid[:, None] * d[ray], d[ray] / norm[ray][:, None])
+        w = packed_compositing_weights(sigma, (m["t_end"] - m["t_start"]) * norm[ray], ray, valid,
+                                       self.MIN_TRANSMITTANCE)
+        out = packed_composite(w, rgb, t_mid, ray, o.shape[0], self.background, self.far)
+        out["complete"] = m["complete"]
+        out["n_samples"] = jnp.sum(valid)
+        return out
