@@ -32,6 +32,10 @@ def find_chromium() -> str | None:
     return None
 
 
+# WebGL2 without a GPU: ANGLE on SwiftShader (Chromium's CPU Vulkan), which recent Chromium only
+# allows for WebGL when told it is wanted (--enable-unsafe-swiftshader).
+WEBGL_ARGS = ("--use-angle=swiftshader", "--use-gl=angle", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist")
+
 # Put the two pipe ends on fds 3 and 4, then become the browser (a tiny trampoline: the
 # shell cannot name fds above 9 portably, and preexec_fn is unsafe in a threaded process).
 _EXEC_WITH_PIPES = "import os, sys; os.dup2(int(sys.argv[1]), 3); os.dup2(int(sys.argv[2]), 4); " \
@@ -41,7 +45,10 @@ _EXEC_WITH_PIPES = "import os, sys; os.dup2(int(sys.argv[1]), 3); os.dup2(int(sy
 class Chromium:
     """Headless Chromium driven over the DevTools protocol on a pipe (stdlib only)."""
 
-    def __init__(self, binary: str, profile: Path, width: int = 1280, height: int = 900):
+    def __init__(self, binary: str, profile: Path, width: int = 1280, height: int = 900, webgl: bool = False,
+                 extra_args: tuple[str, ...] = ()):
+        """Start the browser. webgl=True keeps the GPU process, on SwiftShader (software WebGL/WebGL2, see
+        WEBGL_ARGS), instead of --disable-gpu; extra_args are appended to the command line."""
         to_chrome_r, to_chrome_w = os.pipe()
         from_chrome_r, from_chrome_w = os.pipe()
         # Chromium reads commands on fd 3 and writes replies on fd 4. Move our pipe ends
@@ -50,11 +57,12 @@ class Chromium:
         hi_w = fcntl.fcntl(from_chrome_w, fcntl.F_DUPFD, 10)
         os.close(to_chrome_r)
         os.close(from_chrome_w)
-        args = [binary, "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+        gpu = list(WEBGL_ARGS) if webgl else ["--disable-gpu"]
+        args = [binary, "--headless=new", "--no-sandbox", *gpu, "--disable-dev-shm-usage",
                 "--no-first-run", "--no-default-browser-check", "--mute-audio", "--hide-scrollbars",
                 "--autoplay-policy=no-user-gesture-required",
                 f"--user-data-dir={profile}", f"--window-size={width},{height}", "--remote-debugging-pipe",
-                "about:blank"]
+                *extra_args, "about:blank"]
         self.proc = subprocess.Popen([sys.executable, "-c", _EXEC_WITH_PIPES, str(hi_r), str(hi_w), *args],
                                      pass_fds=(hi_r, hi_w), stdin=subprocess.DEVNULL,
                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)

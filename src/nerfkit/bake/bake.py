@@ -23,7 +23,8 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.bake.format import BRICK, FORMAT, LOG_SIGMA_MIN, Baked, quantise, save_baked
+from nerfkit.bake.format import BRICK, FORMAT, LOG_SIGMA_MIN, Baked, check_out, quantise, save_baked
+from nerfkit.bake.web import write_web
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.export.run import load_run
@@ -115,6 +116,7 @@ def bake_run(run_dir: Path, out: Path, resolution: int = 256, sh_bands: int = 2,
         raise ConfigError(f"--resolution must be a multiple of {BRICK} between {2 * BRICK} and 1024 (got {resolution})")
     if not 1 <= sh_bands <= 3:
         raise ConfigError(f"--sh-bands must be 1, 2 or 3 (got {sh_bands})")
+    check_out(out)
     t0 = time.perf_counter()
     run = load_run(run_dir)
     bricks, dens, sh = sample_field(run, resolution, sh_bands, progress)
@@ -142,6 +144,7 @@ def bake_run(run_dir: Path, out: Path, resolution: int = 256, sh_bands: int = 2,
     q, meta["sh_range"] = quantise(sh)
     baked = Baked(meta, index, dens.astype(np.float16), q)
     save_baked(out, baked)
+    write_web(out)
     seconds = time.perf_counter() - t0
     log(f"baked {len(bricks)} bricks of {BRICK}^3 cells ({len(bricks) / m**3:.1%} of the {resolution}^3 grid) into "
         f"{out}: {mb:.1f} MB, {seconds:.0f} s")

@@ -28,9 +28,10 @@ from nerfkit.bake.format import Baked
 from nerfkit.bake.model import BakedModel
 from nerfkit.cameras import ray_table, rotate_directions, table_directions
 
-LR = 1e-2
+LR = 3e-2
 BATCH_RAYS = 4096
-SAMPLES_PER_RAY = 96  # the packed budget per ray: rays needing more are rendered but not scored
+SAMPLES_PER_RAY = 96  # packed samples in stored bricks, per ray
+LIVE_PER_RAY = 32  # of which still seen (T >= 1e-4); rays needing more are rendered but not scored
 
 
 def training_frames(run):
@@ -44,8 +45,9 @@ def training_frames(run):
                        background=d.background, progress=False)
 
 
-def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, seed: int = 0):
-    """A jitted step(state, step, lr) -> (state, mse, rays scored) on `batch` random training pixels."""
+def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_budget: int | None, seed: int = 0):
+    """A jitted step(state, step, lr, aux, index) -> (state, mse, rays scored) on `batch` random training
+    pixels: params <- params - lr * direction, the direction from `optimizer` (Adam's)."""
     table = {k: jnp.asarray(v) for k, v in ray_table(data.cameras).items()}
     images, poses = jnp.asarray(data.images), jnp.asarray(data.poses)
     n, h, w = images.shape[:3]
@@ -60,16 +62,15 @@ def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, seed:
         target = images[img, i, j]
 
         def loss_fn(p):
-            out = model.render_rays({"field": {**p, "index": index}}, aux, o, d, budget)
+            out = model.render_rays({"field": {**p, "index": index}}, aux, o, d, budget, live_budget)
             mask = out["complete"].astype(jnp.float32)
             mse = jnp.sum(mask[:, None] * (out["rgb"] - target) ** 2) / (3.0 * jnp.maximum(jnp.sum(mask), 1.0))
             return mse, jnp.sum(mask)
 
         (mse, scored), grads = jax.value_and_grad(loss_fn, has_aux=True)(state["params"])
-        opt_state = state["opt"]
-        opt_state.hyperparams["learning_rate"] = lr
-        updates, opt_state = optimizer.update(grads, opt_state, state["params"])
-        return {"params": optax.apply_updates(state["params"], updates), "opt": opt_state}, mse, scored
+        direction, opt_state = optimizer.update(grads, state["opt"], state["params"])
+        params = jax.tree_util.tree_map(lambda p, u: p - lr * u, state["params"], direction)
+        return {"params": params, "opt": opt_state}, mse, scored
 
     jitted = jax.jit(step_fn, donate_argnums=(0,))
     return lambda state, step, lr, aux, index: jitted(state, step, jnp.float32(lr), aux, index)
@@ -85,8 +86,8 @@ def finetune(run, baked: Baked, density: np.ndarray, coeff: np.ndarray, minutes:
     params = {"density": jnp.asarray(density, jnp.float32), "sh": jnp.asarray(coeff, jnp.float32)}
     index = jnp.asarray(baked.index)
     data = training_frames(run)
-    optimizer = optax.inject_hyperparams(optax.adam)(learning_rate=LR)
-    step = make_step(model, data, optimizer, BATCH_RAYS, BATCH_RAYS * SAMPLES_PER_RAY)
+    optimizer = optax.scale_by_adam()  # Adam's direction; the step applies the decaying learning rate
+    step = make_step(model, data, optimizer, BATCH_RAYS, BATCH_RAYS * SAMPLES_PER_RAY, BATCH_RAYS * LIVE_PER_RAY)
     state = {"params": params, "opt": optimizer.init(params)}
 
     budget_s = 60.0 * minutes

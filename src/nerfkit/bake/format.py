@@ -23,8 +23,9 @@ interpolation never crosses bricks; this is what a GPU's filtered 3D texture loo
 
 Empty bricks and points outside the box have sigma = 0. A ray o + t d (|d| need not be 1)
 marches from t_lo = max(near, box entry) to t_hi = min(far, box exit) at t-step "step":
-sample k sits at t_lo + (k + 1/2) step with delta_k = (min(t_lo + (k+1) step, t_hi) -
-(t_lo + k step)) |d|, and the samples composite as
+interval k is [t_lo + k step, min(t_lo + (k+1) step, t_hi)] (k = 0, 1, ... while it starts
+before t_hi), its sample sits at the interval's midpoint, delta_k = its length times |d|, and
+the samples composite as
 
     w_k = T_k (1 - exp(-sigma_k delta_k)),  T_k = prod_{j<k} exp(-sigma_j delta_j),
     rgb = sum_k w_k rgb_k + (1 - sum_k w_k) background,
@@ -86,12 +87,27 @@ def quantise(coeff: np.ndarray) -> tuple[np.ndarray, list]:
     return q, np.stack([lo, hi], 1).astype(float).tolist()
 
 
-def save_baked(out: Path, baked: Baked) -> None:
+def check_out(out: Path) -> None:
+    """`out` must be a new or empty folder, or hold a baked scene (which a new bake replaces)."""
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out}: is a file; give a folder for the baked scene")
+    if out.is_dir() and any(out.iterdir()) and not (out / "baked.json").exists():
+        raise ConfigError(f"--out {out}: folder is not empty and holds no baked scene; pick a new or empty folder")
+
+
+def save_baked(out: Path, baked: Baked) -> None:
+    """Write the arrays, then baked.json last (a folder without it is not a baked scene, so an
+    interrupted write is never mistaken for a complete one)."""
+    out = Path(out)
+    check_out(out)
     out.mkdir(parents=True, exist_ok=True)
+    (out / "baked.json").unlink(missing_ok=True)
     for name in ("index", "density", "sh"):
         np.save(out / f"{name}.npy", getattr(baked, name), allow_pickle=False)
-    (out / "baked.json").write_text(json.dumps(baked.meta, indent=2))
+    tmp = out / "baked.json.tmp"
+    tmp.write_text(json.dumps(baked.meta, indent=2))
+    tmp.replace(out / "baked.json")
 
 
 def load_baked(path: Path) -> Baked:

@@ -9,13 +9,14 @@ trilinear look-up of format.py with the spherical-harmonics colour. What this re
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from nerfkit import occupancy
 from nerfkit.bake.format import Baked, lookup
 from nerfkit.encoding.sh import sh_encode
-from nerfkit.render import packed_composite, packed_compositing_weights
+from nerfkit.render import packed_composite, packed_compositing_weights, segment_starts, segmented_cumsum
 
 
 class BakedField:
@@ -71,20 +72,34 @@ class BakedModel:
         return occupancy.box_candidates(o, d, self.near, self.far, self.field.bound, self.step_size,
                                         self.march_steps, key, index)
 
-    def render_rays(self, params, aux, o, d, budget: int) -> dict:
-        """Differentiable render of rays o, d [R, 3] at the reference renderer's sample positions, packed
-        into `budget` samples (occupancy.pack_candidates); rays whose samples do not all fit are marked
-        incomplete (out["complete"] [R]) and must not be scored. Used by finetune.py."""
+    def render_rays(self, params, aux, o, d, budget: int, live_budget: int | None = None) -> dict:
+        """Differentiable render of rays o, d [R, 3] at the reference renderer's sample positions (used by
+        finetune.py). The samples in stored bricks are packed into `budget` (occupancy.pack_candidates);
+        with `live_budget`, a first pass of density alone finds the samples still seen, T_i >= 1e-4 (a
+        prefix of each ray: T falls along it), and only those are looked up again, with colour and
+        gradients, packed into `live_budget` (the others have weight 0 either way). Rays whose samples do
+        not fit are marked incomplete (out["complete"] [R]) and must not be scored."""
+        n = o.shape[0]
         t0, t1, cand = self.candidates(o, d)
         m = occupancy.pack_candidates(aux, o, d, t0, t1, cand, self.occ, budget)
-        ray = m["ray_idx"]
-        valid = m["valid"] & m["complete"][ray]
+        ray, complete = m["ray_idx"], m["complete"]
+        valid = m["valid"] & complete[ray]
         norm = jnp.linalg.norm(d, axis=-1)
         t_mid = 0.5 * (m["t_start"] + m["t_end"])
+        delta = (m["t_end"] - m["t_start"]) * norm[ray]
+        if live_budget is not None:
+            sigma = jax.lax.stop_gradient(self.field.density(params["field"], o[ray] + t_mid[:, None] * d[ray]))
+            tau = jnp.where(valid, sigma * delta, 0.0)
+            live = valid & (jnp.exp(-(segmented_cumsum(tau, segment_starts(ray)) - tau)) >= self.MIN_TRANSMITTANCE)
+            complete = complete & (jnp.cumsum(jax.ops.segment_sum(live.astype(jnp.int32), ray, n)) <= live_budget)
+            (sel,) = jnp.nonzero(live, size=live_budget, fill_value=0)
+            kept = jnp.arange(live_budget) < jnp.sum(live)
+            ray = jnp.where(kept, ray[sel], n - 1)
+            t_mid, delta = t_mid[sel], jnp.where(kept, delta[sel], 0.0)
+            valid = kept & complete[ray]
         rgb, sigma = self.field(params["field"], o[ray] + t_mid[:, None] * d[ray], d[ray] / norm[ray][:, None])
-        w = packed_compositing_weights(sigma, (m["t_end"] - m["t_start"]) * norm[ray], ray, valid,
-                                       self.MIN_TRANSMITTANCE)
-        out = packed_composite(w, rgb, t_mid, ray, o.shape[0], self.background, self.far)
-        out["complete"] = m["complete"]
+        w = packed_compositing_weights(sigma, delta, ray, valid, self.MIN_TRANSMITTANCE)
+        out = packed_composite(w, rgb, t_mid, ray, n, self.background, self.far)
+        out["complete"] = complete
         out["n_samples"] = jnp.sum(valid)
         return out
