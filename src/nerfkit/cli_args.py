@@ -162,8 +162,9 @@ class BakeArgs:
     """A run folder written by `nerfkit train` (fast field, bounded scene)."""
     out: Path
     """Folder to write the baked scene into (created; an existing baked scene there is replaced)."""
-    resolution: int = 256
-    """Grid cells per axis of the scene box (a multiple of 8)."""
+    resolution: int | None = None
+    """Grid cells per axis of the scene box (a multiple of 8); default: 256, or the finest of 224, 192, ...
+    whose bake fits --max-mb."""
     sh_bands: int = 2
     """Spherical-harmonics bands of the view-dependent colour: 1 (diffuse), 2 or 3 (3 doubles the size)."""
     finetune_minutes: float = 2.0

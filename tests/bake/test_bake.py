@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from nerfkit.bake.bake import bake_run, fibonacci_directions
+from nerfkit.bake.bake import bake_run, baked_mb, fibonacci_directions
 from nerfkit.bake.format import BRICK, FORMAT, Baked, load_baked, lookup, quantise, save_baked
 from nerfkit.bake.model import BakedModel
 from nerfkit.cameras import camera_rays
@@ -111,7 +111,8 @@ def test_eval_baked_through_the_cli(baked, capsys):
     (["eval", "{run}", "--split", "test", "--baked", "{tmp}"], "not a baked scene"),
     (["bake", "{run}", "--out", "{run}"], "folder is not empty and holds no baked scene"),
     (["bake", "{run}", "--out", "{tmp}/b", "--sh-bands", "4"], "--sh-bands must be 1, 2 or 3"),
-    (["bake", "{run}", "--out", "{tmp}/b", "--resolution", "64", "--max-mb", "0.5", "--no-progress"], "over --max-mb 0.5"),
+    (["bake", "{run}", "--out", "{tmp}/b", "--resolution", "64", "--max-mb", "0.5", "--no-progress"],
+     "over --max-mb 0.5"),
 ])
 def test_bad_bake_arguments_are_one_line_errors(procedural_run, tmp_path, capsys, args, match):
     argv = [a.format(run=procedural_run[0], tmp=tmp_path) for a in args]
@@ -149,3 +150,12 @@ def test_training_render_matches_the_reference_renderer(baked):
         done = np.asarray(out["complete"])
         assert done.mean() == 1.0 if live != 16 * len(o) else 0.2 < done.mean() < 1.0  # a small budget drops rays
         np.testing.assert_allclose(np.asarray(out["rgb"])[done], np.asarray(ref)[done], atol=1e-4)
+
+
+def test_default_resolution_is_the_finest_that_fits_the_budget(procedural_run, tmp_path):
+    """Without --resolution, a bake that would not fit --max-mb at 256^3 steps down to a coarser grid."""
+    info = bake_run(procedural_run[0], tmp_path / "b", max_mb=3.0, progress=False)
+    b = load_baked(tmp_path / "b")
+    assert b.resolution < 256 and info["mb"] <= 3.0
+    assert abs(b.nbytes() / 2**20 - info["mb"]) < 1e-6
+    assert baked_mb(info["bricks"], b.resolution, 2) == info["mb"]

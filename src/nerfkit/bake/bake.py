@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
+from nerfkit.bake.finetune import finetune, training_frames
 from nerfkit.bake.format import BRICK, FORMAT, LOG_SIGMA_MIN, Baked, check_out, quantise, save_baked
 from nerfkit.bake.web import write_web
 from nerfkit.encoding.sh import sh_encode
@@ -30,6 +31,7 @@ from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.export.run import load_run
 
 N_DIRECTIONS = 32
+AUTO_RESOLUTIONS = (256, 224, 192, 160, 128, 96, 64)
 BRICKS_PER_CALL = 16
 
 
@@ -70,16 +72,38 @@ def occupied_bricks(run, resolution: int) -> np.ndarray:
     return allb[keep]
 
 
-def sample_field(run, resolution: int, sh_bands: int, progress: bool = True):
-    """The field at the cell vertices of its occupied bricks: (bricks int [K, 3], log sigma [K, S, S, S],
-    SH coefficients [K, S, S, S, 3 * sh_bands^2]) as float32 arrays, dead bricks dropped."""
-    if run.cfg.field.kind != "ngp" or run.model.unbounded:
-        raise ConfigError(f"{run.run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a "
-                          f"masked capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")
+def start_view(poses: np.ndarray) -> dict:
+    """Where the page's orbit starts, from the training poses c2w [N, 4, 4]: "up", the mean of the
+    cameras' up axes (unit), and "eye", the first training camera's position."""
+    up = poses[:, :3, 1].mean(0)
+    return {"up": (up / max(np.linalg.norm(up), 1e-9)).tolist(), "eye": poses[0, :3, 3].tolist()}
+
+
+def baked_mb(n_bricks: int, resolution: int, sh_bands: int) -> float:
+    """Size in MB of a bake with n_bricks bricks: int32 index, float16 density, uint8 coefficients."""
+    return ((resolution // BRICK) ** 3 * 4 + n_bricks * (BRICK + 1) ** 3 * (2 + 3 * sh_bands**2)) / 2**20
+
+
+def choose_grid(run, resolution: int | None, sh_bands: int, max_mb: float, log=print):
+    """(resolution, occupied bricks [K, 3]): the one asked for, or by default the finest of AUTO_RESOLUTIONS
+    whose occupied bricks fit max_mb (an upper bound: bricks the field leaves empty are dropped later)."""
+    for r in [resolution] if resolution is not None else AUTO_RESOLUTIONS:
+        bricks = occupied_bricks(run, r)
+        if not len(bricks):
+            raise NerfkitError(f"{run.run_dir}: the occupancy grid is empty; nothing to bake (train longer)")
+        if resolution is not None or baked_mb(len(bricks), r, sh_bands) <= max_mb:
+            if r != AUTO_RESOLUTIONS[0] and resolution is None:
+                log(f"resolution {r}: the finest grid whose occupied bricks fit --max-mb {max_mb:g}")
+            return r, bricks
+    raise NerfkitError(f"{run.run_dir}: even a {AUTO_RESOLUTIONS[-1]}^3 bake would exceed --max-mb {max_mb:g}; "
+                       f"raise --max-mb or lower --sh-bands")
+
+
+def sample_field(run, bricks: np.ndarray, resolution: int, sh_bands: int, progress: bool = True):
+    """The field at the cell vertices of bricks [K, 3]: (bricks int [K', 3], log sigma [K', S, S, S],
+    SH coefficients [K', S, S, S, 3 * sh_bands^2]) as float32 arrays, bricks below the occupancy
+    threshold everywhere dropped."""
     model, p = run.model, run.params["field"]
-    bricks = occupied_bricks(run, resolution)
-    if not len(bricks):
-        raise NerfkitError(f"{run.run_dir}: the occupancy grid is empty; nothing to bake (train longer)")
     dirs = jnp.asarray(fibonacci_directions(N_DIRECTIONS))
     pinv = jnp.asarray(np.linalg.pinv(np.asarray(sh_encode(dirs, sh_bands))))  # [SH, D]
     emb = model.field.embedding(p, None)
@@ -108,24 +132,30 @@ def sample_field(run, resolution: int, sh_bands: int, progress: bool = True):
     return bricks[alive], dens[alive], sh[alive]
 
 
-def bake_run(run_dir: Path, out: Path, resolution: int = 256, sh_bands: int = 2, finetune_minutes: float = 0.0,
-             max_mb: float = 50.0, progress: bool = True, log=print, finetune_steps: int | None = None) -> dict:
+def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: int = 2,
+             finetune_minutes: float = 0.0, max_mb: float = 50.0, progress: bool = True, log=print,
+             finetune_steps: int | None = None) -> dict:
     """Bake a fast-field run into `out` (format.py); returns its summary (bricks, size, seconds).
-    finetune_steps: fine-tune for that many steps instead of finetune_minutes (tests)."""
-    if resolution % BRICK or not 2 * BRICK <= resolution <= 1024:
+    resolution None: the finest of AUTO_RESOLUTIONS that fits max_mb. finetune_steps: fine-tune for
+    that many steps instead of finetune_minutes (tests)."""
+    if resolution is not None and (resolution % BRICK or not 2 * BRICK <= resolution <= 1024):
         raise ConfigError(f"--resolution must be a multiple of {BRICK} between {2 * BRICK} and 1024 (got {resolution})")
     if not 1 <= sh_bands <= 3:
         raise ConfigError(f"--sh-bands must be 1, 2 or 3 (got {sh_bands})")
     check_out(out)
     t0 = time.perf_counter()
     run = load_run(run_dir)
-    bricks, dens, sh = sample_field(run, resolution, sh_bands, progress)
+    if run.cfg.field.kind != "ngp" or run.model.unbounded:
+        raise ConfigError(f"{run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a "
+                          f"masked capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")
+    resolution, bricks = choose_grid(run, resolution, sh_bands, max_mb, log)
+    bricks, dens, sh = sample_field(run, bricks, resolution, sh_bands, progress)
     if not len(bricks):
         raise NerfkitError(f"{run_dir}: no baked brick reaches the occupancy threshold; nothing to bake (train longer)")
     m = resolution // BRICK
     index = np.full((m, m, m), -1, np.int32)
     index[bricks[:, 0], bricks[:, 1], bricks[:, 2]] = np.arange(len(bricks), dtype=np.int32)
-    mb = (index.nbytes + dens.size * 2 + sh.size) / 2**20
+    mb = baked_mb(len(bricks), resolution, sh_bands)
     if mb > max_mb:
         raise NerfkitError(f"the bake would take {mb:.1f} MB, over --max-mb {max_mb:g}; lower --resolution or "
                            f"--sh-bands, or raise --max-mb")
@@ -134,12 +164,11 @@ def bake_run(run_dir: Path, out: Path, resolution: int = 256, sh_bands: int = 2,
             "step": min(model.step_size, run.bound / resolution), "near": float(model.near),
             "far": float(model.far), "background": run.cfg.data.background, "transform": run.transform.tolist(),
             "run": str(Path(run_dir).resolve()), "step_trained": run.step, "bricks": int(len(bricks))}
-    tuned = None
+    data = training_frames(run)
+    meta.update(start_view(data.poses))
     if finetune_minutes > 0 or finetune_steps:
-        from nerfkit.bake.finetune import finetune
-
         dens, sh, tuned = finetune(run, Baked(meta, index, dens, sh), dens, sh, finetune_minutes, progress, log,
-                                   finetune_steps)
+                                   finetune_steps, data)
         meta["finetune"] = tuned
     q, meta["sh_range"] = quantise(sh)
     baked = Baked(meta, index, dens.astype(np.float16), q)
@@ -148,4 +177,4 @@ def bake_run(run_dir: Path, out: Path, resolution: int = 256, sh_bands: int = 2,
     seconds = time.perf_counter() - t0
     log(f"baked {len(bricks)} bricks of {BRICK}^3 cells ({len(bricks) / m**3:.1%} of the {resolution}^3 grid) into "
         f"{out}: {mb:.1f} MB, {seconds:.0f} s")
-    return {"bricks": int(len(bricks)), "mb": mb, "seconds": seconds, "out": str(out)}
+    return {"bricks": int(len(bricks)), "resolution": resolution, "mb": mb, "seconds": seconds, "out": str(out)}

@@ -77,15 +77,16 @@ def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_
 
 
 def finetune(run, baked: Baked, density: np.ndarray, coeff: np.ndarray, minutes: float, progress: bool = True,
-             log=print, max_steps: int | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+             log=print, max_steps: int | None = None, data=None) -> tuple[np.ndarray, np.ndarray, dict]:
     """Optimised (log-density [K, S, S, S], coefficients [K, S, S, S, C]) float32, and a summary
     (steps, seconds, first and last batch PSNR). `baked` gives the grid (its density/sh are unused).
-    max_steps: stop after that many steps instead (the learning rate then decays over the steps)."""
+    max_steps: stop after that many steps instead (the learning rate then decays over the steps).
+    data: the run's training frames (training_frames(run); loaded when not given)."""
     model = BakedModel(baked)
     aux = model.occupancy(baked.index)
     params = {"density": jnp.asarray(density, jnp.float32), "sh": jnp.asarray(coeff, jnp.float32)}
     index = jnp.asarray(baked.index)
-    data = training_frames(run)
+    data = training_frames(run) if data is None else data
     optimizer = optax.scale_by_adam()  # Adam's direction; the step applies the decaying learning rate
     step = make_step(model, data, optimizer, BATCH_RAYS, BATCH_RAYS * SAMPLES_PER_RAY, BATCH_RAYS * LIVE_PER_RAY)
     state = {"params": params, "opt": optimizer.init(params)}

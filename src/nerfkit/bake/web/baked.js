@@ -363,11 +363,19 @@ ${lines.join("\n")}
   const scale = (a, s) => a.map((v) => v * s);
   const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
   const normalize = (a) => scale(a, 1 / Math.hypot(...a));
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 
-  /** Orbit about a target with +z up: azimuth / elevation in radians, distance in scene units. */
+  /** Orbit about a target: azimuth / elevation in radians about the scene's up axis (meta.up, the
+   *  training cameras' mean up; +z when absent), distance in scene units. It starts at meta.eye (the
+   *  first training camera's position) when given, else at azimuth -45 deg, elevation 30 deg, 2.7 B. */
   class Orbit {
-    constructor(bound) {
-      this.bound = bound;
+    constructor(meta) {
+      this.bound = meta.bound;
+      this.up = normalize(meta.up || [0, 0, 1]);
+      const x = Math.abs(this.up[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
+      this.e1 = normalize(sub(x, scale(this.up, dot(x, this.up))));
+      this.e2 = cross(this.up, this.e1);
+      this.eye = meta.eye;
       this.reset();
     }
 
@@ -376,14 +384,21 @@ ${lines.join("\n")}
       this.azimuth = -0.25 * Math.PI;
       this.elevation = Math.PI / 6;
       this.distance = 2.7 * this.bound;
+      if (this.eye && Math.hypot(...this.eye) > 1e-6) {
+        const v = normalize(this.eye);
+        this.distance = Math.hypot(...this.eye);
+        this.elevation = Math.asin(Math.max(-1, Math.min(1, dot(v, this.up))));
+        this.azimuth = Math.atan2(dot(v, this.e2), dot(v, this.e1));
+      }
     }
 
     /** Camera-to-world [4][4] rows (OpenGL: the camera looks down its -z, +y up). */
     c2w() {
       const ce = Math.cos(this.elevation);
-      const dir = [ce * Math.cos(this.azimuth), ce * Math.sin(this.azimuth), Math.sin(this.elevation)];
+      const dir = add(add(scale(this.e1, ce * Math.cos(this.azimuth)), scale(this.e2, ce * Math.sin(this.azimuth))),
+                      scale(this.up, Math.sin(this.elevation)));
       const eye = add(this.target, scale(dir, this.distance));
-      const back = dir, right = normalize(cross([0, 0, 1], back)), up = cross(back, right);
+      const back = dir, right = normalize(cross(this.up, back)), up = cross(back, right);
       return [0, 1, 2].map((i) => [right[i], up[i], back[i], eye[i]]).concat([[0, 0, 0, 1]]);
     }
 
@@ -546,7 +561,7 @@ ${lines.join("\n")}
     if (!gl) throw new Error("this browser has no WebGL2 (try another browser, or enable hardware acceleration)");
     const scene = await loadScene();
     const renderer = new Renderer(gl, scene);
-    const orbit = new Orbit(scene.meta.bound);
+    const orbit = new Orbit(scene.meta);
     const mb = scene.bytes / 2 ** 20;
     $("scene").textContent = `· ${scene.bricks} bricks · ${scene.meta.resolution}³ · ${mb.toFixed(1)} MB`;
     showStatus("");
@@ -589,7 +604,7 @@ ${lines.join("\n")}
     /** The default orbit camera {c2w, fx, fy, cx, cy, width, height} for a width x height image. */
     async defaultCamera(width, height) {
       const {scene} = await started;
-      return new Orbit(scene.meta.bound).camera(width, height);
+      return new Orbit(scene.meta).camera(width, height);
     },
 
     /** The on-screen view's orbit: {c2w, target, distance, azimuth, elevation}. */
