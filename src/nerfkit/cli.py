@@ -23,6 +23,7 @@ from nerfkit.cli_args import (
     ExportMeshArgs,
     ExportPointcloudArgs,
     ExperimentArgs,
+    MakeMultiscaleArgs,
     MakeSceneArgs,
     ProcessArgs,
     RenderArgs,
@@ -163,6 +164,16 @@ def cmd_bake(argv: list[str]) -> int:
     return 0
 
 
+def cmd_make_multiscale(argv: list[str]) -> int:
+    from nerfkit.data.multiscale import make_multiscale
+
+    a = tyro.cli(MakeMultiscaleArgs, args=argv, prog="nerfkit make-multiscale")
+    info = make_multiscale(a.data_dir, a.out, a.levels, a.progress)
+    print(f"wrote {info['images']} images ({', '.join(info['splits'])} at {a.levels} scales) and metadata.json to "
+          f"{a.out}; evaluate every scale with nerfkit eval RUN --data {a.out} --split SPLIT")
+    return 0
+
+
 def cmd_make_scene(argv: list[str]) -> int:
     from nerfkit.data.scene import make_scene
 
@@ -258,6 +269,8 @@ def cmd_report(argv: list[str]) -> int:
 COMMANDS = {
     "demo": (cmd_demo, "generate the procedural scene, train, evaluate and render an orbit (a few minutes)"),
     "make-scene": (cmd_make_scene, "write the procedural demo scene in Blender format"),
+    "make-multiscale": (cmd_make_multiscale, "a Blender scene at 1, 1/2, 1/4, 1/8 resolution (mip-NeRF's multiscale "
+                                             "layout): nerfkit make-multiscale DATA --out DATA_MS"),
     "process-data": (cmd_process_data, "poses from photos or a video (pycolmap SfM): nerfkit process-data images DIR "
                                        "--out DATA [--masks DIR]"),
     "train": (cmd_train, "train a radiance field: nerfkit train DATA_DIR --out RUN_DIR [--preset ngp|seed|nerf|demo]"),

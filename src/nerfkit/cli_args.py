@@ -217,6 +217,21 @@ class MakeSceneArgs:
 
 
 @dataclasses.dataclass
+class MakeMultiscaleArgs:
+    """Write a Blender-format scene at full, 1/2, 1/4, 1/8 resolution in mip-NeRF's multiscale layout
+    (metadata.json with per-frame width, height, focal and lossmult; box-averaged images)."""
+
+    data_dir: tyro.conf.Positional[Path]
+    """A Blender-format scene (transforms_{split}.json + RGBA PNGs)."""
+    out: Path
+    """New folder for the multiscale scene."""
+    levels: int = 4
+    """Number of scales, each half the size of the one before."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
 class DemoArgs:
     """Generate the procedural scene, train on it, evaluate on its test views, render an orbit video."""
 

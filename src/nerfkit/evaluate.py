@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import re
 import time
 from pathlib import Path
@@ -13,7 +12,8 @@ from tqdm.auto import tqdm
 
 from nerfkit.cameras import Camera, ellipse_orbit_poses, orbit_poses
 from nerfkit.data.loader import load_frames, read_capture, scene_cameras
-from nerfkit.errors import ConfigError, DataError
+from nerfkit.data.multiscale import level_specs
+from nerfkit.errors import ConfigError
 from nerfkit.inference import make_renderer
 from nerfkit.metrics import psnr, ssim
 from nerfkit.train import load_trained
@@ -71,33 +71,29 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     data_dir = run_data_dir(run_dir, data_dir)
     d = cfg.data
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
-    data = load_frames(cap, split, downscale=downscale if downscale is not None else d.downscale,
-                       target_width=None if downscale is not None else d.target_width, background=d.background)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     name = f"eval_{split_slug(split)}" + ("_baked" if baked is not None else "")
-    out_dir = run_dir / name
-    per_view, renders = [], []
-    ids = list(range(0, len(data), every))
-    t0 = time.perf_counter()
-    for k in tqdm(ids, desc="eval", disable=not progress, unit="view"):
-        r = renderer.render_camera(params, aux, data.poses[k], data.cameras[k])
-        per_view.append({"view": k, "name": data.names[k], "psnr": psnr(r["rgb"], data.images[k]),
-                         "ssim": ssim(r["rgb"], data.images[k])})
-        renders.append(r)
-    seconds = time.perf_counter() - t0
-    depth_imgs, _ = colorize_renders(renders, background_rgb(cfg.data.background))
-    for k, r, depth_img in zip(ids, renders, depth_imgs) if write else ():
-        save_png(out_dir / f"view_{k:03d}_rgb.png", r["rgb"])
-        save_png(out_dir / f"view_{k:03d}_depth.png", depth_img)
-        save_png(out_dir / f"view_{k:03d}.png", side_by_side([data.images[k], r["rgb"], depth_img]))
-        np.save(out_dir / f"view_{k:03d}_depth.npy", (r["depth"] / data.scale).astype(np.float32), allow_pickle=False)
-    result = {
-        "split": split, "step": step, "height": data.height, "width": data.width, "n_views": len(ids),
-        "psnr": float(np.mean([v["psnr"] for v in per_view])),
-        "ssim": float(np.mean([v["ssim"] for v in per_view])),
-        "seconds_per_view": seconds / max(len(ids), 1),
-        "per_view": per_view,
-    }
+    levels = level_specs(cap, split)
+    bg = background_rgb(cfg.data.background)
+
+    def score(spec, out_dir, ds, tw):
+        data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background)
+        return score_views(renderer, params, aux, data, every, progress, out_dir if write else None, bg), data
+
+    if levels is None:
+        res, data = score(split, run_dir / name, downscale if downscale is not None else d.downscale,
+                          None if downscale is not None else d.target_width)
+        result = {"split": split, "step": step, "height": data.height, "width": data.width, **res}
+    else:  # multiscale data: every level at its own size (--downscale shrinks them all further)
+        scales = []
+        for lvl, spec in levels:
+            res, data = score(spec, run_dir / name / f"d{lvl}", downscale or 1, None)
+            scales.append({"level": lvl, "spec": spec, "height": data.height, "width": data.width, **res})
+        result = {"split": split, "step": step, "scales": scales, "n_views": sum(r["n_views"] for r in scales),
+                  "psnr": float(np.mean([r["psnr"] for r in scales])),
+                  "ssim": float(np.mean([r["ssim"] for r in scales])),
+                  "seconds_per_view": float(np.mean([r["seconds_per_view"] for r in scales])),
+                  "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
     if appearance_note(cfg):
         result["appearance"] = appearance_note(cfg)
     if baked is not None:
@@ -107,10 +103,36 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     return result
 
 
+def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir: Path | None, bg) -> dict:
+    """PSNR / SSIM of every `every`-th view of `data` (per view and mean); the renders (rgb, depth,
+    rgb beside ground truth, depth .npy) go to out_dir when given."""
+    per_view, renders = [], []
+    ids = list(range(0, len(data), every))
+    t0 = time.perf_counter()
+    for k in tqdm(ids, desc="eval", disable=not progress, unit="view"):
+        r = renderer.render_camera(params, aux, data.poses[k], data.cameras[k])
+        per_view.append({"view": k, "name": data.names[k], "psnr": psnr(r["rgb"], data.images[k]),
+                         "ssim": ssim(r["rgb"], data.images[k])})
+        renders.append(r)
+    seconds = time.perf_counter() - t0
+    depth_imgs, _ = colorize_renders(renders, bg)
+    for k, r, depth_img in zip(ids, renders, depth_imgs) if out_dir is not None else ():
+        save_png(out_dir / f"view_{k:03d}_rgb.png", r["rgb"])
+        save_png(out_dir / f"view_{k:03d}_depth.png", depth_img)
+        save_png(out_dir / f"view_{k:03d}.png", side_by_side([data.images[k], r["rgb"], depth_img]))
+        np.save(out_dir / f"view_{k:03d}_depth.npy", (r["depth"] / data.scale).astype(np.float32), allow_pickle=False)
+    return {"n_views": len(ids), "psnr": float(np.mean([v["psnr"] for v in per_view])),
+            "ssim": float(np.mean([v["ssim"] for v in per_view])), "seconds_per_view": seconds / max(len(ids), 1),
+            "per_view": per_view}
+
+
 def format_eval_table(result: dict) -> str:
     lines = [f"{'view':>5}  {'name':<28} {'PSNR':>7} {'SSIM':>7}"]
     for v in result["per_view"]:
         lines.append(f"{v['view']:>5}  {v['name'][-28:]:<28} {v['psnr']:7.2f} {v['ssim']:7.4f}")
+    for r in result.get("scales", ()):
+        what = f"(level {r['level']}: {r['n_views']} views, {r['width']}x{r['height']})"
+        lines.append(f"{'d' + str(r['level']):>5}  {what:<28} {r['psnr']:7.2f} {r['ssim']:7.4f}")
     lines.append(f"{'mean':>5}  {'(' + str(result['n_views']) + ' views, step ' + str(result['step']) + ')':<28} "
                  f"{result['psnr']:7.2f} {result['ssim']:7.4f}")
     if result.get("appearance"):

@@ -17,8 +17,13 @@ def psnr(pred: np.ndarray, target: np.ndarray) -> float:
 
 def ssim(pred: np.ndarray, target: np.ndarray) -> float:
     """SSIM of [H, W, 3] images in [0, 1]: 11x11 Gaussian window, sigma 1.5 (Wang et al. 2004),
-    the variant reported by NeRF papers."""
+    the variant reported by NeRF papers; images smaller than 11 px (the 1/8 scale of a small
+    multiscale scene) use the largest odd window that fits, at least 3."""
+    side = min(np.shape(pred)[:2])
+    if side < 3:
+        raise ValueError(f"SSIM needs images of at least 3x3 pixels (got {np.shape(pred)[:2]})")
+    win = 11 if side >= 11 else side - (1 - side % 2)
     return float(structural_similarity(
         np.asarray(pred, np.float64), np.asarray(target, np.float64), data_range=1.0, channel_axis=-1,
-        gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
+        gaussian_weights=True, sigma=1.5, use_sample_covariance=False, win_size=win,
     ))

@@ -100,6 +100,8 @@ class Capture:
     source: dict[str, str] = field(default_factory=dict)
     hint: str | None = None
     """"bounded" when the files say the scene fits a box (instant-ngp's aabb_scale 1)."""
+    levels: dict[str, int] = field(default_factory=dict)
+    """Splits holding L > 1 levels of the same views, level-major (multiscale.py): a slice selects views."""
 
     def where(self, split: str) -> str:
         return self.source.get(split, str(self.root))
@@ -129,7 +131,9 @@ class Capture:
                 raise DataError(f"{self.root}: no split {item.split!r} in this {self.format} capture (it has: {have}); "
                                 f"fix the split spec")
             frames = self.splits[item.split]
-            out += [frames[k] for k in select(self.where(item.split), item, len(frames))]
+            n_levels = self.levels.get(item.split, 1)
+            n = len(frames) // n_levels
+            out += [frames[lvl * n + k] for lvl in range(n_levels) for k in select(self.where(item.split), item, n)]
         return out
 
 

@@ -4,6 +4,7 @@ masks, shrink them, and normalise the poses.
 Formats (`--format`, or detected from what the folder holds, in this order):
 
     blender     transforms_{split}.json (+ RGBA PNGs)          data/blender.py
+                or mip-NeRF's multiscale metadata.json          data/multiscale.py
     nerfstudio  transforms.json (nerfstudio / instant-ngp)       data/nerfstudio.py
     llff        poses_bounds.npy + images/                       data/llff.py
     colmap      sparse/0/{cameras,images,points3D}.{bin,txt}     data/colmap.py
@@ -21,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.data import blender, colmap, llff, nerfstudio
+from nerfkit.data import blender, colmap, llff, multiscale, nerfstudio
 from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.images import area_downscale, composite, load_mask, read_rgba, resolve_downscale
 from nerfkit.data.normalize import apply_transform, normalizing_transform
@@ -36,7 +37,7 @@ def detect_format(root: Path) -> str:
     root = Path(root)
     if not root.is_dir():
         raise DataError(f"{root}: data folder does not exist")
-    if blender.is_blender(root):
+    if blender.is_blender(root) or multiscale.is_multiscale(root):
         return "blender"
     if (root / "transforms.json").exists():
         return "nerfstudio"
@@ -44,7 +45,8 @@ def detect_format(root: Path) -> str:
         return "llff"
     if colmap.find_model(root) is not None:
         return "colmap"
-    raise DataError(f"{root}: no capture found (looked for transforms_train.json, transforms.json, poses_bounds.npy, "
+    raise DataError(f"{root}: no capture found (looked for transforms_train.json, metadata.json, transforms.json, "
+                    f"poses_bounds.npy, "
                     f"sparse/0/cameras.bin|txt); for a folder of photos run `nerfkit process-data images {root} "
                     f"--out DATA` first")
 
@@ -58,7 +60,9 @@ def read_capture(root: str | Path, spec: str, format: str = "auto", masks: bool 
         raise DataError(f"--format {fmt!r} is not one of auto, {', '.join(FORMATS)}")
     if not root.is_dir():
         raise DataError(f"{root}: data folder does not exist")
-    if fmt == "blender":
+    if fmt == "blender" and multiscale.is_multiscale(root) and not blender.is_blender(root):
+        cap = multiscale.read_multiscale(root)
+    elif fmt == "blender":
         cap = blender.read_blender(root, spec)
     elif fmt == "nerfstudio":
         cap = nerfstudio.read_nerfstudio(root, holdout_every, masks)

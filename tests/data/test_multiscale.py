@@ -1,0 +1,100 @@
+"""mip-NeRF's multiscale layout: make-multiscale, the loader's per-frame intrinsics, eval per scale."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from nerfkit.cameras import camera_rays
+from nerfkit.cli import main
+from nerfkit.data.images import area_downscale
+from nerfkit.data.loader import load_frames, read_capture
+from nerfkit.data.multiscale import make_multiscale
+from nerfkit.data.scene import make_scene
+
+LEVELS = 3
+
+
+@pytest.fixture(scope="module")
+def multiscale(tmp_path_factory):
+    root = tmp_path_factory.mktemp("ms")
+    src = make_scene(root / "scene", size=32, n_train=2, n_val=1, n_test=2)
+    info = make_multiscale(src, root / "ms", LEVELS, progress=False)
+    return src, root / "ms", info
+
+
+def test_metadata_has_mip_nerf_layout(multiscale):
+    src, ms, info = multiscale
+    meta = json.loads((ms / "metadata.json").read_text())
+    assert sorted(meta) == ["test", "train", "val"] and info["images"] == 5 * LEVELS
+    t = meta["test"]
+    full = json.loads((src / "transforms_test.json").read_text())
+    focal = 0.5 * 32 / np.tan(0.5 * full["camera_angle_x"])
+    assert t["label"] == [0, 0, 1, 1, 2, 2]
+    assert t["width"] == t["height"] == [32, 32, 16, 16, 8, 8]
+    np.testing.assert_allclose(t["focal"], [focal, focal, focal / 2, focal / 2, focal / 4, focal / 4], rtol=1e-6)
+    assert t["lossmult"] == [1.0, 1.0, 4.0, 4.0, 16.0, 16.0]
+    np.testing.assert_allclose(t["cam2world"][3], full["frames"][1]["transform_matrix"])
+    assert all((ms / p).is_file() for p in t["file_path"])
+
+
+def test_each_level_is_the_box_average_of_the_full_image(multiscale):
+    """Composited on white, a level-l pixel is the mean of the 2^l x 2^l full-resolution pixels it covers
+    (colours were averaged with their alpha), up to 8-bit rounding."""
+    _, ms, _ = multiscale
+    cap = read_capture(ms, "test")
+    full = load_frames(cap, "test_d0").images
+    for lvl in range(1, LEVELS):
+        small = load_frames(cap, f"test_d{lvl}").images
+        want = np.stack([area_downscale(im, 2**lvl) for im in full])
+        assert np.abs(small - want).max() <= 1.5 / 255
+
+
+def test_a_coarse_pixel_sees_the_mean_ray_of_the_pixels_it_averages(multiscale):
+    """Per-frame intrinsics: the ray through the centre of pixel (i, j) at level 1 is the mean of the rays
+    through pixels (2i..2i+1, 2j..2j+1) at level 0 (pinhole rays are affine in pixel coordinates)."""
+    _, ms, _ = multiscale
+    cap = read_capture(ms, "val")
+    frames = cap.frames("val")
+    assert [f.camera.width for f in frames] == [32, 16, 8]
+    o0, d0 = camera_rays(frames[0].c2w, frames[0].camera)
+    o1, d1 = camera_rays(frames[1].c2w, frames[1].camera)
+    mean = d0.reshape(16, 2, 16, 2, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(d1, mean, atol=1e-6)
+    np.testing.assert_allclose(o1[0, 0], o0[0, 0])
+
+
+def test_a_slice_selects_views_at_every_level(multiscale):
+    _, ms, _ = multiscale
+    cap = read_capture(ms, "test")
+    picked = cap.frames("test[1:2]")
+    assert [f.image.name for f in picked] == ["r_1_d0.png", "r_1_d1.png", "r_1_d2.png"]
+    assert [f.image.name for f in cap.frames("test_d2")] == ["r_0_d2.png", "r_1_d2.png"]
+
+
+def test_eval_reports_every_scale(procedural_run, tmp_path, capsys):
+    run = procedural_run[0]
+    scene = json.loads((run / "scene.json").read_text())["data_dir"]
+    make_multiscale(scene, tmp_path / "ms", 4, progress=False)
+    assert main(["eval", str(run), "--data", str(tmp_path / "ms"), "--split", "test"]) == 0
+    res = json.loads((run / "eval_test.json").read_text())
+    assert [s["width"] for s in res["scales"]] == [64, 32, 16, 8]
+    assert res["psnr"] == pytest.approx(np.mean([s["psnr"] for s in res["scales"]]))
+    assert len(res["per_view"]) == 8 and (run / "eval_test" / "d3" / "view_001.png").is_file()
+    assert " d3 " in capsys.readouterr().out
+    (run / "eval_test.json").unlink()  # the run is shared: leave its default eval file as it was
+
+
+@pytest.mark.parametrize("args, match", [
+    (["make-multiscale", "{tmp}", "--out", "{tmp}/ms"], "no transforms_*.json"),
+    (["make-multiscale", "{scene}", "--out", "{scene}"], "exists and is not an empty folder"),
+    (["make-multiscale", "{scene}", "--out", "{tmp}/ms", "--levels", "0"], "--levels must be between 1 and 8"),
+    (["make-multiscale", "{scene}", "--out", "{tmp}/ms", "--levels", "7"], "not divisible by 64"),
+])
+def test_bad_make_multiscale_arguments_are_one_line_errors(multiscale, tmp_path, capsys, args, match):
+    argv = [a.format(tmp=tmp_path, scene=multiscale[0]) for a in args] + ["--no-progress"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip()
+    assert match in err and len(err.splitlines()) == 1
