@@ -77,12 +77,12 @@ def cmd_train(argv: list[str]) -> int:
 
 
 def cmd_eval(argv: list[str]) -> int:
-    from nerfkit.evaluate import evaluate_run, format_eval_table, split_slug
+    from nerfkit.evaluate import evaluate_run, format_eval_table
 
     a = tyro.cli(EvalArgs, args=argv, prog="nerfkit eval")
     res = evaluate_run(a.run_dir, a.data, a.split, a.downscale, a.every, a.chunk, baked=a.baked)
     print(format_eval_table(res))
-    print(f"wrote {a.run_dir / ('eval_' + split_slug(a.split) + ('_baked' if a.baked else '') + '.json')}")
+    print(f"wrote {res['written']}")
     return 0
 
 

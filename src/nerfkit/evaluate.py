@@ -55,6 +55,8 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
                  write: bool = True, baked: Path | None = None) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
+    Multiscale data (data/multiscale.py): every level is scored at its own size, and the mean
+    over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
     `checkpoint`: evaluate that checkpoint instead of the newest."""
     if every < 1:
         raise ConfigError(f"--every must be >= 1 (got {every})")
@@ -72,8 +74,9 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     d = cfg.data
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
-    name = f"eval_{split_slug(split)}" + ("_baked" if baked is not None else "")
     levels = level_specs(cap, split)
+    name = (f"eval_{split_slug(split)}" + ("_multiscale" if levels is not None else "")
+            + ("_baked" if baked is not None else ""))
     bg = background_rgb(cfg.data.background)
 
     def score(spec, out_dir, ds, tw):
@@ -100,6 +103,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
         result["baked"] = str(Path(baked).resolve())
     if write:
         (run_dir / f"{name}.json").write_text(json.dumps(result, indent=2))
+        result["written"] = str(run_dir / f"{name}.json")
     return result
 
 

@@ -122,16 +122,16 @@ def test_bad_bake_arguments_are_one_line_errors(procedural_run, tmp_path, capsys
 
 
 def test_finetuning_brings_the_baked_scene_closer_to_the_images(procedural_run, baked, tmp_path):
-    """Bake, then fine-tune (finetune.py): 40 Adam steps on the baked values raise the held-out PSNR."""
+    """Bake, then fine-tune (finetune.py): 24 Adam steps on the baked values raise the held-out PSNR."""
     run, plain, _ = baked
     out = tmp_path / "tuned"
-    info = bake_run(run, out, resolution=128, progress=False, finetune_steps=40)
+    info = bake_run(run, out, resolution=128, progress=False, finetune_steps=24)
     meta = load_baked(out).meta
-    assert meta["finetune"]["steps"] == 40 and meta["finetune"]["psnr_last"] > meta["finetune"]["psnr_first"]
+    assert meta["finetune"]["steps"] == 24 and meta["finetune"]["psnr_last"] > meta["finetune"]["psnr_first"]
     before = evaluate_run(run, None, "test", progress=False, write=False, baked=plain)["psnr"]
     after = evaluate_run(run, None, "test", progress=False, write=False, baked=out)["psnr"]
     print(f"baked {before:.2f} dB, fine-tuned {after:.2f} dB on the test views ({info['seconds']:.0f} s)")
-    # Measured +0.3 dB after 22 steps at this size.
+    # Measured +1.4 dB after 40 steps, +0.3 dB after 22 steps at a third of the learning rate.
     assert after > before + 0.2
 
 

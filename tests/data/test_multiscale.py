@@ -79,12 +79,12 @@ def test_eval_reports_every_scale(procedural_run, tmp_path, capsys):
     scene = json.loads((run / "scene.json").read_text())["data_dir"]
     make_multiscale(scene, tmp_path / "ms", 4, progress=False)
     assert main(["eval", str(run), "--data", str(tmp_path / "ms"), "--split", "test"]) == 0
-    res = json.loads((run / "eval_test.json").read_text())
+    res = json.loads((run / "eval_test_multiscale.json").read_text())
     assert [s["width"] for s in res["scales"]] == [64, 32, 16, 8]
     assert res["psnr"] == pytest.approx(np.mean([s["psnr"] for s in res["scales"]]))
-    assert len(res["per_view"]) == 8 and (run / "eval_test" / "d3" / "view_001.png").is_file()
-    assert " d3 " in capsys.readouterr().out
-    (run / "eval_test.json").unlink()  # the run is shared: leave its default eval file as it was
+    assert len(res["per_view"]) == 8 and (run / "eval_test_multiscale" / "d3" / "view_001.png").is_file()
+    out = capsys.readouterr().out
+    assert " d3 " in out and "eval_test_multiscale.json" in out
 
 
 @pytest.mark.parametrize("args, match", [
