@@ -170,7 +170,8 @@ def test_page_is_written_when_missing_and_served_from_the_package_otherwise(bake
     server, _ = web.start_server(scene)
     web.stop_server(server)
     assert (scene / "index.html").read_bytes() == (web.WEB_DIR / "index.html").read_bytes()
-    assert (scene / "baked.js").read_bytes() == (web.WEB_DIR / "baked.js").read_bytes()
+    for name in web.ASSETS:
+        assert (scene / name).read_bytes() == (web.WEB_DIR / name).read_bytes()
 
 
 def test_serve_baked_prints_the_address_and_stops_on_ctrl_c(baked, monkeypatch, capsys):

@@ -1,9 +1,10 @@
 """A baked scene's web page: the static WebGL2 viewer (web/) and a small server for it.
 
-The viewer is two static files, web/index.html and web/baked.js, with no build step and no
-network access: the page fetches baked.json and the three .npy arrays from its own folder and
-ray-marches them in a fragment shader exactly as the reference renderer (model.py) does (see
-baked.js for the texture layout and the marching). `write_web` copies the page into a baked
+The viewer is three static files, web/index.html, web/render.js (loading, textures, the
+ray-marching shader) and web/baked.js (the page: orbit controls, frame time, test API), with no
+build step and no network access: the page fetches baked.json and the three .npy arrays from
+its own folder and ray-marches them in a fragment shader exactly as the reference renderer
+(model.py) does (see render.js for the texture layout and the marching). `write_web` copies the page into a baked
 scene folder, which any static file server can then serve (python -m http.server).
 
 `nerfkit view --baked DIR` calls `serve_baked`: the folder must be a baked scene (baked.json of
@@ -29,13 +30,13 @@ from nerfkit.bake.format import FORMAT
 from nerfkit.errors import ConfigError
 
 WEB_DIR = Path(__file__).parent / "web"
-ASSETS = ("index.html", "baked.js")
+ASSETS = ("index.html", "render.js", "baked.js")
 ARRAYS = ("index.npy", "density.npy", "sh.npy")
 PORT_TRIES = 20
 
 
 def write_web(out: Path) -> None:
-    """Copy the viewer page (index.html, baked.js) into the baked scene folder `out`."""
+    """Copy the viewer page (ASSETS) into the baked scene folder `out`."""
     out = Path(out)
     for name in ASSETS:
         shutil.copyfile(WEB_DIR / name, out / name)
