@@ -75,12 +75,17 @@ class NeRFModel:
         return fine
 
     @staticmethod
-    def losses(out: dict, target: jnp.ndarray):
-        """MSE of the rendered colour (plus the coarse pass's MSE, as in NeRF)."""
-        mse = jnp.mean((out["rgb"] - target) ** 2)
+    def losses(out: dict, target: jnp.ndarray, weights: jnp.ndarray | None = None):
+        """MSE of the rendered colour (plus the coarse pass's MSE, as in NeRF); with per-ray weights
+        [R], sum_r w_r |c_r - C_r|^2 / (3 sum_r w_r)."""
+        w = jnp.ones(target.shape[0], jnp.float32) if weights is None else weights
+        def wmse(rgb):
+            return jnp.sum(w[:, None] * (rgb - target) ** 2) / (3.0 * jnp.sum(w))
+
+        mse = wmse(out["rgb"])
         loss = mse
         if "coarse" in out:
-            loss = loss + jnp.mean((out["coarse"]["rgb"] - target) ** 2)
+            loss = loss + wmse(out["coarse"]["rgb"])
         return loss, {"mse": mse}
 
 
@@ -179,9 +184,11 @@ class NGPModel:
         return out
 
     @staticmethod
-    def losses(out: dict, target: jnp.ndarray):
-        """MSE over the complete rays."""
+    def losses(out: dict, target: jnp.ndarray, weights: jnp.ndarray | None = None):
+        """MSE over the complete rays (weighted by per-ray weights [R] when given)."""
         mask = out["complete"].astype(jnp.float32)
+        if weights is not None:
+            mask = mask * weights
         n = jnp.maximum(jnp.sum(mask), 1.0)
         mse = jnp.sum(mask[:, None] * (out["rgb"] - target) ** 2) / (3.0 * n)
         return mse, {"mse": mse}

@@ -52,10 +52,11 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
     """A jitted step(state, step, images, poses) -> (state, metrics).
 
     Each step draws `batch_rays` pixels uniformly over all training images (inside the
-    centre crop while step < precrop_steps), makes their rays with each frame's camera
-    (cameras.ray_table: pinhole intrinsics, or per-pixel lens tables), renders them (with
-    the appearance embedding of their image, where the model has them) and applies one
-    Adam update. The randomness of step s is fold_in(PRNGKey(seed), s), so a resumed run
+    centre crop while step < precrop_steps; on multiscale data every pixel of every level is
+    equally likely and its loss is weighted by its area, SceneData.lossmult), makes their rays
+    with each frame's camera (cameras.ray_table: pinhole intrinsics, or per-pixel lens tables),
+    renders them (with the appearance embedding of their image, where the model has them) and
+    applies one Adam update. The randomness of step s is fold_in(PRNGKey(seed), s), so a resumed run
     repeats exactly. A step whose loss or gradients are not finite is not applied.
     """
     t = cfg.train
@@ -64,18 +65,27 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
     base_key = jax.random.PRNGKey(t.seed)
     crop_h = max(1, int(round(h * t.precrop_frac)))
     crop_w = max(1, int(round(w * t.precrop_frac)))
+    sizes = None if data.sizes is None else jnp.asarray(data.sizes)
+    lossmult = jnp.asarray(data.lossmult)
 
     def step_fn(state, step, images, poses, table):
         key = jax.random.fold_in(base_key, step)
         k_img, k_i, k_j, k_render, k_aux = jax.random.split(key, 5)
         n = images.shape[0]
         b = t.batch_rays
-        img = jax.random.randint(k_img, (b,), 0, n)
-        cropping = step < t.precrop_steps
-        hh = jnp.where(cropping, crop_h, h)
-        ww = jnp.where(cropping, crop_w, w)
-        i = (h - hh) // 2 + jnp.floor(jax.random.uniform(k_i, (b,)) * hh).astype(jnp.int32)
-        j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
+        weights = None
+        if sizes is None:
+            img = jax.random.randint(k_img, (b,), 0, n)
+            cropping = step < t.precrop_steps
+            hh = jnp.where(cropping, crop_h, h)
+            ww = jnp.where(cropping, crop_w, w)
+            i = (h - hh) // 2 + jnp.floor(jax.random.uniform(k_i, (b,)) * hh).astype(jnp.int32)
+            j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
+        else:  # images of several sizes: every pixel equally likely, weighted by its area (mip-NeRF)
+            img = jax.random.categorical(k_img, jnp.log(sizes[:, 0] * sizes[:, 1].astype(jnp.float32)), shape=(b,))
+            i = jnp.floor(jax.random.uniform(k_i, (b,)) * sizes[img, 0]).astype(jnp.int32)
+            j = jnp.floor(jax.random.uniform(k_j, (b,)) * sizes[img, 1]).astype(jnp.int32)
+            weights = lossmult[img]
         o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
         target = images[img, i, j]
         params, aux = state["params"], state["aux"]
@@ -83,7 +93,7 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
 
         def loss_fn(p):
             out = model.render_rays(p, aux, o, d, k_render, train=True, image_idx=img)
-            loss, parts = model.losses(out, target)
+            loss, parts = model.losses(out, target) if weights is None else model.losses(out, target, weights)
             return loss, (parts, out)
 
         (loss, (parts, out)), grads = jax.value_and_grad(loss_fn, has_aux=True)(params)
@@ -203,7 +213,8 @@ class Trainer:
         load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
         self.train_data = load_frames(self.capture, spec_train, **load)
         self.val_data = load_frames(self.capture, spec_val, **load)
-        if (self.val_data.height, self.val_data.width) != (self.train_data.height, self.train_data.width):
+        if self.capture.levels == {} and ((self.val_data.height, self.val_data.width)
+                                          != (self.train_data.height, self.train_data.width)):
             raise NerfkitError(f"{self.data_dir}: validation images ({self.val_data.width}x{self.val_data.height}) "
                                f"differ in size from training images ({self.train_data.width}x{self.train_data.height})")
         td = self.train_data
@@ -260,11 +271,11 @@ class Trainer:
         scores, renders = [], []
         for k in self.val_ids:
             r = self.renderer.render_camera(state["params"], state["aux"], vd.poses[k], vd.cameras[k])
-            scores.append(psnr_np(r["rgb"], vd.images[k]))
+            scores.append(psnr_np(r["rgb"], vd.image(k)))
             renders.append(r)
         depth_imgs, _ = colorize_renders(renders, background_rgb(self.cfg.data.background))
         for k, r, depth_img in zip(self.val_ids, renders, depth_imgs):
-            save_png(out_dir / f"view_{k:03d}.png", side_by_side([vd.images[k], r["rgb"], depth_img]))
+            save_png(out_dir / f"view_{k:03d}.png", side_by_side([vd.image(k), r["rgb"], depth_img]))
             np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
         mean = float(np.mean(scores))
         self._append("val_metrics.jsonl", {"step": step, "psnr": mean, "elapsed": round(elapsed, 2),

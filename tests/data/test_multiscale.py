@@ -98,3 +98,37 @@ def test_bad_make_multiscale_arguments_are_one_line_errors(multiscale, tmp_path,
     assert main(argv) == 1
     err = capsys.readouterr().err.strip()
     assert match in err and len(err.splitlines()) == 1
+
+
+def test_training_draws_every_scale_with_area_weights(multiscale, tmp_path):
+    """Training on a multiscale split: the images keep their sizes (padded in one array, cropped by
+    image(k)), each level's loss weight is its pixel area, and a short run trains and validates."""
+    from nerfkit.config import preset
+    from nerfkit.train import Trainer
+
+    _, ms, _ = multiscale
+    cfg = preset("demo")
+    cfg.field.hash_log2_size = 12
+    cfg.data.train_split, cfg.data.val_split = "train", "val"
+    cfg.train.max_steps, cfg.train.val_every, cfg.train.val_views, cfg.train.ckpt_every = 30, 10_000, 3, 10_000
+    cfg.train.batch_rays = 512
+    trainer = Trainer(ms, tmp_path / "run", cfg, progress=False)
+    td = trainer.train_data
+    assert [tuple(s) for s in td.sizes] == [(32, 32)] * 2 + [(16, 16)] * 2 + [(8, 8)] * 2
+    np.testing.assert_allclose(td.lossmult, [1, 1, 4, 4, 16, 16])
+    assert td.image(4).shape == (8, 8, 3) and np.all(td.images[4, 8:] == 0)
+    result = trainer.run()
+    losses = [json.loads(line)["loss"] for line in (tmp_path / "run" / "metrics.jsonl").read_text().splitlines()]
+    assert result.step == 30 and np.all(np.isfinite(losses)) and result.val_psnr > 5
+
+
+def test_weighted_losses_are_the_weighted_mean_square_error():
+    import jax.numpy as jnp
+
+    from nerfkit.model import NeRFModel, NGPModel
+
+    target = jnp.zeros((3, 3))
+    out = {"rgb": jnp.array([[1.0, 1, 1], [0.5, 0.5, 0.5], [0.0, 0, 0]]), "complete": jnp.array([True, True, False])}
+    w = jnp.array([1.0, 4.0, 16.0])
+    assert float(NeRFModel.losses(out, target, w)[0]) == pytest.approx((1 + 4 * 0.25) / 21)
+    assert float(NGPModel.losses(out, target, w)[0]) == pytest.approx((1 + 4 * 0.25) / 5)  # incomplete ray dropped

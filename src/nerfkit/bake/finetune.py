@@ -50,14 +50,16 @@ def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_
     pixels: params <- params - lr * direction, the direction from `optimizer` (Adam's)."""
     table = {k: jnp.asarray(v) for k, v in ray_table(data.cameras).items()}
     images, poses = jnp.asarray(data.images), jnp.asarray(data.poses)
-    n, h, w = images.shape[:3]
+    n = images.shape[0]
+    hs = jnp.asarray([c.height for c in data.cameras], jnp.float32)  # each image's own size (multiscale
+    ws = jnp.asarray([c.width for c in data.cameras], jnp.float32)  # data pads them into one array)
     base = jax.random.PRNGKey(seed)
 
     def step_fn(state, step, lr, aux, index):
         k_img, k_i, k_j = jax.random.split(jax.random.fold_in(base, step), 3)
         img = jax.random.randint(k_img, (batch,), 0, n)
-        i = jax.random.randint(k_i, (batch,), 0, h)
-        j = jax.random.randint(k_j, (batch,), 0, w)
+        i = jnp.floor(jax.random.uniform(k_i, (batch,)) * hs[img]).astype(jnp.int32)
+        j = jnp.floor(jax.random.uniform(k_j, (batch,)) * ws[img]).astype(jnp.int32)
         o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
         target = images[img, i, j]
 

@@ -168,6 +168,21 @@ class SceneData:
     has_masks: bool = False
     alphas: np.ndarray | None = None
     """[N, H, W] uint8 coverage (a PNG's alpha or the object mask), None where images are opaque."""
+    sizes: np.ndarray | None = None
+    """[N, 2] (height, width) of each image when they differ (multiscale data: images and alphas are
+    then zero-padded to the largest, and image(k) crops); None when all share the cameras' size."""
+
+    def image(self, k: int) -> np.ndarray:
+        """Image k [H_k, W_k, 3] (without padding)."""
+        c = self.cameras[k]
+        return self.images[k, :c.height, :c.width]
+
+    @property
+    def lossmult(self) -> np.ndarray:
+        """[N] area of each image's pixels in pixels of the largest image, (W_max / W_k)^2: mip-NeRF's
+        loss weights, which make every scale count alike when rays are drawn per pixel."""
+        w = np.array([c.width for c in self.cameras], np.float32)
+        return (w.max() / w) ** 2
 
     def __len__(self) -> int:
         return len(self.images)

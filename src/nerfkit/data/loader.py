@@ -93,8 +93,9 @@ def scene_cameras(cap: Capture, spec: str, downscale: int | None = None, target_
     """Poses (normalised) and cameras (at the loaded size) of the frames `spec` selects, without reading pixels."""
     frames = cap.frames(spec)
     first = frames[0].camera
+    mixed = bool(cap.levels)  # multiscale data: every level keeps its own size (data/multiscale.py)
     for f in frames[1:]:
-        if (f.camera.width, f.camera.height) != (first.width, first.height):
+        if not mixed and (f.camera.width, f.camera.height) != (first.width, first.height):
             raise DataError(f"{f.image}: image is {f.camera.width}x{f.camera.height} but earlier frames are "
                             f"{first.width}x{first.height}; all images must have one size")
     exact = cap.format == "blender"
@@ -132,16 +133,29 @@ def load_frames(cap: Capture, spec: str, *, downscale: int | None = None, target
     sel = scene_cameras(cap, spec, downscale, target_width)
     bg = np.ones(3) if background == "white" else np.zeros(3)
     frames = cap.frames(spec)
-    first = frames[0].camera
     images, alphas = [], []
     use_alpha = cap.alpha or any(f.mask is not None for f in frames)
     for f in tqdm(frames, desc="load images", unit="img", disable=not progress or len(frames) < 20, leave=False):
-        rgb, a = read_rgba(f.image, (first.width, first.height))
+        size = (f.camera.width, f.camera.height)
+        rgb, a = read_rgba(f.image, size)
         if f.mask is not None:
-            a = a * load_mask(f.mask, (first.width, first.height), f.image)
+            a = a * load_mask(f.mask, size, f.image)
         images.append(area_downscale(composite(rgb, a, bg), sel.factor))
         if use_alpha:
             alphas.append(np.round(area_downscale(a, sel.factor) * 255).astype(np.uint8))
-    return SceneData(np.stack(images).astype(np.float32), sel.poses, sel.cameras, sel.names, sel.transform, sel.scale,
-                     cap.format, any(f.mask is not None for f in frames),
-                     np.stack(alphas) if use_alpha else None)
+    sizes = np.array([(c.height, c.width) for c in sel.cameras], np.int32)
+    mixed = len({tuple(x) for x in sizes}) > 1
+    return SceneData(pad_stack(images).astype(np.float32), sel.poses, sel.cameras, sel.names, sel.transform,
+                     sel.scale, cap.format, any(f.mask is not None for f in frames),
+                     pad_stack(alphas) if use_alpha else None, sizes if mixed else None)
+
+
+def pad_stack(images: list[np.ndarray]) -> np.ndarray:
+    """Images of different sizes [H_k, W_k, ...] stacked into [N, max H, max W, ...], zero-padded at the
+    bottom and right (SceneData.sizes says how much of each is image)."""
+    h = max(im.shape[0] for im in images)
+    w = max(im.shape[1] for im in images)
+    out = np.zeros((len(images), h, w, *images[0].shape[2:]), images[0].dtype)
+    for k, im in enumerate(images):
+        out[k, :im.shape[0], :im.shape[1]] = im
+    return out

@@ -109,7 +109,7 @@ def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
     """Serve a Trainer's live parameters between its steps (it calls viewer.render_pending() each step)."""
     check_address(host, port)
     td = trainer.train_data
-    scene = scene_view(td.poses, td.cameras, thumbnails(td.images), trainer.cfg)
+    scene = scene_view(td.poses, td.cameras, thumbnails([td.image(k) for k in range(len(td))]), trainer.cfg)
     trainer.viewer = Viewer(trainer.renderer, scene, trainer.run_dir, host=host, port=port,
                             max_fraction=TRAINING_FRACTION)
     print(f"viewer at {trainer.viewer.url} (live while training)", flush=True)
