@@ -236,3 +236,18 @@ def test_orbit_poses_from_generated_scene_use_median_radius_and_elevation(tmp_pa
     np.testing.assert_allclose(el, np.median(in_el), atol=1e-5)
     for c2w in orbit.astype(np.float64):
         np.testing.assert_allclose(-c2w[:3, 2], -c2w[:3, 3] / np.linalg.norm(c2w[:3, 3]), atol=1e-5)
+
+
+def test_draw_pixels_is_uniform_over_all_pixels_of_images_of_several_sizes():
+    import jax
+    import jax.numpy as jnp
+
+    from nerfkit.cameras import draw_pixels
+
+    sizes = jnp.asarray([(8, 6), (4, 3), (2, 1)])  # 48, 12 and 2 pixels
+    img, i, j = (np.asarray(a) for a in draw_pixels(jax.random.PRNGKey(0), 62_000, sizes))
+    share = np.bincount(img, minlength=3) / len(img)
+    np.testing.assert_allclose(share, np.array([48, 12, 2]) / 62, atol=0.01)  # ~4 standard errors
+    hw = np.asarray(sizes)[img]
+    assert np.all((i >= 0) & (i < hw[:, 0]) & (j >= 0) & (j < hw[:, 1]))
+    assert len(np.unique(np.stack([i, j], 1)[img == 0], axis=0)) == 48  # every pixel of the big image drawn

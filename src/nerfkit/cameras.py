@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -214,6 +215,17 @@ def ray_table(cameras: list[Camera]) -> dict:
         out["lens"] = np.stack(tables).astype(np.float32)
         out["lens_idx"] = np.array(idx, np.int32)
     return out
+
+
+def draw_pixels(key, n: int, sizes: jnp.ndarray):
+    """n pixels drawn uniformly over all pixels of images of sizes [N, 2] (height, width): image
+    indices img [n] (image k with probability H_k W_k / sum H W) and rows i, columns j [n]."""
+    k_img, k_i, k_j = jax.random.split(key, 3)
+    hw = sizes.astype(jnp.float32)
+    img = jax.random.categorical(k_img, jnp.log(hw[:, 0] * hw[:, 1]), shape=(n,))
+    i = jnp.floor(jax.random.uniform(k_i, (n,)) * hw[img, 0]).astype(jnp.int32)
+    j = jnp.floor(jax.random.uniform(k_j, (n,)) * hw[img, 1]).astype(jnp.int32)
+    return img, i, j
 
 
 def table_directions(table: dict, img, i, j):

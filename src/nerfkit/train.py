@@ -29,7 +29,7 @@ import optax
 from tqdm.auto import tqdm
 
 from nerfkit import checkpoint as ckpt_lib
-from nerfkit.cameras import ray_table, rotate_directions, table_directions
+from nerfkit.cameras import draw_pixels, ray_table, rotate_directions, table_directions
 from nerfkit.config import Config, validate
 from nerfkit.data.capture import SceneData
 from nerfkit.data.loader import load_frames, read_capture
@@ -82,9 +82,7 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
             i = (h - hh) // 2 + jnp.floor(jax.random.uniform(k_i, (b,)) * hh).astype(jnp.int32)
             j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
         else:  # images of several sizes: every pixel equally likely, weighted by its area (mip-NeRF)
-            img = jax.random.categorical(k_img, jnp.log(sizes[:, 0] * sizes[:, 1].astype(jnp.float32)), shape=(b,))
-            i = jnp.floor(jax.random.uniform(k_i, (b,)) * sizes[img, 0]).astype(jnp.int32)
-            j = jnp.floor(jax.random.uniform(k_j, (b,)) * sizes[img, 1]).astype(jnp.int32)
+            img, i, j = draw_pixels(k_img, b, sizes)
             weights = lossmult[img]
         o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
         target = images[img, i, j]
@@ -213,7 +211,7 @@ class Trainer:
         load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
         self.train_data = load_frames(self.capture, spec_train, **load)
         self.val_data = load_frames(self.capture, spec_val, **load)
-        if self.capture.levels == {} and ((self.val_data.height, self.val_data.width)
+        if not self.capture.levels and ((self.val_data.height, self.val_data.width)
                                           != (self.train_data.height, self.train_data.width)):
             raise NerfkitError(f"{self.data_dir}: validation images ({self.val_data.width}x{self.val_data.height}) "
                                f"differ in size from training images ({self.train_data.width}x{self.train_data.height})")

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.bake.finetune import finetune, training_frames
+from nerfkit.bake.finetune import finetune, training_poses
 from nerfkit.bake.format import BRICK, FORMAT, LOG_SIGMA_MIN, Baked, check_out, quantise, save_baked
 from nerfkit.bake.web import write_web
 from nerfkit.encoding.sh import sh_encode
@@ -164,11 +164,9 @@ def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: 
             "step": min(model.step_size, run.bound / resolution), "near": float(model.near),
             "far": float(model.far), "background": run.cfg.data.background, "transform": run.transform.tolist(),
             "run": str(Path(run_dir).resolve()), "step_trained": run.step, "bricks": int(len(bricks))}
-    data = training_frames(run)
-    meta.update(start_view(data.poses))
+    meta.update(start_view(training_poses(run)))
     if finetune_minutes > 0 or finetune_steps:
-        dens, sh, tuned = finetune(run, Baked(meta, index, dens, sh), dens, sh, finetune_minutes, progress, log,
-                                   finetune_steps, data)
+        dens, sh, tuned = finetune(run, Baked(meta, index, dens, sh), finetune_minutes, progress, log, finetune_steps)
         meta["finetune"] = tuned
     q, meta["sh_range"] = quantise(sh)
     baked = Baked(meta, index, dens.astype(np.float16), q)

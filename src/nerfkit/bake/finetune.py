@@ -26,7 +26,8 @@ from tqdm.auto import tqdm
 
 from nerfkit.bake.format import Baked
 from nerfkit.bake.model import BakedModel
-from nerfkit.cameras import ray_table, rotate_directions, table_directions
+from nerfkit.cameras import draw_pixels, ray_table, rotate_directions, table_directions
+from nerfkit.metrics import mse_to_psnr
 
 LR = 3e-2
 BATCH_RAYS = 4096
@@ -34,15 +35,29 @@ SAMPLES_PER_RAY = 96  # packed samples in stored bricks, per ray
 LIVE_PER_RAY = 32  # of which still seen (T >= 1e-4); rays needing more are rendered but not scored
 
 
-def training_frames(run):
-    """The run's training images (its split, resolution and background)."""
-    from nerfkit.data.loader import load_frames, read_capture
+def _training_capture(run):
+    from nerfkit.data.loader import read_capture
     from nerfkit.evaluate import run_data_dir
 
     d = run.cfg.data
-    cap = read_capture(run_data_dir(run.run_dir, None), d.train_split, d.format, d.masks, d.holdout_every)
-    return load_frames(cap, d.train_split, downscale=d.downscale, target_width=d.target_width,
+    return read_capture(run_data_dir(run.run_dir, None), d.train_split, d.format, d.masks, d.holdout_every)
+
+
+def training_frames(run):
+    """The run's training images (its split, resolution and background)."""
+    from nerfkit.data.loader import load_frames
+
+    d = run.cfg.data
+    return load_frames(_training_capture(run), d.train_split, downscale=d.downscale, target_width=d.target_width,
                        background=d.background, progress=False)
+
+
+def training_poses(run) -> np.ndarray:
+    """The run's training poses c2w [N, 4, 4] (normalised frame), without reading the images."""
+    from nerfkit.data.loader import scene_cameras
+
+    d = run.cfg.data
+    return scene_cameras(_training_capture(run), d.train_split, d.downscale, d.target_width).poses
 
 
 def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_budget: int | None, seed: int = 0):
@@ -50,16 +65,11 @@ def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_
     pixels: params <- params - lr * direction, the direction from `optimizer` (Adam's)."""
     table = {k: jnp.asarray(v) for k, v in ray_table(data.cameras).items()}
     images, poses = jnp.asarray(data.images), jnp.asarray(data.poses)
-    n = images.shape[0]
-    hs = jnp.asarray([c.height for c in data.cameras], jnp.float32)  # each image's own size (multiscale
-    ws = jnp.asarray([c.width for c in data.cameras], jnp.float32)  # data pads them into one array)
+    sizes = jnp.asarray([(c.height, c.width) for c in data.cameras])  # each image's own (multiscale data pads)
     base = jax.random.PRNGKey(seed)
 
     def step_fn(state, step, lr, aux, index):
-        k_img, k_i, k_j = jax.random.split(jax.random.fold_in(base, step), 3)
-        img = jax.random.randint(k_img, (batch,), 0, n)
-        i = jnp.floor(jax.random.uniform(k_i, (batch,)) * hs[img]).astype(jnp.int32)
-        j = jnp.floor(jax.random.uniform(k_j, (batch,)) * ws[img]).astype(jnp.int32)
+        img, i, j = draw_pixels(jax.random.fold_in(base, step), batch, sizes)
         o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
         target = images[img, i, j]
 
@@ -78,17 +88,16 @@ def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_
     return lambda state, step, lr, aux, index: jitted(state, step, jnp.float32(lr), aux, index)
 
 
-def finetune(run, baked: Baked, density: np.ndarray, coeff: np.ndarray, minutes: float, progress: bool = True,
-             log=print, max_steps: int | None = None, data=None) -> tuple[np.ndarray, np.ndarray, dict]:
+def finetune(run, baked: Baked, minutes: float, progress: bool = True, log=print,
+             max_steps: int | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
     """Optimised (log-density [K, S, S, S], coefficients [K, S, S, S, C]) float32, and a summary
-    (steps, seconds, first and last batch PSNR). `baked` gives the grid (its density/sh are unused).
-    max_steps: stop after that many steps instead (the learning rate then decays over the steps).
-    data: the run's training frames (training_frames(run); loaded when not given)."""
+    (steps, seconds, first and last batch PSNR), from `baked` holding float (not yet quantised) values.
+    max_steps: stop after that many steps instead (the learning rate then decays over the steps)."""
     model = BakedModel(baked)
     aux = model.occupancy(baked.index)
-    params = {"density": jnp.asarray(density, jnp.float32), "sh": jnp.asarray(coeff, jnp.float32)}
+    params = {"density": jnp.asarray(baked.density, jnp.float32), "sh": jnp.asarray(baked.sh, jnp.float32)}
     index = jnp.asarray(baked.index)
-    data = training_frames(run) if data is None else data
+    data = training_frames(run)
     optimizer = optax.scale_by_adam()  # Adam's direction; the step applies the decaying learning rate
     step = make_step(model, data, optimizer, BATCH_RAYS, BATCH_RAYS * SAMPLES_PER_RAY, BATCH_RAYS * LIVE_PER_RAY)
     state = {"params": params, "opt": optimizer.init(params)}
@@ -106,7 +115,7 @@ def finetune(run, baked: Baked, density: np.ndarray, coeff: np.ndarray, minutes:
         lr = LR * 0.1 ** done
         state, mse, scored = step(state, k, lr, aux, index)
         mse = float(mse)
-        p = -10.0 * np.log10(max(mse, 1e-10))
+        p = float(mse_to_psnr(mse))
         first = p if first is None else first
         last = p if last is None else 0.9 * last + 0.1 * p
         k += 1

@@ -16,7 +16,6 @@ default, on the next free port when the one asked for is taken, until Ctrl-C. `s
 
 from __future__ import annotations
 
-import ipaddress
 import json
 import shutil
 import socket
@@ -28,6 +27,7 @@ from pathlib import Path
 
 from nerfkit.bake.format import FORMAT
 from nerfkit.errors import ConfigError
+from nerfkit.viewer.run import is_loopback
 
 WEB_DIR = Path(__file__).parent / "web"
 ASSETS = ("index.html", "render.js", "baked.js")
@@ -111,15 +111,6 @@ def bind(baked_dir: Path, host: str, port: int, package_page: bool = False) -> T
         except OSError as e:
             last = e
     raise ConfigError(f"cannot listen on {host} ports {port}..{port + PORT_TRIES - 1} ({last}); pass another --port")
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def start_server(baked_dir: Path, host: str = "127.0.0.1", port: int = 0, write_page: bool = True):

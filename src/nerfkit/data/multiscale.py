@@ -21,7 +21,7 @@ split `{split}` as every level, `{split}_d{l}` as level l alone, and a slice sel
 from __future__ import annotations
 
 import json
-import re
+from dataclasses import replace
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -35,7 +35,6 @@ from nerfkit.errors import ConfigError, DataError
 
 METADATA = "metadata.json"
 KEYS = ("file_path", "cam2world", "width", "height", "focal", "label")
-LEVEL_SPLIT = re.compile(r"^(?P<split>.+)_d(?P<level>\d+)$")
 
 
 def is_multiscale(root: Path) -> bool:
@@ -92,7 +91,7 @@ def level_specs(cap: Capture, spec: str) -> list[tuple[int, str]] | None:
         return None
     if len(n) != 1:
         raise DataError(f"split spec {spec!r} mixes multiscale splits with single-scale ones; evaluate them apart")
-    return [(lvl, ",".join(f"{i.split}_d{lvl}" + (str(i)[len(i.split):]) for i in items)) for lvl in range(n.pop())]
+    return [(lvl, ",".join(str(replace(i, split=f"{i.split}_d{lvl}")) for i in items)) for lvl in range(n.pop())]
 
 
 def make_multiscale(src: Path, out: Path, levels: int = 4, progress: bool = True) -> dict:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ipaddress
 import json
 from pathlib import Path
 
@@ -15,10 +16,20 @@ from nerfkit.viz import background_rgb, to_uint8
 THUMB = 96  # longest side of the photos shown in the training-camera frustums
 
 
+def is_loopback(host: str) -> bool:
+    """Whether `host` (a name or an IPv4 / IPv6 address) only reaches this machine."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def check_address(host: str, port: int) -> None:
     if not 0 <= port <= 65535:
         raise ConfigError(f"--port must be in 0..65535 (got {port})")
-    if host not in ("127.0.0.1", "localhost", "::1"):
+    if not is_loopback(host):
         print(f"warning: the viewer listens on {host}:{port}, reachable from other machines on this network; "
               f"anyone who can reach it sees the scene (default --host 127.0.0.1)", flush=True)
 
