@@ -52,3 +52,13 @@ def test_contracted_candidates_are_even_in_t_inside_and_in_disparity_outside():
     disparity = 1 / t0[outer]
     np.testing.assert_allclose(np.diff(disparity), np.diff(disparity)[0], rtol=2e-3)
     assert t1[-1] == pytest.approx(1e4, rel=1e-3)  # float32 near s = 2
+
+
+def test_contraction_scale_is_the_cube_root_of_the_jacobian_determinant():
+    import jax
+
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(40, 3)) * 10 ** rng.uniform(-1, 2, (40, 1))
+    for p in x.astype(np.float32):
+        det = abs(float(np.linalg.det(np.asarray(jax.jacfwd(coord.contract)(jnp.asarray(p))))))
+        np.testing.assert_allclose(float(coord.contraction_scale(jnp.asarray(p))), det ** (1 / 3), rtol=2e-4)

@@ -12,13 +12,11 @@ from __future__ import annotations
 
 import os
 import shutil
-from html.parser import HTMLParser
-from pathlib import Path
-from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
 from chromium import Chromium
+from html_refs import local_refs
 
 from nerfkit.config import preset
 from nerfkit.data.scene import make_scene
@@ -44,31 +42,6 @@ MEDIA_STATE_JS = """
   };
 })()
 """
-
-
-class _Refs(HTMLParser):
-    def __init__(self):
-        super().__init__()
-        self.refs: list[str] = []
-
-    def handle_starttag(self, tag, attrs):
-        for k, v in attrs:
-            if k in ("src", "href") and v:
-                self.refs.append(v)
-
-
-def local_refs(report: Path) -> list[Path]:
-    """Every src/href of the page, as files; fails on absolute or network links."""
-    p = _Refs()
-    p.feed(report.read_text())
-    out = []
-    for ref in p.refs:
-        if ref.startswith("#"):
-            continue
-        u = urlparse(ref)
-        assert not u.scheme and not u.netloc and not ref.startswith("/"), f"not a relative link: {ref}"
-        out.append((report.parent / unquote(u.path)).resolve())
-    return out
 
 
 @pytest.fixture(scope="module")

@@ -155,3 +155,25 @@ def test_sample_pdf_keys_and_no_gradient():
     assert not np.allclose(np.asarray(a), np.asarray(b))
     g = jax.jit(jax.grad(lambda w: jnp.sum(_sample_pdf(jax.random.PRNGKey(0), bins, w, 10, False))))(weights)
     np.testing.assert_array_equal(np.asarray(g), 0.0)
+
+
+def test_stratified_edges_cover_near_to_far_in_order():
+    from nerfkit.sampling import stratified_edges
+
+    e = np.asarray(stratified_edges(None, 3, 8, 2.0, 6.0, perturb=False))
+    np.testing.assert_allclose(e, np.broadcast_to(np.linspace(2, 6, 9), (3, 9)), atol=1e-6)
+    e = np.asarray(stratified_edges(jax.random.PRNGKey(0), 500, 8, 2.0, 6.0, perturb=True))
+    assert e.shape == (500, 9) and np.all(np.diff(e, axis=-1) >= 0)
+    assert e.min() >= 2.0 and e.max() <= 6.0
+    # Each edge stays between the midpoints around it, and is uniform there (mean at the even edge).
+    even = np.linspace(2, 6, 9)
+    assert np.all(np.abs(e[:, 1:-1] - even[1:-1]) <= 0.25 + 1e-6)
+    np.testing.assert_allclose(e[:, 1:-1].mean(0), even[1:-1], atol=0.05)
+
+
+def test_blur_weights_widen_a_spike_into_its_neighbours():
+    from nerfkit.sampling import blur_weights
+
+    w = jnp.asarray([[0.0, 0.0, 1.0, 0.0, 0.0], [0.2, 0.1, 0.0, 0.0, 0.7]])
+    np.testing.assert_allclose(blur_weights(w, 0.0), [[0, 0.5, 1, 0.5, 0], [0.2, 0.15, 0.05, 0.35, 0.7]], atol=1e-7)
+    np.testing.assert_allclose(blur_weights(w, 0.01) - blur_weights(w, 0.0), 0.01, atol=1e-7)

@@ -26,6 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from nerfkit.frustum import pixel_base_radius
+
 PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE")
 # Perspective models that are an ideal pinhole when all their distortion terms are zero
 # (fisheye and other models never are).
@@ -196,11 +198,13 @@ def camera_rays(c2w: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.ndarray
 def ray_table(cameras: list[Camera]) -> dict:
     """What the jitted training step needs to make the ray of any pixel of any frame.
 
-    Pinhole cameras: per-frame fx, fy, cx, cy [N]. If any camera has a lens model, also
+    Pinhole cameras: per-frame fx, fy, cx, cy [N], and "radius" [N], the cone radius per unit z-depth of
+    the frame's pixels (frustum.pixel_base_radius; mip-NeRF's cones). If any camera has a lens model, also
     "lens": [C, H, W, 2] undistorted normalised coordinates of every pixel of each distinct
     camera and "lens_idx": [N], the table of each frame. All frames share one image size.
     """
     out = {k: np.array([getattr(c, k) for c in cameras], np.float32) for k in ("fx", "fy", "cx", "cy")}
+    out["radius"] = np.asarray(pixel_base_radius(out["fx"], out["fy"]), np.float32)
     if any(c.distorted for c in cameras):
         unique: list[Camera] = []
         idx = []

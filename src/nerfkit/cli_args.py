@@ -23,7 +23,7 @@ class TrainArgs:
     out: Path
     """Run folder (config, metrics, plots, validation images, checkpoints)."""
     preset: PresetName = DEFAULT_PRESET  # type: ignore[valid-type]
-    """Starting configuration: ngp (default) | seed | nerf | demo | tiny (see README)."""
+    """Starting configuration: ngp (default) | seed | nerf | mipnerf | demo | tiny (see README)."""
     resume: bool = False
     """Continue the run in --out from its newest checkpoint (with its saved config)."""
     progress: bool = True
@@ -251,10 +251,12 @@ class DemoArgs:
 class ExperimentArgs:
     """Run an experiment. pe-ablation: train Model-1 (PE, L_xyz=10, L_dir=4), Model-2 (no PE) and
     Model-3 (PE, L_xyz=5, L_dir=2) with the same preset, seed and budget; evaluate, render orbits;
-    write results.md/.json, overlaid curves, image grids and OUT/report.html."""
+    write results.md/.json, overlaid curves, image grids and OUT/report.html. antialias: train nerf,
+    mipnerf, ngp and ngp --antialias on every scale of multiscale data (nerfkit make-multiscale) for
+    --budget-minutes each; PSNR / SSIM per scale, per-scale grids and crops, OUT/report.html."""
 
-    experiment: tyro.conf.Positional[Literal["pe-ablation"]]
-    """Which experiment: pe-ablation."""
+    experiment: tyro.conf.Positional[Literal["pe-ablation", "antialias"]]
+    """Which experiment: pe-ablation or antialias."""
     data_dir: tyro.conf.Positional[Path]
     """Folder with transforms_{split}.json and the images."""
     out: Path
@@ -283,6 +285,11 @@ class ExperimentArgs:
     """Shrink images to this width (seed protocol: 200)."""
     downscale: int | None = None
     """Shrink images by this factor (overrides --target-width)."""
+    models: str | None = None
+    """antialias: comma-separated subset of nerf, mipnerf, ngp, ngp_antialias (default: all four)."""
+    mlp_size: Literal["small", "paper"] = "small"
+    """antialias: size of the nerf and mipnerf MLPs. small: both D=4, W=128, 64 + 64 samples (CPU budgets);
+    paper: D=8, W=256, NeRF 64 + 128 and mip-NeRF 128 + 128 samples."""
     progress: bool = True
     """Show progress bars."""
 

@@ -45,6 +45,16 @@ def radial_stretch(y: jnp.ndarray) -> jnp.ndarray:
     return jnp.where(n <= 1.0, 1.0, 1.0 / jnp.maximum(2.0 - n, 1e-3) ** 2)
 
 
+def contraction_scale(x: jnp.ndarray) -> jnp.ndarray:
+    """Isotropic local scale |det J|^(1/3) of contract at points x [..., 3] -> [...]: 1 inside the unit
+    ball; outside, J has the radial eigenvalue 1 / |x|^2 and two tangential ones (2 - 1/|x|) / |x|, so
+    the scale is ((2 - 1/|x|)^2 / |x|^4)^(1/3). A small ball of radius r around x maps to about radius
+    r * contraction_scale(x)."""
+    n = jnp.maximum(jnp.linalg.norm(x, axis=-1), 1e-12)
+    out = jnp.cbrt((2.0 - 1.0 / n) ** 2 / n**4)
+    return jnp.where(n <= 1.0, 1.0, out)
+
+
 def spacing(t: jnp.ndarray, radius: float) -> jnp.ndarray:
     """s = g(t): t / R for t <= R, 2 - R / t beyond (continuous, with slope 1/R at t = R)."""
     u = t / radius

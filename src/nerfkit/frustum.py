@@ -50,3 +50,10 @@ def conical_frustum_to_gaussian(o, d, t0, t1, base_radius):
     dd = (d * d)[..., None, :]
     var = var_t[..., None] * dd + var_r[..., None] * (1.0 - dd / d_norm2[..., None, :])
     return mean, var
+
+
+def footprint_std(t, d_norm, base_radius):
+    """Per-axis std [...] of a cone's cross-section at z-depth t [...] (|d| = d_norm, radius per unit z-depth
+    base_radius): the disc of radius t |d| base_radius has variance (t |d| base_radius)^2 / 4 along each of
+    its axes, i.e. the std of the pixel's square footprint (width w: w / sqrt(12)) at that distance."""
+    return 0.5 * t * d_norm * base_radius

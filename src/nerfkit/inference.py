@@ -16,6 +16,7 @@ import numpy as np
 
 from nerfkit import occupancy
 from nerfkit.cameras import Camera, camera_rays
+from nerfkit.frustum import pixel_base_radius
 
 OUTPUT_KEYS = ("rgb", "depth", "depth_normalized", "opacity")
 
@@ -30,21 +31,24 @@ class Renderer:
     def __post_init__(self):
         model = self.model
 
-        def render_chunk(params, aux, o, d):
-            out = model.render_rays(params, aux, o, d, jax.random.PRNGKey(0), train=False)
+        def render_chunk(params, aux, o, d, radii):
+            out = model.render_rays(params, aux, o, d, jax.random.PRNGKey(0), train=False, radii=radii)
             res = {k: out[k] for k in OUTPUT_KEYS}
             res["complete"] = out.get("complete", jnp.ones(o.shape[0], bool))
             return res
 
         self._render_chunk = jax.jit(render_chunk)
 
-    def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray) -> dict:
-        """Render rays [N, 3] chunk by chunk; returns numpy arrays rgb [N, 3], depth [N], ...
+    def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
+                    radii: np.ndarray | None = None) -> dict:
+        """Render rays [N, 3] (cones of radii [N] per unit z-depth for the anti-aliased models; None: thin
+        rays) chunk by chunk; returns numpy arrays rgb [N, 3], depth [N], ...
 
         Models with a per-chunk sample budget mark rays that did not fit as incomplete;
         those rays go to the front of the next chunk (the first ray of a chunk always fits).
         """
         n = origins.shape[0]
+        radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
         outs = {k: np.zeros((n, 3) if k == "rgb" else (n,), np.float32) for k in OUTPUT_KEYS}
         pending = np.arange(n)
         while pending.size:
@@ -52,7 +56,8 @@ class Renderer:
             m = idx.size
             if m < self.chunk:  # pad to the compiled size with copies of the last ray
                 idx = np.concatenate([idx, np.full(self.chunk - m, idx[-1])])
-            res = self._render_chunk(params, aux, jnp.asarray(origins[idx]), jnp.asarray(directions[idx]))
+            res = self._render_chunk(params, aux, jnp.asarray(origins[idx]), jnp.asarray(directions[idx]),
+                                     jnp.asarray(radii[idx]))
             done = np.asarray(res["complete"])[:m]
             if not done[0]:
                 raise RuntimeError("a single ray needs more samples than the render budget")
@@ -67,9 +72,11 @@ class Renderer:
 
     def render_camera(self, params, aux, c2w: np.ndarray, camera: Camera) -> dict:
         """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of `camera` (lens model included) at c2w.
-        Appearance embeddings, where the model has them, are the mean over training images."""
+        Appearance embeddings, where the model has them, are the mean over training images; the
+        anti-aliased models see cones of the camera's pixel size (frustum.pixel_base_radius)."""
         o, d = camera_rays(c2w, camera)
-        out = self.render_rays(params, aux, o.reshape(-1, 3), d.reshape(-1, 3))
+        radii = np.full(o.shape[0] * o.shape[1], float(pixel_base_radius(camera.fx, camera.fy)), np.float32)
+        out = self.render_rays(params, aux, o.reshape(-1, 3), d.reshape(-1, 3), radii)
         return {k: v.reshape(camera.height, camera.width, *v.shape[1:]) for k, v in out.items()}
 
 
@@ -143,7 +150,7 @@ class WavefrontRenderer(Renderer):
             keep = cand & occ
             return pack_bits(keep), jnp.sum(jnp.minimum(jnp.sum(keep, axis=1), cap)), ~cand[:, -1]
 
-        def shade(params, o, d, k0, bits, trans, budget):
+        def shade(params, o, d, rad, k0, bits, trans, budget):
             pos, ok, rest = first_set_bits(bits, cap)  # [r, cap]
             count = jnp.sum(ok, axis=1)
             start = jnp.cumsum(count) - count  # first packed sample of each ray
@@ -156,8 +163,9 @@ class WavefrontRenderer(Renderer):
             t_mid = 0.5 * (t0 + t1)
             norm = jnp.linalg.norm(d, axis=-1)
             emb = model.field.embedding(params["field"], None)
-            rgb, sigma = model.field(params["field"], o[ray] + t_mid.reshape(-1)[src][:, None] * d[ray],
-                                     d[ray] / norm[ray][:, None], emb)
+            t_s = t_mid.reshape(-1)[src]
+            rgb, sigma = model.field(params["field"], o[ray] + t_s[:, None] * d[ray], d[ray] / norm[ray][:, None], emb,
+                                     scale=model.sample_scale(t_s, norm[ray], rad[ray]))
             back = jnp.minimum(slot, budget - 1)  # [r, cap]: each sample's packed position
             tau = jnp.where(ok, sigma[back] * (t1 - t0) * norm[:, None], 0.0)
             t_i = trans[:, None] * jnp.exp(-(jnp.cumsum(tau, axis=1) - tau))
@@ -169,9 +177,13 @@ class WavefrontRenderer(Renderer):
         self._window = jax.jit(window)
         self._shade = {m: jax.jit(partial(shade, budget=r * m)) for m in self.BUDGETS}
 
-    def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray) -> dict:
-        """Render rays [N, 3]; returns numpy arrays rgb [N, 3], depth, depth_normalized, opacity [N]."""
+    def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
+                    radii: np.ndarray | None = None) -> dict:
+        """Render rays [N, 3] (cones of radii [N], see Renderer.render_rays); returns numpy arrays rgb [N, 3],
+        depth, depth_normalized, opacity [N]."""
         n, r = origins.shape[0], self.chunk
+        radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
+        rad = np.zeros(r, np.float32)
         acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32), "opacity": np.zeros(n, np.float32)}
         slot_ray = np.full(r, -1)
         o = np.zeros((r, 3), np.float32)
@@ -186,6 +198,7 @@ class WavefrontRenderer(Renderer):
                 ids = np.arange(nxt, nxt + take.size)
                 nxt += take.size
                 slot_ray[take], o[take], d[take], k0[take], trans[take] = ids, origins[ids], directions[ids], 0, 1.0
+                rad[take] = radii[ids]
             live = slot_ray >= 0
             if not live.any():
                 break
@@ -193,7 +206,7 @@ class WavefrontRenderer(Renderer):
             shaded, exhausted = int(shaded), np.asarray(exhausted)
             if shaded:
                 m = min(m for m in self.BUDGETS if r * m >= shaded)
-                res = self._shade[m](params, o, d, k0, bits, trans)
+                res = self._shade[m](params, o, d, rad, k0, bits, trans)
                 ids = slot_ray[live]
                 for key in acc:
                     acc[key][ids] += np.asarray(res[key])[live]

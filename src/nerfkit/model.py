@@ -1,14 +1,18 @@
 """A renderable scene model: field(s) + sampler + volume renderer.
 
+`MipNeRFModel` is mip-NeRF: cones instead of rays, one MLP on integrated encodings of conical
+frustums, queried on stratified intervals then on intervals resampled from its blurred weights.
 `NeRFModel` is the original NeRF pipeline: stratified samples through a coarse field,
 and optionally inverse-CDF samples from the coarse weights through a fine field
 (hierarchical sampling). Every model exposes the same small interface, which the
 trainer, evaluation and rendering code use without knowing which field is inside:
 
     init(key) -> (params, aux)            trainable params, non-trainable state
-    render_rays(params, aux, o, d, key, train, image_idx=None) -> {"rgb", "depth", "opacity", ...}
-        (image_idx [R]: the training image of each ray, for appearance embeddings; None: mean)
-    losses(out, target) -> (loss, {"mse": ...})
+    render_rays(params, aux, o, d, key, train, image_idx=None, radii=None) -> {"rgb", "depth", "opacity", ...}
+        (image_idx [R]: the training image of each ray, for appearance embeddings; None: mean;
+         radii [R]: each ray's cone radius per unit z-depth, frustum.pixel_base_radius, for the
+         anti-aliased models; None: thin rays)
+    losses(out, target, weights=None) -> (loss, {"mse": ...})
     update_aux(params, aux, step, key) -> aux   (e.g. an occupancy grid; no-op here)
 """
 
@@ -22,12 +26,19 @@ from nerfkit.config import Config
 from nerfkit.coord import radial_stretch
 from nerfkit.fields.mlp import MLPField
 from nerfkit.fields.ngp import HashGridField
-from nerfkit.render import packed_composite, packed_compositing_weights, volume_render
-from nerfkit.sampling import midpoints, sample_pdf, stratified_samples
+from nerfkit.frustum import conical_frustum_to_gaussian, footprint_std
+from nerfkit.render import composite, compositing_weights, packed_composite, packed_compositing_weights, volume_render
+from nerfkit.sampling import blur_weights, midpoints, sample_pdf, stratified_edges, stratified_samples
 
 
 def background_color(name: str) -> jnp.ndarray:
     return jnp.ones(3, jnp.float32) if name == "white" else jnp.zeros(3, jnp.float32)
+
+
+def weighted_mse(rgb: jnp.ndarray, target: jnp.ndarray, weights: jnp.ndarray | None = None) -> jnp.ndarray:
+    """sum_r w_r |c_r - C_r|^2 / (3 sum_r w_r) over rays [R, 3] (w = 1 without per-ray weights [R])."""
+    w = jnp.ones(target.shape[0], jnp.float32) if weights is None else weights
+    return jnp.sum(w[:, None] * (rgb - target) ** 2) / (3.0 * jnp.maximum(jnp.sum(w), 1e-12))
 
 
 class NeRFModel:
@@ -53,9 +64,9 @@ class NeRFModel:
         rgb, sigma = field(params, x, viewdir[:, None, :], None if emb is None else emb[:, None, :])
         return volume_render(sigma, rgb, t, jnp.linalg.norm(d, axis=-1), last_interval, self.background)
 
-    def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None) -> dict:
-        """Render rays o, d [R, 3]. Returns rgb [R, 3], depth, opacity, depth_normalized [R]
-        (and "coarse": the coarse pass's outputs when hierarchical sampling is on)."""
+    def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None, radii=None) -> dict:
+        """Render rays o, d [R, 3] (thin rays: radii is ignored). Returns rgb [R, 3], depth, opacity,
+        depth_normalized [R] (and "coarse": the coarse pass's outputs when hierarchical sampling is on)."""
         s = self.cfg.sampler
         k_strat, k_pdf = jax.random.split(key)
         viewdir = d / jnp.linalg.norm(d, axis=-1, keepdims=True)
@@ -76,16 +87,73 @@ class NeRFModel:
 
     @staticmethod
     def losses(out: dict, target: jnp.ndarray, weights: jnp.ndarray | None = None):
-        """MSE of the rendered colour (plus the coarse pass's MSE, as in NeRF); with per-ray weights
-        [R], sum_r w_r |c_r - C_r|^2 / (3 sum_r w_r)."""
-        w = jnp.ones(target.shape[0], jnp.float32) if weights is None else weights
-        def wmse(rgb):
-            return jnp.sum(w[:, None] * (rgb - target) ** 2) / (3.0 * jnp.sum(w))
-
-        mse = wmse(out["rgb"])
+        """MSE of the rendered colour (plus the coarse pass's MSE, as in NeRF), weighted per ray
+        (weighted_mse) when weights [R] are given."""
+        mse = weighted_mse(out["rgb"], target, weights)
         loss = mse
         if "coarse" in out:
-            loss = loss + wmse(out["coarse"]["rgb"])
+            loss = loss + weighted_mse(out["coarse"]["rgb"], target, weights)
+        return loss, {"mse": mse}
+
+
+class MipNeRFModel:
+    """mip-NeRF (Barron et al. 2021): a cone of radius t |d| r per pixel (r = radii, per unit z-depth),
+    cut into conical frustums [t_k, t_k+1], each encoded by the integrated positional encoding of its
+    Gaussian (frustum.py, encoding/integrated.py) and shaded by one MLP. Pass 1: n_samples stratified
+    intervals over [near, far]; pass 2: n_importance + 1 edges drawn from the blurred coarse weights
+    (sampling.blur_weights, padding 0.01), replacing the coarse ones. Loss: fine MSE + 0.1 coarse MSE,
+    both weighted per ray on multiscale data (pixel area)."""
+
+    RESAMPLE_PADDING = 0.01
+    COARSE_LOSS_MULT = 0.1
+
+    def __init__(self, cfg: Config):
+        self.cfg = cfg
+        self.field = MLPField(cfg.field)
+        self.background = background_color(cfg.data.background)
+
+    def init(self, key):
+        return {"field": self.field.init(key)}, {}
+
+    def update_aux(self, params, aux, step, key):
+        return aux
+
+    def _shade(self, params, o, d, t, radii, image_idx) -> dict:
+        """Composite of the frustums between edges t [R, N + 1]; also returns their weights [R, N] and the edges."""
+        mean, var = conical_frustum_to_gaussian(o, d, t[:, :-1], t[:, 1:], radii)
+        norm = jnp.linalg.norm(d, axis=-1)
+        emb = self.field.embedding(params, image_idx)
+        rgb, sigma = self.field(params, mean, (d / norm[:, None])[:, None, :],
+                                None if emb is None else emb[:, None, :], var=var)
+        w = compositing_weights(sigma, (t[:, 1:] - t[:, :-1]) * norm[:, None])
+        out = composite(w, rgb, 0.5 * (t[:, 1:] + t[:, :-1]), self.background)
+        out["weights"], out["edges"] = w, t
+        return out
+
+    def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None, radii=None) -> dict:
+        """Render cones o, d [R, 3] of radii [R] (None: 0, thin rays, the IPE becomes the PE). Returns rgb
+        [R, 3], depth, opacity, depth_normalized [R] and "coarse" (the first pass's outputs)."""
+        s = self.cfg.sampler
+        radii = jnp.zeros(o.shape[0], jnp.float32) if radii is None else radii
+        k_strat, k_pdf = jax.random.split(key)
+        perturb = train and s.perturb
+        t = stratified_edges(k_strat, o.shape[0], s.n_samples, s.near, s.far, perturb)
+        coarse = self._shade(params["field"], o, d, t, radii, image_idx)
+        if s.n_importance == 0:
+            return coarse
+        t_fine = sample_pdf(k_pdf, t, blur_weights(coarse["weights"], self.RESAMPLE_PADDING), s.n_importance + 1,
+                            deterministic=not perturb)
+        fine = self._shade(params["field"], o, d, t_fine, radii, image_idx)
+        fine["coarse"] = coarse
+        return fine
+
+    @classmethod
+    def losses(cls, out: dict, target: jnp.ndarray, weights: jnp.ndarray | None = None):
+        """Fine MSE + 0.1 x coarse MSE (weighted_mse with per-ray weights [R] when given)."""
+        mse = weighted_mse(out["rgb"], target, weights)
+        loss = mse
+        if "coarse" in out:
+            loss = loss + cls.COARSE_LOSS_MULT * weighted_mse(out["coarse"]["rgb"], target, weights)
         return loss, {"mse": mse}
 
 
@@ -157,9 +225,17 @@ class NGPModel:
         t0, t1, cand = self.candidates(o, d, key)
         return occupancy.pack_candidates(aux, o, d, t0, t1, cand, self.occ, budget, to_grid=self.field.to_grid)
 
-    def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None) -> dict:
-        """Render rays o, d [R, 3]; also returns complete [R] (rays whose samples all fit the
-        budget; the others must be rendered again) and the number of samples used."""
+    def sample_scale(self, t, dir_norm, radii):
+        """Footprint std [S] of samples at t [S] on rays with |d| [S] and cone radii [S] (frustum.footprint_std)
+        for the anti-aliased field; None (all levels at full weight) otherwise or without radii."""
+        if not self.cfg.field.antialias or radii is None:
+            return None
+        return footprint_std(t, dir_norm, radii)
+
+    def render_rays(self, params, aux, o, d, key, train: bool, image_idx=None, radii=None) -> dict:
+        """Render rays o, d [R, 3] (cones of radii [R] for the anti-aliased field, see sample_scale); also
+        returns complete [R] (rays whose samples all fit the budget; the others must be rendered again)
+        and the number of samples used."""
         s = self.cfg.sampler
         n = o.shape[0]
         budget = s.max_samples if train else n * s.eval_samples_per_ray
@@ -174,7 +250,8 @@ class NGPModel:
         emb = self.field.embedding(params["field"], image_idx)
         if emb is not None:
             emb = emb[ray] if image_idx is not None else emb
-        rgb, sigma = self.field(params["field"], x, viewdir, emb)
+        scale = self.sample_scale(t_mid, dir_norm[ray], None if radii is None else radii[ray])
+        rgb, sigma = self.field(params["field"], x, viewdir, emb, scale=scale)
         delta = (m["t_end"] - m["t_start"]) * dir_norm[ray]
         w = packed_compositing_weights(sigma, delta, ray, valid, self.MIN_TRANSMITTANCE)
         bg = jax.random.uniform(k_bg, (n, 3)) if (train and self.unbounded) else self.background
@@ -187,10 +264,7 @@ class NGPModel:
     def losses(out: dict, target: jnp.ndarray, weights: jnp.ndarray | None = None):
         """MSE over the complete rays (weighted by per-ray weights [R] when given)."""
         mask = out["complete"].astype(jnp.float32)
-        if weights is not None:
-            mask = mask * weights
-        n = jnp.maximum(jnp.sum(mask), 1.0)
-        mse = jnp.sum(mask[:, None] * (out["rgb"] - target) ** 2) / (3.0 * n)
+        mse = weighted_mse(out["rgb"], target, mask if weights is None else mask * weights)
         return mse, {"mse": mse}
 
     @staticmethod
@@ -205,4 +279,6 @@ def build_model(cfg: Config):
         return NeRFModel(cfg)
     if cfg.field.kind == "ngp":
         return NGPModel(cfg)
+    if cfg.field.kind == "mip":
+        return MipNeRFModel(cfg)
     raise ValueError(f"unknown field kind {cfg.field.kind!r}")

@@ -198,6 +198,8 @@ def _summary_html(run: Path, cfg: dict | None, scene: dict | None, rows: list[di
     if cfg:
         f, s = cfg.get("field", {}), cfg.get("sampler", {})
         enc = (f"PE L_xyz={f.get('l_xyz')}, L_dir={f.get('l_dir')}" if f.get("pe", True) else "no PE (raw x, d)")
+        if f.get("kind") == "mip":
+            enc = f"integrated PE of cones, L_xyz={f.get('l_xyz')}, L_dir={f.get('l_dir')}"
         items.append(["model", _e(f"{f.get('kind', 'mlp')} D={f.get('depth')} W={f.get('width')}, {enc}; "
                                   f"{s.get('n_samples')} samples"
                                   + (f" + {s.get('n_importance')} fine" if s.get("n_importance") else "")
@@ -386,6 +388,10 @@ def write_experiment_report(exp_dir: str | Path, results: dict | None = None) ->
             from nerfkit.errors import NerfkitError
 
             raise NerfkitError(f"{exp / 'results.json'}: missing or unreadable; is {exp} an experiment folder?")
+    if results.get("experiment") == "antialias":
+        from nerfkit.experiments.antialias import write_antialias_report
+
+        return write_antialias_report(exp, results)
     models = results.get("models", [])
     title = results.get("title", "nerfkit experiment")
 

@@ -59,3 +59,33 @@ def sample_pdf(key, bins: jnp.ndarray, weights: jnp.ndarray, n_samples: int, det
 def midpoints(t: jnp.ndarray) -> jnp.ndarray:
     """Midpoints [..., N-1] between consecutive samples t [..., N]."""
     return 0.5 * (t[..., 1:] + t[..., :-1])
+
+
+def stratified_edges(key, n_rays: int, n_intervals: int, near: float, far: float, perturb: bool) -> jnp.ndarray:
+    """Interval edges t [n_rays, n_intervals + 1], sorted, spanning [near, far] (mip-NeRF's sampling).
+
+    The evenly spaced edges e_k = near + k (far - near) / N, k = 0..N; when `perturb`, each edge moves
+    uniformly within [m_{k-1}, m_k] between the midpoints around it (m_{-1} = near, m_N = far), so the
+    intervals stay ordered and still cover [near, far] on average.
+    """
+    e = jnp.linspace(near, far, n_intervals + 1, dtype=jnp.float32)
+    e = jnp.broadcast_to(e, (n_rays, n_intervals + 1))
+    if not perturb:
+        return e
+    mids = 0.5 * (e[:, 1:] + e[:, :-1])
+    lower = jnp.concatenate([e[:, :1], mids], axis=-1)
+    upper = jnp.concatenate([mids, e[:, -1:]], axis=-1)
+    return lower + (upper - lower) * jax.random.uniform(key, e.shape, dtype=jnp.float32)
+
+
+def blur_weights(w: jnp.ndarray, padding: float) -> jnp.ndarray:
+    """mip-NeRF's resampling weights [..., N] from interval weights w [..., N] (Barron et al. 2021, eq. 18):
+
+        w'_k = 1/2 (max(w_{k-1}, w_k) + max(w_k, w_{k+1})) + padding      (w_{-1} = w_0, w_N = w_{N-1})
+
+    a 2-tap max filter then a 2-tap blur (a wide, smooth envelope of w, so fine samples also land
+    next to a peak), and a floor so empty space keeps a few samples.
+    """
+    wp = jnp.concatenate([w[..., :1], w, w[..., -1:]], axis=-1)
+    m = jnp.maximum(wp[..., :-1], wp[..., 1:])  # [..., N + 1]
+    return 0.5 * (m[..., :-1] + m[..., 1:]) + padding

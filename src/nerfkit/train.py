@@ -55,7 +55,8 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
     centre crop while step < precrop_steps; on multiscale data every pixel of every level is
     equally likely and its loss is weighted by its area, SceneData.lossmult), makes their rays
     with each frame's camera (cameras.ray_table: pinhole intrinsics, or per-pixel lens tables),
-    renders them (with the appearance embedding of their image, where the model has them) and
+    renders them (with the appearance embedding of their image, where the model has them, and as cones
+    of their frame's pixel radius for the anti-aliased models) and
     applies one Adam update. The randomness of step s is fold_in(PRNGKey(seed), s), so a resumed run
     repeats exactly. A step whose loss or gradients are not finite is not applied.
     """
@@ -90,7 +91,7 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
         aux = model.update_aux(params, aux, step, k_aux)
 
         def loss_fn(p):
-            out = model.render_rays(p, aux, o, d, k_render, train=True, image_idx=img)
+            out = model.render_rays(p, aux, o, d, k_render, train=True, image_idx=img, radii=table["radius"][img])
             loss, parts = model.losses(out, target) if weights is None else model.losses(out, target, weights)
             return loss, (parts, out)
 

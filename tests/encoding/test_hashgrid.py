@@ -213,3 +213,30 @@ def test_continuity():
     diff = np.abs(np.asarray(enc(params, jnp.asarray(hi), cfg) - enc(params, jnp.asarray(lo), cfg)))
     assert np.all(diff <= 2 * res[None] * tmax * 2.2e-6 + 1e-5)
     assert diff.max() < 0.1  # a seam would give O(1) jumps with N(0, 1) tables
+
+
+def test_level_weights_are_the_chance_of_staying_within_half_a_cell():
+    """omega_l = erf(1 / sqrt(8 s^2 N_l^2)) = P(|z| < 1 / (2 N_l)) for z ~ N(0, s^2) (Zip-NeRF's downweighting):
+    against the normal CDF, 1 for s = 0, and falling from coarse to fine levels."""
+    from scipy.stats import norm
+
+    scales = np.array([0.0, 1e-4, 1e-3, 4e-3, 2e-2], np.float32)
+    w = np.asarray(hg.level_weights(jnp.asarray(scales), DEFAULT))
+    res = np.asarray(hg.level_resolutions(DEFAULT), np.float64)
+    for s, row in zip(scales[1:], w[1:]):
+        expect = 2 * norm.cdf(1 / (2 * res * s)) - 1
+        np.testing.assert_allclose(row, expect, atol=1e-6)
+        assert np.all(np.diff(row) <= 1e-7)  # finer levels never weigh more
+    np.testing.assert_array_equal(w[0], 1.0)
+    assert w[-1, -1] < 0.02 and w[-1, 0] > 0.85  # a footprint of a third of a coarse cell: coarse level only
+
+
+def test_encoding_with_footprints_scales_each_level_by_its_weight():
+    params = random_tables(SMALL)
+    x = jnp.asarray(np.random.default_rng(3).uniform(0, 1, (64, 3)), jnp.float32)
+    scale = jnp.asarray(np.random.default_rng(4).uniform(0, 0.05, 64), jnp.float32)
+    plain = np.asarray(hg.encode_hashgrid(params, x, SMALL)).reshape(64, SMALL.n_levels, -1)
+    aa = np.asarray(hg.encode_hashgrid(params, x, SMALL, scale)).reshape(64, SMALL.n_levels, -1)
+    w = np.asarray(hg.level_weights(scale, SMALL))
+    np.testing.assert_allclose(aa, plain * w[..., None], rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal(hg.encode_hashgrid(params, x, SMALL, jnp.zeros(64)), plain.reshape(64, -1))

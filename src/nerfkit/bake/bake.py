@@ -107,15 +107,19 @@ def sample_field(run, bricks: np.ndarray, resolution: int, sh_bands: int, progre
     dirs = jnp.asarray(fibonacci_directions(N_DIRECTIONS))
     pinv = jnp.asarray(np.linalg.pinv(np.asarray(sh_encode(dirs, sh_bands))))  # [SH, D]
     emb = model.field.embedding(p, None)
+    # An anti-aliased field is sampled with the footprint of one baked cell (a pixel of the cell's width).
+    footprint = 2.0 * run.bound / resolution / np.sqrt(12.0) if run.cfg.field.antialias else None
 
     @jax.jit
     def sample(x):  # [P, 3] -> sigma [P], coefficients [P, 3 * SH]
+        scale = None if footprint is None else jnp.full(x.shape[0], footprint, jnp.float32)
+
         def colour(d):
-            return model.field(p, x, jnp.broadcast_to(d, x.shape), emb)[0]  # [P, 3]
+            return model.field(p, x, jnp.broadcast_to(d, x.shape), emb, scale=scale)[0]  # [P, 3]
 
         rgb = jax.lax.map(colour, dirs)  # [D, P, 3]
         coeff = jnp.einsum("kd,dpc->pck", pinv, rgb)
-        a = jnp.log(jnp.maximum(model.field.density(p, x), np.exp(LOG_SIGMA_MIN)))
+        a = jnp.log(jnp.maximum(model.field.density(p, x, scale), np.exp(LOG_SIGMA_MIN)))
         return a, coeff.reshape(x.shape[0], -1)
 
     s = BRICK + 1

@@ -37,8 +37,9 @@ class BakedField:
     def density(self, params, x):
         return lookup(params, x.reshape(-1, 3), self.bound, self.resolution)[0].reshape(x.shape[:-1])
 
-    def __call__(self, params, x, d, emb=None):
-        """rgb [P, 3], sigma [P] at points x [P, 3] seen along unit directions d [P, 3]."""
+    def __call__(self, params, x, d, emb=None, scale=None):
+        """rgb [P, 3], sigma [P] at points x [P, 3] seen along unit directions d [P, 3] (the baked grid has
+        one resolution: footprints `scale` do not change it)."""
         sigma, coeff = lookup(params, x, self.bound, self.resolution)
         y = sh_encode(d, self.bands)  # [P, SH]
         rgb = jnp.einsum("pck,pk->pc", coeff.reshape(x.shape[0], 3, -1), y)
@@ -71,6 +72,11 @@ class BakedModel:
     def candidates(self, o, d, key=None, index=None):
         return occupancy.box_candidates(o, d, self.near, self.far, self.field.bound, self.step_size,
                                         self.march_steps, key, index)
+
+    @staticmethod
+    def sample_scale(t, dir_norm, radii):
+        """No footprints (see NGPModel.sample_scale): the baked grid is not anti-aliased."""
+        return None
 
     def render_rays(self, params, aux, o, d, budget: int, live_budget: int | None = None) -> dict:
         """Differentiable render of rays o, d [R, 3] at the reference renderer's sample positions (used by

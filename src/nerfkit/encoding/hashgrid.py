@@ -181,7 +181,21 @@ def hashgrid_indices(x: jax.Array, cfg: HashGridConfig):
     return jnp.stack([i for i, _ in out], axis=1), jnp.stack([w for _, w in out], axis=1)
 
 
-def encode_hashgrid(params: dict, x: jax.Array, cfg: HashGridConfig) -> jax.Array:
+def level_weights(scale: jax.Array, cfg: HashGridConfig) -> jax.Array:
+    """Anti-aliasing weights [N, L] of the levels for Gaussian footprints of std `scale` [N] (in units of
+    the unit cube the grid covers), after Zip-NeRF's feature downweighting (Barron et al. 2023, eq. 6):
+
+        omega_l = erf(1 / sqrt(8 scale^2 N_l^2)) = P(|z| < h_l / 2),  z ~ N(0, scale^2),  h_l = 1 / N_l
+
+    the chance that a point of the footprint falls within half a cell of level l of its centre: ~1 for
+    levels coarser than the footprint, -> 0 for levels much finer (their features would alias).
+    scale = 0 gives 1 for every level (the plain encoding)."""
+    res = jnp.asarray(level_resolutions(cfg), jnp.float32)  # [L]
+    s = jnp.maximum(jnp.asarray(scale, jnp.float32), 1e-12)[:, None]
+    return jax.scipy.special.erf(1.0 / (jnp.sqrt(8.0) * s * res[None, :]))
+
+
+def encode_hashgrid(params: dict, x: jax.Array, cfg: HashGridConfig, scale: jax.Array | None = None) -> jax.Array:
     """Multiresolution hash encoding of points x in [0, 1]^3.
 
         enc(x) = concat_l  sum_o w_o(f_l) * tables[l][ index_l(c_l + o) ]  (see module doc)
@@ -193,6 +207,8 @@ def encode_hashgrid(params: dict, x: jax.Array, cfg: HashGridConfig) -> jax.Arra
       params: {"tables": [float32 [rows_l, F]] * L} from `init_hashgrid`.
       x: float32 [N, 3] points in [0, 1]^3; values outside are clipped to the cube.
       cfg: the grid configuration (static under jit).
+      scale: optional float32 [N], the std of each point's footprint in cube units: level l's
+        features are multiplied by level_weights(scale)[:, l] (anti-aliasing); None: weight 1.
 
     Returns:
       float32 [N, L * F], level-major (level l occupies columns l*F .. (l+1)*F - 1).
@@ -207,4 +223,7 @@ def encode_hashgrid(params: dict, x: jax.Array, cfg: HashGridConfig) -> jax.Arra
         feats = table.at[idx].get(mode="promise_in_bounds")  # [N, 8, F]
         # Unrolled weighted sum: XLA fuses it into one loop (an einsum here is ~2x slower).
         outs.append(sum(w[:, k, None] * feats[:, k, :] for k in range(8)))
+    if scale is not None:
+        omega = level_weights(scale, cfg)
+        outs = [f * omega[:, lvl, None] for lvl, f in enumerate(outs)]
     return jnp.concatenate(outs, axis=-1)

@@ -159,6 +159,9 @@ def field_functions(run: TrainedRun):
             return occupancy.query_occupancy(aux, field.to_grid(x), model.occ)
 
         occupied_fn = jax.jit(occupied)
+    elif run.cfg.field.kind == "mip":  # mip-NeRF's one MLP at points (a Gaussian of zero variance: IPE = PE)
+        field, p = model.field, params["field"]
+        occupied_fn, cell = None, 0.0
     else:  # the MLP NeRF: the fine field when there is one; no occupancy grid, every point is sampled
         key = "fine" if model.fine is not None else "coarse"
         field, p = getattr(model, key), params[key]

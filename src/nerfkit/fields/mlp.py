@@ -8,6 +8,9 @@
     f     = A_f h_D + b_f                           (W features, no activation)
     c     = sigmoid(A_c relu(A_v [f, gamma(d), e_k] + b_v) + b_c)     (hidden width W/2)
 
+mip-NeRF (kind "mip") feeds the integrated encoding of a Gaussian instead: h_0 = E[gamma(x)], x ~ N(mean,
+diag(var)) (encoding/integrated.py), with `var` passed next to the mean; everything else is the same MLP.
+
 e_k is the appearance embedding of training image k (NeRF-W), present only when
 appearance_dim > 0; views that are not training images use the mean embedding.
 
@@ -23,6 +26,7 @@ import jax
 import jax.numpy as jnp
 
 from nerfkit.config import FieldConfig
+from nerfkit.encoding.integrated import integrated_positional_encoding
 from nerfkit.encoding.positional import encoded_size, positional_encoding
 
 
@@ -48,7 +52,7 @@ class MLPField:
         self.cfg = cfg
         # 0-based index of the layer whose input gets gamma(x) again (5 for D=8, 3 for D=4).
         self.skip = cfg.depth // 2 + 1 if cfg.depth // 2 + 1 < cfg.depth else None
-        self.x_dim = encoded_size(3, cfg.l_xyz, cfg.pe)
+        self.x_dim = encoded_size(3, cfg.l_xyz, cfg.pe or cfg.kind == "mip")
         self.d_dim = encoded_size(3, cfg.l_dir, cfg.pe)
         self.n_appearance = cfg.n_appearance() if cfg.viewdirs else 0
 
@@ -79,8 +83,11 @@ class MLPField:
             params["rgb"] = {"w": dense_init(next(keys), w, 3), "b": jnp.zeros(3, jnp.float32)}
         return params
 
-    def _trunk(self, params, x):
-        ex = positional_encoding(x, self.cfg.l_xyz, self.cfg.pe)
+    def _trunk(self, params, x, var=None):
+        if var is None:
+            ex = positional_encoding(x, self.cfg.l_xyz, self.cfg.pe)
+        else:
+            ex = integrated_positional_encoding(x, var, self.cfg.l_xyz)
         h = ex
         for layer, p in enumerate(params["trunk"]):
             z = h @ p["w"] + p["b"]
@@ -89,21 +96,23 @@ class MLPField:
             h = jax.nn.relu(z)
         return h
 
-    def density(self, params, x: jnp.ndarray) -> jnp.ndarray:
-        """sigma [...] >= 0 at positions x [..., 3]."""
-        h = self._trunk(params, x)
+    def density(self, params, x: jnp.ndarray, var: jnp.ndarray | None = None) -> jnp.ndarray:
+        """sigma [...] >= 0 at positions x [..., 3] (Gaussians of diagonal covariance var [..., 3], if given)."""
+        h = self._trunk(params, x, var)
         return jax.nn.relu(h @ params["sigma"]["w"] + params["sigma"]["b"])[..., 0]
 
     def embedding(self, params, image_idx):
         return appearance_embedding(params, image_idx, self.n_appearance)
 
-    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None):
+    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None,
+                 var: jnp.ndarray | None = None):
         """rgb [..., 3] in (0, 1) and sigma [...] at x [..., 3] seen along unit directions d.
 
         d (and the appearance embeddings emb [..., A], when the field has them) broadcast
-        against x (e.g. [R, 1, 3] for all samples of a ray).
+        against x (e.g. [R, 1, 3] for all samples of a ray). With var [..., 3], x and var are the
+        mean and diagonal covariance of Gaussians, encoded with the integrated encoding (mip-NeRF).
         """
-        h = self._trunk(params, x)
+        h = self._trunk(params, x, var)
         sigma = jax.nn.relu(h @ params["sigma"]["w"] + params["sigma"]["b"])[..., 0]
         if self.cfg.viewdirs:
             f = h @ params["feature"]["w"] + params["feature"]["b"]

@@ -7,6 +7,11 @@
     sigma  = exp(min(z_0, 15))                             (truncated exponential)
     c      = sigmoid(MLP_64x64([z, SH_4(d), e_k]))         (degree-4 spherical harmonics)
 
+With antialias (--antialias), each sample carries the std s of its pixel footprint (world units) and
+level l's features are scaled by erf(h_l / (sqrt(8) s_y)) (encoding/hashgrid.level_weights; h_l the
+level's cell size, s_y the footprint in grid coordinates: s, or s / R times the contraction's local
+scale when contracted), so levels finer than the footprint fade out instead of aliasing.
+
 e_k is the appearance embedding of training image k (NeRF-W; absent when
 appearance_dim = 0); other views use the mean embedding. Same interface as the NeRF MLP:
 `field(params, x, d, emb) -> (rgb, sigma)`, `field.density(params, x)`; the occupancy grid
@@ -20,7 +25,7 @@ import jax
 import jax.numpy as jnp
 
 from nerfkit.config import FieldConfig
-from nerfkit.coord import CONTRACTED_BOUND, contract
+from nerfkit.coord import CONTRACTED_BOUND, contract, contraction_scale
 from nerfkit.encoding.hashgrid import HashGridConfig, encode_hashgrid, init_hashgrid
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.fields.mlp import appearance_embedding, dense_init
@@ -65,11 +70,18 @@ class HashGridField:
         """Grid coordinates y [..., 3] of world points x [..., 3]."""
         return contract(x / self.radius) if self.unbounded else x
 
-    def _geometry(self, params, y):
+    def grid_scale(self, x: jnp.ndarray, scale: jnp.ndarray) -> jnp.ndarray:
+        """Footprint stds [...] in grid coordinates of footprints of std `scale` [...] (world) at x [..., 3]."""
+        if self.unbounded:
+            return scale / self.radius * contraction_scale(x / self.radius)
+        return scale
+
+    def _geometry(self, params, y, scale_y=None):
         u = (y + self.grid_bound) / (2 * self.grid_bound)
         inside = jnp.all((u >= 0) & (u <= 1), axis=-1)
         flat = u.reshape(-1, 3)
-        h = encode_hashgrid(params["grid"], flat, self.grid)
+        cube = None if scale_y is None else (scale_y / (2 * self.grid_bound)).reshape(-1)
+        h = encode_hashgrid(params["grid"], flat, self.grid, cube)
         l1, l2 = params["density"]
         z = jax.nn.relu(h @ l1["w"] + l1["b"]) @ l2["w"] + l2["b"]
         z = z.reshape(*y.shape[:-1], GEO_FEATURES)
@@ -80,18 +92,21 @@ class HashGridField:
         """sigma [...] at grid coordinates y [..., 3] (world units of density)."""
         return self._geometry(params, y)[0]
 
-    def density(self, params, x: jnp.ndarray) -> jnp.ndarray:
-        """sigma [...] >= 0 at world points x [..., 3]."""
-        return self.density_grid(params, self.to_grid(x))
+    def density(self, params, x: jnp.ndarray, scale: jnp.ndarray | None = None) -> jnp.ndarray:
+        """sigma [...] >= 0 at world points x [..., 3] (footprints of std `scale` [...] when anti-aliased)."""
+        y = self.to_grid(x)
+        return self._geometry(params, y, None if scale is None else self.grid_scale(x, scale))[0]
 
     def embedding(self, params, image_idx) -> jnp.ndarray | None:
         """Appearance embeddings [R, A] of training images image_idx [R] (None: the mean), or None without them."""
         return appearance_embedding(params, image_idx, self.n_appearance)
 
-    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None):
+    def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None,
+                 scale: jnp.ndarray | None = None):
         """rgb [..., 3], sigma [...] at x [..., 3] seen along unit directions d (broadcast to x),
-        with appearance embeddings emb [..., A] (broadcast to x; needed when the field has them)."""
-        sigma, z = self._geometry(params, self.to_grid(x))
+        with appearance embeddings emb [..., A] (broadcast to x; needed when the field has them) and,
+        anti-aliased, footprint stds scale [...] in world units (None: every level at full weight)."""
+        sigma, z = self._geometry(params, self.to_grid(x), None if scale is None else self.grid_scale(x, scale))
         sh = sh_encode(jnp.broadcast_to(d, x.shape).reshape(-1, 3), SH_DEGREE).reshape(*x.shape[:-1], -1)
         parts = [z, sh]
         if self.n_appearance:

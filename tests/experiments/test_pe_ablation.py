@@ -5,13 +5,11 @@ overlaid plots, image grids, orbit videos, and a report whose every link exists.
 from __future__ import annotations
 
 import json
-from html.parser import HTMLParser
-from pathlib import Path
-from urllib.parse import unquote, urlparse
 
 import imageio.v3 as iio
 import numpy as np
 import pytest
+from html_refs import refs
 
 from nerfkit.cli import main
 from nerfkit.config import PRESETS
@@ -35,26 +33,6 @@ def exp(scene, tmp_path_factory):
                  "--max-steps", str(STEPS), "--val-every", "5", "--eval-every", "2", "--orbit-frames", "3",
                  "--no-progress"])
     assert code == 0
-    return out
-
-
-class _Refs(HTMLParser):
-    def __init__(self):
-        super().__init__()
-        self.refs: list[tuple[str, str]] = []
-
-    def handle_starttag(self, tag, attrs):
-        self.refs += [(tag, v) for k, v in attrs if k in ("src", "href") and v and not v.startswith("#")]
-
-
-def refs(page: Path) -> list[tuple[str, Path]]:
-    p = _Refs()
-    p.feed(page.read_text())
-    out = []
-    for tag, ref in p.refs:
-        u = urlparse(ref)
-        assert not u.scheme and not u.netloc and not ref.startswith("/"), f"not a relative link: {ref}"
-        out.append((tag, (page.parent / unquote(u.path)).resolve()))
     return out
 
 
