@@ -175,6 +175,9 @@ class TrainConfig:
     """Rays rendered at once in full-image rendering; bounds memory."""
     max_bad_steps: int = 5
     """Stop the run after this many consecutive non-finite losses or gradients."""
+    devices: int | None = None
+    """Local devices to split each step's rays over (data parallel; --batch-rays is the global batch, a
+    multiple of the device count). Default: all local devices."""
 
 
 @dataclass
@@ -287,6 +290,7 @@ def validate(cfg: Config) -> Config:
     for name in ("val_every", "ckpt_every", "log_every", "chunk", "val_views", "keep_ckpts", "max_bad_steps"):
         v = getattr(t, name)
         need(v >= 1, f"--{name.replace('_', '-')} must be >= 1 (got {v})")
+    need(t.devices is None or t.devices >= 1, f"--devices must be >= 1 (got {t.devices})")
     need(f.depth >= 1, f"--depth must be >= 1 (got {f.depth})")
     need(f.width >= 1, f"--width must be >= 1 (got {f.width})")
     need(f.l_xyz >= 0 and f.l_dir >= 0, f"--l-xyz and --l-dir must be >= 0 (got {f.l_xyz}, {f.l_dir})")

@@ -174,6 +174,15 @@ class NGPModel:
     """
 
     MIN_TRANSMITTANCE = 1e-4
+    # Data parallelism (parallel.py): split the packed samples, not the rays, over the devices. Splitting
+    # the rays makes XLA partition the packing (a prefix sum and scatter over all candidates of all rays):
+    # measured 8.9 s per step on 2 forced CPU devices against 0.08 s when only the samples are split.
+    PARALLEL = "samples"
+
+    @staticmethod
+    def shard_samples(x):
+        """Identity; the training step of a multi-device run sets it to parallel.shard_rays on its mesh."""
+        return x
 
     def __init__(self, cfg: Config):
         self.cfg = cfg
@@ -251,6 +260,7 @@ class NGPModel:
         if emb is not None:
             emb = emb[ray] if image_idx is not None else emb
         scale = self.sample_scale(t_mid, dir_norm[ray], None if radii is None else radii[ray])
+        x, viewdir, scale = self.shard_samples((x, viewdir, scale))
         rgb, sigma = self.field(params["field"], x, viewdir, emb, scale=scale)
         delta = (m["t_end"] - m["t_start"]) * dir_norm[ray]
         w = packed_compositing_weights(sigma, delta, ray, valid, self.MIN_TRANSMITTANCE)

@@ -12,6 +12,8 @@ Run folder layout (see README):
 
 from __future__ import annotations
 
+import copy
+import functools
 import json
 import math
 import os
@@ -29,6 +31,7 @@ import optax
 from tqdm.auto import tqdm
 
 from nerfkit import checkpoint as ckpt_lib
+from nerfkit import parallel
 from nerfkit.cameras import draw_pixels, ray_table, rotate_directions, table_directions
 from nerfkit.config import Config, validate
 from nerfkit.data.capture import SceneData
@@ -48,8 +51,12 @@ def make_optimizer(cfg: Config):
     return optax.adam(schedule, b2=t.adam_b2, eps=t.adam_eps), schedule
 
 
-def make_train_step(model, optimizer, data: SceneData, cfg: Config):
+def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
     """A jitted step(state, step, images, poses) -> (state, metrics).
+
+    With a device mesh (parallel.data_mesh), the drawn rays (or, for models that pack samples, the
+    packed samples: model.PARALLEL) are split over its devices, and state, images and poses must be
+    replicated on it (parallel.replicate); the step computes the same.
 
     Each step draws `batch_rays` pixels uniformly over all training images (inside the
     centre crop while step < precrop_steps; on multiscale data every pixel of every level is
@@ -62,7 +69,12 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
     """
     t = cfg.train
     h, w = data.height, data.width
-    table = {k: jnp.asarray(v) for k, v in ray_table(data.cameras).items()}
+    table = parallel.replicate({k: jnp.asarray(v) for k, v in ray_table(data.cameras).items()}, mesh)
+    split_rays = mesh is not None and getattr(model, "PARALLEL", "rays") == "rays"
+    if mesh is not None and not split_rays:  # the model splits its packed samples (NGPModel.PARALLEL)
+        parallel.check_batch(cfg.sampler.max_samples, mesh, "--max-samples")
+        model = copy.copy(model)
+        model.shard_samples = functools.partial(parallel.shard_rays, mesh=mesh)
     base_key = jax.random.PRNGKey(t.seed)
     crop_h = max(1, int(round(h * t.precrop_frac)))
     crop_w = max(1, int(round(w * t.precrop_frac)))
@@ -84,6 +96,9 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config):
             j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
         else:  # images of several sizes: every pixel equally likely, weighted by its area (mip-NeRF)
             img, i, j = draw_pixels(k_img, b, sizes)
+        if split_rays:
+            img, i, j = parallel.shard_rays((img, i, j), mesh)
+        if sizes is not None:
             weights = lossmult[img]
         o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
         target = images[img, i, j]
@@ -225,6 +240,10 @@ class Trainer:
         cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
         self.cfg = cfg
         self.model = build_model(cfg)
+        self.mesh = parallel.data_mesh(parallel.local_devices(cfg.train.devices))
+        parallel.check_batch(cfg.train.batch_rays, self.mesh)
+        say(parallel.describe(cfg.train.batch_rays, self.mesh, getattr(self.model, "PARALLEL", "rays"),
+                              cfg.sampler.max_samples))
         self.optimizer, self.schedule = make_optimizer(cfg)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
@@ -303,9 +322,9 @@ class Trainer:
                 tqdm.write(f"resumed from {path} at step {step}")
             else:
                 tqdm.write(f"no checkpoint in {self.ckpt_dir}: starting from step 0")
-        images = jnp.asarray(self.train_data.images)
-        poses = jnp.asarray(self.train_data.poses)
-        step_fn = make_train_step(self.model, self.optimizer, self.train_data, cfg)
+        images, poses, state = parallel.replicate(
+            (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)
+        step_fn = make_train_step(self.model, self.optimizer, self.train_data, cfg, self.mesh)
         if self.viewer is not None:
             self.viewer.set_params(state["params"], state["aux"], step)
 

@@ -1,0 +1,85 @@
+"""Data-parallel training (nerfkit.parallel) on two forced CPU devices: the same losses as one device
+with the same global batch, and a two-device checkpoint resumes on one device. Runs in a subprocess,
+since XLA_FLAGS=--xla_force_host_platform_device_count=2 must be set before JAX starts."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+SCRIPT = textwrap.dedent('''
+    import json, sys
+    from pathlib import Path
+    import jax
+    from nerfkit.config import preset
+    from nerfkit.data.scene import make_scene
+    from nerfkit.errors import ConfigError
+    from nerfkit.train import Trainer
+    from nerfkit.viz import read_jsonl
+
+    root = Path(sys.argv[1])
+    scene = make_scene(root / "scene", size=16, n_train=4, n_val=1, n_test=1)
+
+    def train(name, kind, devices, steps, resume=False):
+        cfg = preset(kind)
+        cfg.train.max_steps, cfg.train.log_every, cfg.train.val_every, cfg.train.devices = steps, 1, 1000, devices
+        if kind == "ngp":
+            cfg.field.hash_log2_size, cfg.sampler.max_samples, cfg.train.batch_rays = 14, 1 << 14, 1024
+        Trainer(scene, root / name, cfg, resume=resume, progress=False).run()
+        return [r["loss"] for r in read_jsonl(root / name / "metrics.jsonl")]
+
+    out = {"devices": len(jax.local_devices())}
+    out["tiny1"], out["tiny2"] = train("tiny1", "tiny", 1, 30), train("tiny2", "tiny", 2, 30)
+    train("resumed", "tiny", 2, 15)
+    out["resumed"] = train("resumed", "tiny", 1, 30, resume=True)
+    out["ngp1"], out["ngp2"] = train("ngp1", "ngp", 1, 10), train("ngp2", "ngp", 2, 10)
+    try:
+        train("odd", "tiny", 3, 2)
+    except ConfigError as e:
+        out["too_many"] = str(e)
+    cfg = preset("tiny")
+    cfg.train.batch_rays, cfg.train.devices = 255, 2
+    try:
+        Trainer(scene, root / "odd", cfg, progress=False)
+    except ConfigError as e:
+        out["odd_batch"] = str(e)
+    print("RESULT " + json.dumps(out))
+''')
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    root = tmp_path_factory.mktemp("parallel")
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu")
+    proc = subprocess.run([sys.executable, "-c", SCRIPT, str(root)], env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    line = next(x for x in proc.stdout.splitlines() if x.startswith("RESULT "))
+    return json.loads(line[len("RESULT "):])
+
+
+def _close(a, b, rtol):
+    assert len(a) == len(b) > 0
+    for x, y in zip(a, b):
+        assert abs(x - y) <= rtol * abs(x), (x, y)
+
+
+def test_two_devices_give_the_losses_of_one(result):
+    assert result["devices"] == 2
+    _close(result["tiny1"], result["tiny2"], 1e-5)  # rays split: float sums in another order
+    _close(result["ngp1"], result["ngp2"], 1e-3)  # packed samples split
+    assert result["tiny1"][-1] < result["tiny1"][0]  # and the losses do move
+
+
+def test_a_two_device_checkpoint_resumes_on_one_device(result):
+    _close(result["tiny1"], result["resumed"], 1e-5)
+
+
+def test_device_count_and_batch_are_checked(result):
+    assert "--devices 3" in result["too_many"] and "sees 2 device" in result["too_many"]
+    assert "--batch-rays 255 does not split over 2 devices" in result["odd_batch"]
