@@ -17,6 +17,7 @@ import tyro
 
 from nerfkit.cli_args import (
     BakeArgs,
+    BenchmarkArgs,
     DemoArgs,
     EvalArgs,
     ExportCamerasArgs,
@@ -249,6 +250,18 @@ def cmd_experiment(argv: list[str]) -> int:
     return 0
 
 
+def cmd_benchmark(argv: list[str]) -> int:
+    from nerfkit.benchmark import benchmark
+
+    a = tyro.cli(BenchmarkArgs, args=argv, prog="nerfkit benchmark")
+    out = a.out if a.out is not None else Path("runs") / f"benchmark_{a.root.resolve().name}_{a.preset}"
+    benchmark(a.root, out, preset=a.preset, budget_minutes=a.budget_minutes, max_steps=a.max_steps, jobs=a.jobs,
+              only=a.only, eval_every=a.eval_every, progress=a.progress)
+    if a.only is None:
+        print("\n" + (out / "results.md").read_text())
+    return 0
+
+
 def cmd_process_data(argv: list[str]) -> int:
     from nerfkit.process.capture import process_images, process_video
     from nerfkit.process.sfm import SfmOptions
@@ -296,6 +309,8 @@ COMMANDS = {
                        "nerfkit bake RUN_DIR --out DIR"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation|antialias DATA_DIR --out DIR "
                                    "--budget-minutes M"),
+    "benchmark": (cmd_benchmark, "train and evaluate every scene under a folder, one table: nerfkit benchmark ROOT "
+                                 "--preset P --budget-minutes M [--jobs K]"),
     "report": (cmd_report, "static HTML report of a run or experiment (opens from disk): nerfkit report RUN_DIR"),
 }
 
@@ -307,7 +322,7 @@ def usage() -> str:
     return "\n".join(lines)
 
 
-COMPILING = {"demo", "train", "eval", "render", "experiment", "view", "export", "bake"}
+COMPILING = {"demo", "train", "eval", "render", "experiment", "view", "export", "bake", "benchmark"}
 
 
 def enable_compile_cache() -> None:

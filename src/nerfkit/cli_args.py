@@ -295,6 +295,32 @@ class ExperimentArgs:
 
 
 @dataclasses.dataclass
+class BenchmarkArgs:
+    """Train and evaluate every scene folder under ROOT with one preset and budget (resumable: finished
+    scenes are skipped, interrupted ones resumed); writes OUT/<scene>/ run folders and the table
+    OUT/results.md, results.json and results.png."""
+
+    root: tyro.conf.Positional[Path]
+    """Folder holding scene folders (e.g. nerf_synthetic/, or captures made by process-data)."""
+    out: Path | None = None
+    """Benchmark folder (default: runs/benchmark_<ROOT name>_<preset>)."""
+    preset: PresetName = DEFAULT_PRESET  # type: ignore[valid-type]
+    """Model preset of every scene."""
+    budget_minutes: float | None = None
+    """Wall-time budget per scene (compile and validation included)."""
+    max_steps: int | None = None
+    """Step budget per scene (with --budget-minutes: whichever comes first)."""
+    jobs: int = 1
+    """Scenes trained at once, each in its own process (and on its own GPU where there are several)."""
+    only: str | None = None
+    """Only this scene folder (by name)."""
+    eval_every: int = 1
+    """Evaluate every K-th view of each scene's validation split."""
+    progress: bool = True
+    """Show progress bars."""
+
+
+@dataclasses.dataclass
 class ProcessArgs:
     """Recover camera poses from photos or a video with structure from motion (pycolmap, on the CPU) and
     write a capture folder that `nerfkit train` reads: transforms.json, images/, images_2/, images_4/,

@@ -1,0 +1,205 @@
+"""`nerfkit benchmark ROOT`: train and evaluate every scene folder under ROOT with one preset and budget.
+
+A scene is any sub-folder nerfkit can read (Blender / nerf_synthetic layout, multiscale, nerfstudio,
+LLFF, COLMAP). Each scene trains into OUT/<scene>/ (a normal run folder) with the data's default
+splits, is evaluated on its validation split, and leaves OUT/<scene>/benchmark.json, written last:
+
+    finished scene    benchmark.json present          skipped on the next call
+    interrupted scene checkpoints, no benchmark.json  resumed (--resume) with what is left of its budget
+    new scene         nothing                          trained from scratch
+
+The table of all finished scenes (PSNR, SSIM, steps, training time, and the mean) is written as
+OUT/results.md, OUT/results.json and a bar plot OUT/results.png. `jobs` > 1 runs that many scenes at
+once, each in its own process (with its own GPU where there are several: CUDA_VISIBLE_DEVICES).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Callable
+
+from nerfkit import checkpoint as ckpt_lib
+from nerfkit.config import preset as make_preset
+from nerfkit.errors import ConfigError, DataError, NerfkitError
+from nerfkit.viz import read_jsonl
+
+RESULT = "benchmark.json"
+
+
+def find_scenes(root: Path) -> list[Path]:
+    """The readable capture folders directly under root, sorted by name; NerfkitError if none."""
+    from nerfkit.data.loader import detect_format
+
+    root = Path(root)
+    if not root.is_dir():
+        raise DataError(f"{root}: folder does not exist")
+    try:
+        detect_format(root)
+        single = True
+    except DataError:
+        single = False
+    if single:
+        raise DataError(f"{root} is one scene; give the folder that holds the scene folders")
+    scenes = []
+    for p in sorted(root.iterdir()):
+        try:
+            if p.is_dir() and detect_format(p):
+                scenes.append(p)
+        except DataError:
+            continue
+    if not scenes:
+        raise DataError(f"{root}: no scene folders in it (a scene holds transforms_train.json, metadata.json, "
+                        f"transforms.json, poses_bounds.npy or sparse/0/)")
+    return scenes
+
+
+def _write_json(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=2))
+    os.replace(tmp, path)
+
+
+def run_scene(scene: Path, run: Path, preset: str, budget_minutes: float | None, max_steps: int | None,
+              eval_every: int, progress: bool, log: Callable[[str], None]) -> dict:
+    """Train (or resume) and evaluate one scene; returns its row (read back when already finished)."""
+    from nerfkit.evaluate import evaluate_run
+    from nerfkit.train import Trainer, load_run_config
+
+    if (run / RESULT).is_file():
+        log(f"{scene.name}: finished earlier ({run / RESULT}); skipped")
+        return json.loads((run / RESULT).read_text())
+    cfg = make_preset(preset)
+    resume = bool(ckpt_lib.list_checkpoints(run / "checkpoints"))
+    if max_steps is not None:
+        cfg.train.max_steps = int(max_steps)
+    if budget_minutes is not None:
+        spent = read_jsonl(run / "metrics.jsonl")[-1]["elapsed"] / 60 if resume and read_jsonl(
+            run / "metrics.jsonl") else 0.0
+        cfg.train.max_minutes = max(budget_minutes - spent, 1e-3)
+    log(f"{scene.name}: {'resuming' if resume else 'training'} ({preset}) into {run}")
+    res = Trainer(scene, run, cfg, resume=resume, progress=progress).run()
+    if res.interrupted:
+        raise KeyboardInterrupt
+    split = load_run_config(run).data.val_split
+    ev = evaluate_run(run, scene, split, every=eval_every, progress=progress)
+    rows = read_jsonl(run / "metrics.jsonl")
+    row = {"scene": scene.name, "data_dir": str(scene.resolve()), "preset": preset, "split": split,
+           "every": eval_every, "n_views": ev["n_views"], "psnr": ev["psnr"], "ssim": ev["ssim"], "steps": res.step,
+           "train_seconds": rows[-1]["elapsed"] if rows else None, "resumed": resume}
+    _write_json(run / RESULT, row)
+    log(f"{scene.name}: {ev['psnr']:.2f} dB, SSIM {ev['ssim']:.4f} after {res.step} steps")
+    return row
+
+
+def _gpu_count() -> int:
+    import jax
+
+    return len([d for d in jax.devices() if d.platform == "gpu"])
+
+
+def _run_jobs(root: Path, out: Path, names: list[str], argv: list[str], jobs: int, log) -> None:
+    """Each scene in its own `nerfkit benchmark --only NAME` process, `jobs` at a time."""
+    gpus = _gpu_count()
+
+    def one(k_name):
+        k, name = k_name
+        env = dict(os.environ)
+        if gpus > 1:
+            env["CUDA_VISIBLE_DEVICES"] = str(k % jobs % gpus)
+        (out / name).mkdir(parents=True, exist_ok=True)
+        with open(out / name / "benchmark.log", "a") as f:
+            code = subprocess.call([sys.executable, "-m", "nerfkit", "benchmark", str(root), "--out", str(out),
+                                    "--only", name, "--jobs", "1", "--no-progress"] + argv, stdout=f, stderr=f,
+                                   env=env)
+        logfile = out / name / "benchmark.log"
+        log(f"{name}: done" if code == 0 else f"{name}: failed (exit {code}), see {logfile}")
+
+    with ThreadPoolExecutor(jobs) as pool:
+        list(pool.map(one, enumerate(names)))
+
+
+def write_table(out: Path, rows: list[dict], preset: str, budget_text: str) -> dict:
+    """results.json, results.md and the bar plot results.png of the finished rows."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    mean = {k: float(np.mean([r[k] for r in rows])) for k in ("psnr", "ssim")}
+    table = {"preset": preset, "budget": budget_text, "scenes": rows, "mean": mean}
+    _write_json(out / "results.json", table)
+    lines = [f"# nerfkit benchmark: preset `{preset}`, {budget_text} per scene", "",
+             "| scene | split | views | PSNR (dB) | SSIM | steps | train time (s) |",
+             "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        t = "-" if r["train_seconds"] is None else f"{r['train_seconds']:.0f}"
+        lines.append(f"| {r['scene']} | `{r['split']}` | {r['n_views']} | {r['psnr']:.2f} | {r['ssim']:.4f} | "
+                     f"{r['steps']} | {t} |")
+    lines += [f"| **mean** | | | **{mean['psnr']:.2f}** | **{mean['ssim']:.4f}** | | |", ""]
+    (out / "results.md").write_text("\n".join(lines))
+    fig, ax = plt.subplots(figsize=(max(4.0, 1.0 + 0.9 * len(rows)), 3.2), dpi=100)
+    ax.bar([r["scene"] for r in rows], [r["psnr"] for r in rows], color="#4c72b0")
+    ax.axhline(mean["psnr"], color="#c44e52", ls="--", label=f"mean {mean['psnr']:.2f} dB")
+    for k, r in enumerate(rows):
+        ax.text(k, r["psnr"], f"{r['psnr']:.2f}", ha="center", va="bottom", fontsize=8)
+    ax.set_ylabel("PSNR (dB)")
+    ax.set_title(f"preset {preset}, {budget_text}", fontsize=9)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(out / "results.png")
+    plt.close(fig)
+    return table
+
+
+def benchmark(root: str | Path, out: str | Path, preset: str = "ngp", budget_minutes: float | None = None,
+              max_steps: int | None = None, jobs: int = 1, only: str | None = None, eval_every: int = 1,
+              progress: bool = True, log: Callable[[str], None] = print) -> dict:
+    """Train and evaluate every scene under root (see the module docstring); returns the table."""
+    root, out = Path(root), Path(out)
+    make_preset(preset)  # unknown preset: ConfigError now, not after the first scene
+    if budget_minutes is None and max_steps is None:
+        raise ConfigError("give each scene a budget: --budget-minutes M (and/or --max-steps N)")
+    if budget_minutes is not None and not budget_minutes > 0:
+        raise ConfigError(f"--budget-minutes must be positive (got {budget_minutes})")
+    for flag, v in (("--max-steps", max_steps), ("--jobs", jobs), ("--eval-every", eval_every)):
+        if v is not None and v < 1:
+            raise ConfigError(f"{flag} must be >= 1 (got {v})")
+    scenes = find_scenes(root)
+    if only is not None:
+        scenes = [s for s in scenes if s.name == only]
+        if not scenes:
+            raise DataError(f"--only {only}: no such scene folder under {root}")
+    out.mkdir(parents=True, exist_ok=True)
+    parts = []
+    if budget_minutes is not None:
+        parts.append(f"{budget_minutes:g} min")
+    if max_steps is not None:
+        parts.append(f"{max_steps} steps")
+    budget_text = " or ".join(parts)
+    log(f"benchmark of {len(scenes)} scene(s) under {root} ({', '.join(s.name for s in scenes)}): preset {preset}, "
+        f"{budget_text} each, {jobs} at a time; writing {out}")
+    todo = [s for s in scenes if not (out / s.name / RESULT).is_file()]
+    if jobs > 1 and len(todo) > 1:
+        argv = ["--preset", preset, "--eval-every", str(eval_every)]
+        argv += ["--budget-minutes", str(budget_minutes)] if budget_minutes is not None else []
+        argv += ["--max-steps", str(max_steps)] if max_steps is not None else []
+        _run_jobs(root, out, [s.name for s in todo], argv, jobs, log)
+    rows = []
+    for s in scenes:
+        if jobs > 1 and len(todo) > 1 and not (out / s.name / RESULT).is_file():
+            continue  # its job failed; reported above, the others still go in the table
+        rows.append(run_scene(s, out / s.name, preset, budget_minutes, max_steps, eval_every, progress, log))
+    if not rows:
+        raise NerfkitError(f"no scene finished; see the benchmark.log files under {out}")
+    if only is not None:  # one scene of a --jobs run: the parent writes the table
+        return {"scenes": rows}
+    table = write_table(out, rows, preset, budget_text)
+    log(f"mean over {len(rows)} scene(s): {table['mean']['psnr']:.2f} dB, SSIM {table['mean']['ssim']:.4f}; "
+        f"{out / 'results.md'}, {out / 'results.png'}")
+    return table

@@ -1,0 +1,80 @@
+"""`nerfkit benchmark ROOT`: every scene trained and evaluated into one table; resumable (a finished
+scene is skipped, an interrupted one resumed); --jobs runs scenes in parallel processes; bad input
+is a one-line error."""
+
+from __future__ import annotations
+
+import json
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from nerfkit.benchmark import RESULT, benchmark, find_scenes
+from nerfkit.cli import main
+from nerfkit.config import preset
+from nerfkit.data.scene import make_scene
+from nerfkit.errors import ConfigError, DataError
+from nerfkit.train import Trainer
+from nerfkit.viz import read_jsonl
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    r = tmp_path_factory.mktemp("bench") / "scenes"
+    make_scene(r / "alpha", size=16, n_train=4, n_val=2, n_test=1, seed=1)
+    make_scene(r / "beta", size=16, n_train=4, n_val=2, n_test=1, seed=2)
+    (r / "notes").mkdir()  # not a scene: ignored
+    return r
+
+
+def test_benchmark_trains_every_scene_resumes_the_interrupted_one_and_skips_finished_ones(root, tmp_path, capsys):
+    out = tmp_path / "out"
+    cfg = preset("tiny")
+    cfg.train.max_steps = 2
+    Trainer(root / "beta", out / "beta", cfg, progress=False).run()  # an interrupted scene: no benchmark.json
+    assert main(["benchmark", str(root), "--out", str(out), "--preset", "tiny", "--max-steps", "4",
+                 "--no-progress"]) == 0
+    table = json.loads((out / "results.json").read_text())
+    rows = {r["scene"]: r for r in table["scenes"]}
+    assert sorted(rows) == ["alpha", "beta"]
+    assert rows["beta"]["resumed"] and not rows["alpha"]["resumed"]
+    assert [r["step"] for r in read_jsonl(out / "beta" / "metrics.jsonl")][-1] == 4
+    for r in rows.values():
+        assert r["steps"] == 4 and r["split"] == "val" and r["n_views"] == 2
+        ev = json.loads((out / r["scene"] / "eval_val.json").read_text())
+        assert r["psnr"] == pytest.approx(ev["psnr"])
+    assert table["mean"]["psnr"] == pytest.approx(np.mean([r["psnr"] for r in rows.values()]))
+    md = (out / "results.md").read_text()
+    assert "| alpha |" in md and "| beta |" in md and "**mean**" in md
+    assert iio.imread(out / "results.png").shape[0] > 100
+    stamps = {s: (out / s / RESULT).stat().st_mtime_ns for s in rows}
+    capsys.readouterr()
+    assert main(["benchmark", str(root), "--out", str(out), "--preset", "tiny", "--max-steps", "4",
+                 "--no-progress"]) == 0
+    assert "skipped" in capsys.readouterr().out
+    assert stamps == {s: (out / s / RESULT).stat().st_mtime_ns for s in rows}
+
+
+def test_jobs_run_scenes_in_their_own_processes(root, tmp_path):
+    out = tmp_path / "jobs"
+    table = benchmark(root, out, preset="tiny", max_steps=2, jobs=2, progress=False, log=lambda *_: None)
+    assert sorted(r["scene"] for r in table["scenes"]) == ["alpha", "beta"]
+    for s in ("alpha", "beta"):
+        assert (out / s / "benchmark.log").is_file() and (out / s / RESULT).is_file()
+
+
+def test_bad_requests_are_one_line_errors(root, tmp_path, capsys):
+    assert [p.name for p in find_scenes(root)] == ["alpha", "beta"]
+    with pytest.raises(DataError, match="is one scene"):
+        find_scenes(root / "alpha")
+    with pytest.raises(DataError, match="no scene folders"):
+        find_scenes(root / "notes")
+    with pytest.raises(ConfigError, match="budget"):
+        benchmark(root, tmp_path / "a", preset="tiny")
+    with pytest.raises(DataError, match="--only gamma"):
+        benchmark(root, tmp_path / "b", preset="tiny", max_steps=1, only="gamma")
+    capsys.readouterr()
+    assert main(["benchmark", str(root / "alpha"), "--out", str(tmp_path / "c"), "--max-steps", "1"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is one scene" in err[0]
