@@ -30,6 +30,7 @@ SCRIPT = textwrap.dedent('''
         cfg.train.max_steps, cfg.train.log_every, cfg.train.val_every, cfg.train.devices = steps, 1, 1000, devices
         if kind == "ngp":
             cfg.field.hash_log2_size, cfg.sampler.max_samples, cfg.train.batch_rays = 14, 1 << 14, 1024
+            cfg.field.hash_levels, cfg.field.hash_max_res, cfg.sampler.march_steps = 4, 64, 128  # quick to compile
         Trainer(scene, root / name, cfg, resume=resume, progress=False).run()
         return [r["loss"] for r in read_jsonl(root / name / "metrics.jsonl")]
 

@@ -241,9 +241,12 @@ class Trainer:
         self.cfg = cfg
         self.model = build_model(cfg)
         self.mesh = parallel.data_mesh(parallel.local_devices(cfg.train.devices))
-        parallel.check_batch(cfg.train.batch_rays, self.mesh)
-        say(parallel.describe(cfg.train.batch_rays, self.mesh, getattr(self.model, "PARALLEL", "rays"),
-                              cfg.sampler.max_samples))
+        split = getattr(self.model, "PARALLEL", "rays")  # what the devices split (make_train_step)
+        if split == "rays":
+            parallel.check_batch(cfg.train.batch_rays, self.mesh)
+        else:
+            parallel.check_batch(cfg.sampler.max_samples, self.mesh, "--max-samples")
+        say(parallel.describe(cfg.train.batch_rays, self.mesh, split, cfg.sampler.max_samples))
         self.optimizer, self.schedule = make_optimizer(cfg)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)

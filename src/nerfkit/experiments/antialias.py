@@ -37,7 +37,7 @@ from nerfkit import checkpoint as ckpt_lib
 from nerfkit.config import Config
 from nerfkit.config import preset as make_preset
 from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.experiments.common import budget_text, labelled_grid, overlay_plots
+from nerfkit.experiments.common import apply_settings, budget_text, check_budget, labelled_grid, overlay_plots
 from nerfkit.viz import read_jsonl
 
 MLP_SIZES = ("small", "paper")
@@ -79,16 +79,7 @@ def model_config(m: AAModel, mlp_size: str, budget_minutes: float | None, max_st
         cfg.sampler.n_samples, cfg.sampler.n_importance = 64, 64
         cfg.train.precrop_steps = 0
     cfg.field.antialias = m.antialias
-    if budget_minutes is not None:
-        cfg.train.max_minutes = float(budget_minutes)
-    if max_steps is not None:
-        cfg.train.max_steps = int(max_steps)
-    if seed is not None:
-        cfg.train.seed = int(seed)
-    if val_every is not None:
-        cfg.train.val_every = int(val_every)
-    cfg.data.train_split, cfg.data.val_split = train_split, val_split
-    return cfg
+    return apply_settings(cfg, budget_minutes, max_steps, seed, val_every, train_split, val_split)
 
 
 def detail_window(img: np.ndarray, frac: float = 0.25) -> tuple[float, float, float]:
@@ -151,13 +142,14 @@ def verdicts(models: list[dict]) -> list[str]:
 
 
 def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: float | None = None,
-                         max_steps: int | None = None, models: list[str] | None = None, mlp_size: str = "small", seed: int | None = None, eval_every: int = 5, grid_views: int = 1,
+                         max_steps: int | None = None, models: list[str] | None = None, mlp_size: str = "small",
+                         seed: int | None = None, eval_every: int = 5, grid_views: int = 1,
                          val_every: int | None = None, train_split: str | None = None, val_split: str | None = None,
                          progress: bool = True, log: Callable[[str], None] = print) -> dict:
     """Train the chosen models (default all four) on every scale of the multiscale capture `data_dir` for
-    `budget_minutes` of wall time and/or `max_steps` steps each (whichever comes first), evaluate each at every scale of the val split (every `eval_every`-th view), and
-    write results.{json,md}, curves, per-scale grids and crops of `grid_views` views and report.html into
-    `out`. Returns the results dict."""
+    `budget_minutes` of wall time and/or `max_steps` steps each (whichever comes first), evaluate each at
+    every scale of the val split (every `eval_every`-th view), and write results.{json,md}, curves,
+    per-scale grids and crops of `grid_views` views and report.html into `out`. Returns the results dict."""
     from nerfkit.data.loader import load_scene, read_capture
     from nerfkit.data.multiscale import level_specs
     from nerfkit.evaluate import evaluate_run, split_slug
@@ -165,12 +157,7 @@ def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: 
     from nerfkit.train import Trainer, evenly_spaced, load_run_config
 
     data_dir, out = Path(data_dir), Path(out)
-    if budget_minutes is None and max_steps is None:
-        raise ConfigError("give the models a budget: --budget-minutes M (and/or --max-steps N)")
-    if budget_minutes is not None and not budget_minutes > 0:
-        raise ConfigError(f"--budget-minutes must be positive (got {budget_minutes})")
-    if max_steps is not None and max_steps < 1:
-        raise ConfigError(f"--max-steps must be >= 1 (got {max_steps})")
+    check_budget(budget_minutes, max_steps)
     if mlp_size not in MLP_SIZES:
         raise ConfigError(f"--mlp-size must be one of {', '.join(MLP_SIZES)} (got {mlp_size!r})")
     for name, v in (("--eval-every", eval_every), ("--grid-views", grid_views)):

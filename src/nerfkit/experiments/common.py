@@ -20,6 +20,33 @@ def budget_text(budget_minutes: float | None, max_steps: int | None) -> str:
     return " or ".join(parts) + (", whichever comes first" if len(parts) == 2 else "")
 
 
+def check_budget(budget_minutes: float | None, max_steps: int | None) -> None:
+    """ConfigError unless a budget is given and positive."""
+    from nerfkit.errors import ConfigError
+
+    if budget_minutes is None and max_steps is None:
+        raise ConfigError("give the models a budget: --budget-minutes M and/or --max-steps N")
+    if budget_minutes is not None and not budget_minutes > 0:
+        raise ConfigError(f"--budget-minutes must be positive (got {budget_minutes})")
+    if max_steps is not None and max_steps < 1:
+        raise ConfigError(f"--max-steps must be >= 1 (got {max_steps})")
+
+
+def apply_settings(cfg, budget_minutes: float | None, max_steps: int | None, seed: int | None,
+                   val_every: int | None, train_split: str | None, val_split: str | None):
+    """cfg with the experiment's shared settings: budget, seed, validation period and splits (None: keep)."""
+    if budget_minutes is not None:
+        cfg.train.max_minutes = float(budget_minutes)
+    if max_steps is not None:
+        cfg.train.max_steps = int(max_steps)
+    if seed is not None:
+        cfg.train.seed = int(seed)
+    if val_every is not None:
+        cfg.train.val_every = int(val_every)
+    cfg.data.train_split, cfg.data.val_split = train_split, val_split
+    return cfg
+
+
 def _time_axis(runs: list[list[dict]]) -> tuple[str, float]:
     longest = max((r[-1].get("elapsed", 0) for r in runs if r), default=0)
     return ("time (min)", 60.0) if longest > 180 else ("time (s)", 1.0)

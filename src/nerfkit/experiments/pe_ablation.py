@@ -29,7 +29,15 @@ from imageio.v3 import imread
 from nerfkit import checkpoint as ckpt_lib
 from nerfkit.config import preset as make_preset
 from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.experiments.common import budget_text, gt_depth, image_grid, num_text, overlay_plots
+from nerfkit.experiments.common import (
+    apply_settings,
+    budget_text,
+    check_budget,
+    gt_depth,
+    image_grid,
+    num_text,
+    overlay_plots,
+)
 from nerfkit.viz import read_jsonl
 
 
@@ -94,12 +102,7 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     from nerfkit.train import Trainer, evenly_spaced, load_run_config
 
     data_dir, out = Path(data_dir), Path(out)
-    if budget_minutes is None and max_steps is None:
-        raise ConfigError("give the models a budget: --budget-minutes M and/or --max-steps N")
-    if budget_minutes is not None and not budget_minutes > 0:
-        raise ConfigError(f"--budget-minutes must be positive (got {budget_minutes})")
-    if max_steps is not None and max_steps < 1:
-        raise ConfigError(f"--max-steps must be >= 1 (got {max_steps})")
+    check_budget(budget_minutes, max_steps)
     for name, v in (("--eval-every", eval_every), ("--orbit-frames", orbit_frames), ("--grid-views", grid_views)):
         if v < 1:
             raise ConfigError(f"{name} must be >= 1 (got {v})")
@@ -118,15 +121,7 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
             cfg.field.l_xyz = v.l_xyz
         if v.l_dir is not None:
             cfg.field.l_dir = v.l_dir
-        if budget_minutes is not None:
-            cfg.train.max_minutes = float(budget_minutes)
-        if max_steps is not None:
-            cfg.train.max_steps = int(max_steps)
-        if seed is not None:
-            cfg.train.seed = int(seed)
-        if val_every is not None:
-            cfg.train.val_every = int(val_every)
-        cfg.data.train_split, cfg.data.val_split = train_split, val_split
+        apply_settings(cfg, budget_minutes, max_steps, seed, val_every, train_split, val_split)
         cfg.data.target_width, cfg.data.downscale = target_width, downscale
         cfgs.append(cfg)
     budget = {"max_minutes": budget_minutes, "max_steps": max_steps,
