@@ -67,8 +67,7 @@ def _write_json(path: Path, data: dict) -> None:
 def run_scene(scene: Path, run: Path, preset: str, budget_minutes: float | None, max_steps: int | None,
               eval_every: int, progress: bool, log: Callable[[str], None]) -> dict:
     """Train (or resume) and evaluate one scene; returns its row (read back when already finished)."""
-    from nerfkit.evaluate import evaluate_run
-    from nerfkit.train import Trainer, load_run_config
+    from nerfkit.evaluate import train_and_evaluate
 
     if (run / RESULT).is_file():
         log(f"{scene.name}: finished earlier ({run / RESULT}); skipped")
@@ -82,11 +81,8 @@ def run_scene(scene: Path, run: Path, preset: str, budget_minutes: float | None,
             run / "metrics.jsonl") else 0.0
         cfg.train.max_minutes = max(budget_minutes - spent, 1e-3)
     log(f"{scene.name}: {'resuming' if resume else 'training'} ({preset}) into {run}")
-    res = Trainer(scene, run, cfg, resume=resume, progress=progress).run()
-    if res.interrupted:
-        raise KeyboardInterrupt
-    split = load_run_config(run).data.val_split
-    ev = evaluate_run(run, scene, split, every=eval_every, progress=progress)
+    res, run_cfg, ev = train_and_evaluate(scene, run, cfg, eval_every, progress, resume)
+    split = run_cfg.data.val_split
     rows = read_jsonl(run / "metrics.jsonl")
     row = {"scene": scene.name, "data_dir": str(scene.resolve()), "preset": preset, "split": split,
            "every": eval_every, "n_views": ev["n_views"], "psnr": ev["psnr"], "ssim": ev["ssim"], "steps": res.step,

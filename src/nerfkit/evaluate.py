@@ -16,7 +16,7 @@ from nerfkit.data.multiscale import level_specs
 from nerfkit.errors import ConfigError
 from nerfkit.inference import make_renderer
 from nerfkit.metrics import psnr, ssim
-from nerfkit.train import load_trained
+from nerfkit.train import Trainer, TrainResult, load_run_config, load_trained
 from nerfkit.viewer.camera_path import focal_from_fov_y, read_camera_path
 from nerfkit.viz import background_rgb, colorize_renders, save_png, side_by_side, write_video
 
@@ -105,6 +105,19 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
         (run_dir / f"{name}.json").write_text(json.dumps(result, indent=2))
         result["written"] = str(run_dir / f"{name}.json")
     return result
+
+
+def train_and_evaluate(data_dir: Path, run_dir: Path, cfg, every: int = 1, progress: bool = True,
+                       resume: bool = False) -> tuple[TrainResult, object, dict]:
+    """Train `cfg` on data_dir into run_dir (or resume it), then evaluate the result on the split the run
+    validated on (every `every`-th view). Returns (the training result, the run's resolved config, the
+    evaluation). KeyboardInterrupt when training was interrupted (its checkpoint is saved)."""
+    res = Trainer(data_dir, run_dir, cfg, resume=resume, progress=progress).run()
+    if res.interrupted:
+        raise KeyboardInterrupt
+    run_cfg = load_run_config(run_dir)
+    ev = evaluate_run(run_dir, data_dir, run_cfg.data.val_split, every=every, progress=progress)
+    return res, run_cfg, ev
 
 
 def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir: Path | None, bg) -> dict:

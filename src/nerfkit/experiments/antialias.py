@@ -152,9 +152,9 @@ def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: 
     per-scale grids and crops of `grid_views` views and report.html into `out`. Returns the results dict."""
     from nerfkit.data.loader import load_scene, read_capture
     from nerfkit.data.multiscale import level_specs
-    from nerfkit.evaluate import evaluate_run, split_slug
+    from nerfkit.evaluate import split_slug, train_and_evaluate
     from nerfkit.report import write_report
-    from nerfkit.train import Trainer, evenly_spaced, load_run_config
+    from nerfkit.train import evenly_spaced
 
     data_dir, out = Path(data_dir), Path(out)
     check_budget(budget_minutes, max_steps)
@@ -183,18 +183,13 @@ def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: 
     rows = []
     for k, (m, cfg) in enumerate(zip(specs, cfgs), 1):
         run = out / m.run_dir
-        log(f"[{k}/{len(specs)}] {m.label} ({m.description}): training into {run}")
-        res = Trainer(data_dir, run, cfg, progress=progress).run()
-        if res.interrupted:
-            raise KeyboardInterrupt
-        rc = load_run_config(run)
+        log(f"[{k}/{len(specs)}] {m.label} ({m.description}): training into {run}, then evaluating every scale")
+        res, rc, ev = train_and_evaluate(data_dir, run, cfg, eval_every, progress)
         val_split = rc.data.val_split
-        log(f"[{k}/{len(specs)}] {m.label}: step {res.step}; evaluating every scale of {val_split}")
-        ev = evaluate_run(run, data_dir, val_split, every=eval_every, progress=progress)
         write_report(run)
         metrics = read_jsonl(run / "metrics.jsonl")
-        log(f"[{k}/{len(specs)}] {m.label}: " + ", ".join(f"{s['width']} px {s['psnr']:.2f}" for s in ev["scales"])
-            + f"; mean {ev['psnr']:.2f} dB")
+        per_scale = ", ".join(f"{s['width']} px {s['psnr']:.2f}" for s in ev["scales"])
+        log(f"[{k}/{len(specs)}] {m.label}: step {res.step}; {per_scale}; mean {ev['psnr']:.2f} dB")
         rows.append({"label": m.label, "description": m.description, "run_dir": m.run_dir, "preset": m.preset,
                      "antialias": m.antialias, "depth": rc.field.depth, "width": rc.field.width,
                      "samples": [rc.sampler.n_samples, rc.sampler.n_importance], "steps": res.step,

@@ -97,9 +97,9 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     plots, `grid_views` image grids and report.html into `out`. Returns the results dict.
     train_split, val_split, target_width, downscale: the data settings (default: the data's)."""
     from nerfkit.data.loader import load_scene
-    from nerfkit.evaluate import evaluate_run, render_run, split_slug
+    from nerfkit.evaluate import render_run, split_slug, train_and_evaluate
     from nerfkit.report import write_experiment_report, write_report
-    from nerfkit.train import Trainer, evenly_spaced, load_run_config
+    from nerfkit.train import evenly_spaced, load_run_config
 
     data_dir, out = Path(data_dir), Path(out)
     check_budget(budget_minutes, max_steps)
@@ -131,14 +131,11 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     models = []
     for k, (v, cfg) in enumerate(zip(PE_ABLATION, cfgs), 1):
         run = out / v.run_dir
-        log(f"[{k}/3] {v.label} ({v.description}): training into {run}")
-        res = Trainer(data_dir, run, cfg, progress=progress).run()
-        if res.interrupted:
-            raise KeyboardInterrupt
-        val_split = load_run_config(run).data.val_split  # the split the run validated on (data default or given)
-        log(f"[{k}/3] {v.label}: step {res.step}; evaluating on {val_split} (every {eval_every} view(s))")
-        ev = evaluate_run(run, data_dir, val_split, every=eval_every, progress=progress)
-        log(f"[{k}/3] {v.label}: val PSNR {ev['psnr']:.2f} dB, SSIM {ev['ssim']:.4f}; "
+        log(f"[{k}/3] {v.label} ({v.description}): training into {run}, then evaluating (every {eval_every} "
+            f"view(s) of its val split)")
+        res, run_cfg, ev = train_and_evaluate(data_dir, run, cfg, eval_every, progress)
+        val_split = run_cfg.data.val_split  # the split the run validated on (data default or given)
+        log(f"[{k}/3] {v.label}: step {res.step}, val PSNR {ev['psnr']:.2f} dB, SSIM {ev['ssim']:.4f}; "
             f"rendering a {orbit_frames}-frame orbit")
         info = render_run(run, data_dir, orbit=orbit_frames, progress=progress)
         write_report(run)
