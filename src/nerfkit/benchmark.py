@@ -77,8 +77,8 @@ def run_scene(scene: Path, run: Path, preset: str, budget_minutes: float | None,
     if max_steps is not None:
         cfg.train.max_steps = int(max_steps)
     if budget_minutes is not None:
-        spent = read_jsonl(run / "metrics.jsonl")[-1]["elapsed"] / 60 if resume and read_jsonl(
-            run / "metrics.jsonl") else 0.0
+        logged = read_jsonl(run / "metrics.jsonl") if resume else []
+        spent = logged[-1]["elapsed"] / 60 if logged else 0.0
         cfg.train.max_minutes = max(budget_minutes - spent, 1e-3)
     log(f"{scene.name}: {'resuming' if resume else 'training'} ({preset}) into {run}")
     res, run_cfg, ev = train_and_evaluate(scene, run, cfg, eval_every, progress, resume)

@@ -232,17 +232,19 @@ def cmd_experiment(argv: list[str]) -> int:
     if a.experiment == "antialias":
         for flag in ("--preset", "--orbit-frames", "--target-width", "--downscale"):
             if _flag_value(argv, flag) is not None:
-                raise ConfigError(f"{flag} does not apply to the antialias experiment (its models, splits and "
+                raise ConfigError(f"{flag} does not apply to the antialias experiment (its models and the data's "
                                   f"scales are fixed; see nerfkit experiment --help)")
         models = [m.strip() for m in a.models.split(",") if m.strip()] if a.models else None
-        antialias_experiment(a.data_dir, a.out, a.budget_minutes, a.max_steps, models=models, mlp_size=a.mlp_size, seed=a.seed,
-                             eval_every=a.eval_every if _flag_value(argv, "--eval-every") else 5,
-                             grid_views=a.grid_views if _flag_value(argv, "--grid-views") else 1,
+        antialias_experiment(a.data_dir, a.out, a.budget_minutes, a.max_steps, models=models, mlp_size=a.mlp_size,
+                             seed=a.seed,
+                             eval_every=5 if a.eval_every is None else a.eval_every,
+                             grid_views=1 if a.grid_views is None else a.grid_views,
                              val_every=a.val_every, train_split=a.train_split, val_split=a.val_split,
                              progress=a.progress)
     else:
         pe_ablation(a.data_dir, a.out, preset=a.preset, budget_minutes=a.budget_minutes, max_steps=a.max_steps,
-                    seed=a.seed, eval_every=a.eval_every, orbit_frames=a.orbit_frames, grid_views=a.grid_views,
+                    seed=a.seed, eval_every=2 if a.eval_every is None else a.eval_every, orbit_frames=a.orbit_frames,
+                    grid_views=2 if a.grid_views is None else a.grid_views,
                     val_every=a.val_every, progress=a.progress, train_split=a.train_split, val_split=a.val_split,
                     target_width=a.target_width, downscale=a.downscale)
     print("\n" + (a.out / "results.md").read_text())
@@ -307,8 +309,8 @@ COMMANDS = {
                            "RUN_DIR [--out FILE]"),
     "bake": (cmd_bake, "a web page that renders a trained scene in real time in any browser (WebGL2): "
                        "nerfkit bake RUN_DIR --out DIR"),
-    "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation|antialias DATA_DIR --out DIR "
-                                   "--budget-minutes M"),
+    "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation|antialias "
+                                   "DATA_DIR --out DIR --budget-minutes M"),
     "benchmark": (cmd_benchmark, "train and evaluate every scene under a folder, one table: nerfkit benchmark ROOT "
                                  "--preset P --budget-minutes M [--jobs K]"),
     "report": (cmd_report, "static HTML report of a run or experiment (opens from disk): nerfkit report RUN_DIR"),

@@ -269,12 +269,12 @@ class ExperimentArgs:
     """Configuration all three models start from (only the positional encoding differs)."""
     seed: int | None = None
     """Seed of all three models (default: the preset's)."""
-    eval_every: int = 2
-    """Evaluate every K-th view of the val split."""
+    eval_every: int | None = None
+    """Evaluate every K-th view of the val split (default: 2 for pe-ablation, 5 for antialias)."""
     orbit_frames: int = 40
     """Frames of each model's orbit video (at the training resolution)."""
-    grid_views: int = 2
-    """Validation views shown in image grids (at least 2)."""
+    grid_views: int | None = None
+    """Validation views shown in image grids (default: 2 for pe-ablation, at least 2; 1 for antialias)."""
     val_every: int | None = None
     """Validate every N steps during training (default: the preset's)."""
     train_split: str | None = None
