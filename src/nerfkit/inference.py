@@ -13,6 +13,7 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 import numpy as np
+from scipy import ndimage
 
 from nerfkit import occupancy
 from nerfkit.cameras import Camera, camera_rays
@@ -114,46 +115,105 @@ def pack_bits(keep: jnp.ndarray) -> jnp.ndarray:
     return jnp.sum(keep.reshape(r, w // 32, 32).astype(jnp.uint32) << shifts, axis=-1, dtype=jnp.uint32)
 
 
+def empty_distance(bits: np.ndarray, resolution: int) -> np.ndarray:
+    """Chessboard distance D [R^3] (int32, flat like the occupancy bits) from each cell to the nearest
+    occupied cell, in cells: 0 at occupied cells, 1 next to one, ...; R everywhere when none is occupied.
+    Every cell c' with |c' - c|_inf <= D(c) - 1 is then unoccupied."""
+    occ = np.asarray(bits, bool).reshape((resolution,) * 3)
+    if not occ.any():
+        return np.full(occ.size, resolution, np.int32)
+    return ndimage.distance_transform_cdt(~occ, metric="chessboard").astype(np.int32).reshape(-1)
+
+
+def skip_empty(candidates, to_grid, occ_cfg, dist, lipschitz: float, o, d, k, iters: int = 3, search_bits: int = 10):
+    """Advance candidate indices k [R] past candidates whose midpoints certainly lie in unoccupied cells.
+
+    A midpoint x whose grid point y = to_grid(x) is in a cell at chessboard distance D >= 1 from every
+    occupied cell has a clearance of (D - 1) h (h the cell size): every grid point within that L-inf
+    (so also L2) distance of y is in an unoccupied cell. to_grid is `lipschitz`-Lipschitz (1 for the box,
+    1 / radius for the contraction, which never stretches), so every point of the ray with
+    |t' - t| |d| lipschitz <= (D - 1) h is unoccupied too: candidate k and the following n ones, n the
+    largest with t_mid(k + n) <= t_mid(k) + (D - 1) h / (|d| lipschitz) (binary search over
+    n < 2^search_bits, on `candidates`' own t grid, so the same samples are kept as without the skip),
+    are skipped: k <- k + n + 1. Repeated `iters` times (sphere tracing over the distance field).
+
+    candidates(o, d, None, index [R, 1]) -> t_start, t_end, cand [R, 1] (the model's march);
+    dist: int32 [R^3] (empty_distance). Returns int32 [R]."""
+    h = occ_cfg.cell_size
+    norm = jnp.linalg.norm(d, axis=-1)
+
+    def mid(kk):
+        t0, t1, cand = candidates(o, d, None, kk[:, None])
+        return 0.5 * (t0 + t1)[:, 0], cand[:, 0]
+
+    for _ in range(iters):
+        t, cand = mid(k)
+        idx, inside = occupancy.world_to_cell(to_grid(o + t[:, None] * d), occ_cfg)
+        gap = dist[idx]
+        reach = t + 0.999 * (gap.astype(jnp.float32) - 1.0) * h / jnp.maximum(norm * lipschitz, 1e-12)
+        n = jnp.zeros_like(k)
+        for b in reversed(range(search_bits)):
+            trial = n + (1 << b)
+            tm, c = mid(k + trial)
+            n = jnp.where(c & (tm <= reach), trial, n)
+        k = jnp.where(cand & inside & (gap >= 1), k + n + 1, k)
+    return k
+
+
 class WavefrontRenderer(Renderer):
     """Full-image rendering for occupancy-marched fields that stops each ray where it is spent.
 
-    `chunk` slots each hold one ray. Every round, each live ray looks at its next WINDOW
-    candidate intervals (model.candidates; the same t grid as training's march, without
-    jitter) and marks those in occupied cells in a bit mask; the first CAP marked ones are
-    shaded: density and colour, weights w_i = T_i (1 - exp(-sigma_i delta_i)) with T
-    carried over from earlier rounds, accumulated into the ray's colour, depth and opacity.
-    A ray retires when T < MIN_TRANSMITTANCE or its candidates run out, and the next
-    pending ray takes its slot. So empty space costs only occupancy look-ups, and nothing
-    behind a surface is shaded (beyond the last window). The shaded samples of all slots
-    are packed (ray-major, offsets from a prefix sum of per-ray counts) into the smallest of
-    a few fixed budgets that holds them, so padding stays small; compositing then runs on a
-    dense [chunk, CAP] layout. Pixels equal the one-pass renderer's (same samples, same
-    weights) up to float summation order.
+    `chunk` slots each hold one ray. Every round, each live ray first skips the candidates
+    that the occupancy grid's distance field proves empty (skip_empty: sphere tracing over
+    empty_distance, on the march's own t grid), then looks at its next WINDOW candidate
+    intervals (model.candidates; the same t grid as training's march, without jitter) and
+    marks those in occupied cells in a bit mask; up to CAP marked ones are shaded: density
+    and colour, weights w_i = T_i (1 - exp(-sigma_i delta_i)) with T carried over from
+    earlier rounds, accumulated into the ray's colour, depth and opacity. A ray retires when
+    T < MIN_TRANSMITTANCE or its candidates run out, and the next pending ray takes its
+    slot. So empty space costs a few distance look-ups, and nothing behind a surface is
+    shaded (beyond the last window). The shaded samples of all slots are packed (ray-major,
+    offsets from a prefix sum of per-ray counts, starting at a round-robin slot) into the
+    smallest of a few fixed budgets that holds them, or the largest: rays past it shade
+    fewer samples this round and go on from their first unshaded one next round, so the
+    budget is full and padding small. Compositing runs on a dense [chunk, CAP] layout.
+    Pixels equal the one-pass renderer's (same samples, same weights) up to float
+    summation order.
     """
 
-    # Measured on maryrose at 432x432 (2 CPU cores): CAP 8 / WINDOW 64 / chunk 4096 took 5.4 s, CAP 16
-    # 9.1 s, CAP 4 6.8 s; the one-pass renderer 14 s. Budgets of 32768 samples run ~1.5x faster per
-    # sample than 65536 (cache), so a small CAP per round wins over fewer, larger rounds.
+    # Measured on a 10-minute lego ngp run, 2 CPU cores, compiled (benchmarks/render_speed.py): one
+    # 800x800 frame 3.75 s / 256x256 0.40 s with chunk 4096, budgets (1, 2, 4), WINDOW 64, CAP 8; budgets
+    # (1, 4, 8) 4.22 s (more padding); WINDOW 32 3.79 s; chunk 8192 3.45 s; chunk 2048 4.90 s. Budgets of
+    # 65536 samples run slower per sample than 32768 (cache).
     WINDOW = 64  # a multiple of 32 (bit-mask words)
     CAP = 8
-    BUDGETS = (1, 4, 8)  # samples per slot: a round's budget is chunk * m for the smallest m that holds it
+    BUDGETS = (1, 2, 4)  # samples per slot: a round's budget is chunk * m for the smallest m that holds it
 
     def __post_init__(self):
         model = self.model
         r, w, cap = self.chunk, self.WINDOW, self.CAP
         steps = jnp.arange(w, dtype=jnp.int32)
 
-        def window(aux, o, d, k0):
+        field = model.field
+        lipschitz = 1.0 / field.radius if field.unbounded else 1.0
+
+        def window(aux, dist, o, d, k0):
+            k0 = skip_empty(model.candidates, field.to_grid, model.occ, dist, lipschitz, o, d, k0)
             t0, t1, cand = model.candidates(o, d, None, k0[:, None] + steps[None, :])
             x = o[:, None, :] + (0.5 * (t0 + t1))[..., None] * d[:, None, :]
-            occ = occupancy.query_occupancy(aux, model.field.to_grid(x.reshape(-1, 3)), model.occ).reshape(r, w)
+            occ = occupancy.query_occupancy(aux, field.to_grid(x.reshape(-1, 3)), model.occ).reshape(r, w)
             keep = cand & occ
-            return pack_bits(keep), jnp.sum(jnp.minimum(jnp.sum(keep, axis=1), cap)), ~cand[:, -1]
+            return pack_bits(keep), jnp.sum(jnp.minimum(jnp.sum(keep, axis=1), cap)), ~cand[:, -1], k0
 
-        def shade(params, o, d, rad, k0, bits, trans, budget):
+        def shade(params, o, d, rad, k0, bits, trans, first, budget):
             pos, ok, rest = first_set_bits(bits, cap)  # [r, cap]
             count = jnp.sum(ok, axis=1)
-            start = jnp.cumsum(count) - count  # first packed sample of each ray
+            # Packing order starts at slot `first` (round robin, so no slot waits for ever); rays past the
+            # budget shade fewer samples (or none) this round and go on from their first unshaded one.
+            rolled = jnp.roll(count, -first)
+            start = jnp.roll(jnp.cumsum(rolled) - rolled, first)  # first packed sample of each ray
+            take = jnp.clip(budget - start, 0, count)
+            ok = ok & (jnp.arange(cap)[None, :] < take[:, None])
             slot = jnp.where(ok, start[:, None] + jnp.arange(cap)[None, :], budget)
             # Inverse map of the packing: packed sample s -> (ray, j); slots past the total stay ray 0.
             src = jnp.zeros(budget, jnp.int32).at[slot.reshape(-1)].set(jnp.arange(r * cap, dtype=jnp.int32),
@@ -172,10 +232,23 @@ class WavefrontRenderer(Renderer):
             wgt = jnp.where(ok & (t_i >= model.MIN_TRANSMITTANCE), t_i * (1.0 - jnp.exp(-tau)), 0.0)
             return {"rgb": jnp.sum(wgt[..., None] * rgb[back], axis=1), "depth": jnp.sum(wgt * t_mid, axis=1),
                     "opacity": jnp.sum(wgt, axis=1), "trans": trans * jnp.exp(-jnp.sum(tau, axis=1)),
-                    "k_next": jnp.where(rest >= 0, k0 + rest, k0 + w)}
+                    "k_next": jnp.where(take < count, k0 + jnp.take_along_axis(pos, jnp.minimum(take, cap - 1)[:, None],
+                                                                              axis=1)[:, 0],
+                                        jnp.where(rest >= 0, k0 + rest, k0 + w)),
+                    "next_first": (first + jnp.argmax(jnp.roll(take < count, -first))) % r,
+                    "shaded": jnp.sum(take)}
 
         self._window = jax.jit(window)
+        self._dist = None
         self._shade = {m: jax.jit(partial(shade, budget=r * m)) for m in self.BUDGETS}
+
+    def empty_distance(self, aux) -> jnp.ndarray:
+        """empty_distance of the occupancy bits in aux, computed once per bits array (the viewer renders
+        many frames of one grid)."""
+        bits = aux["bits"]
+        if self._dist is None or self._dist[0] is not bits:
+            self._dist = (bits, jnp.asarray(empty_distance(np.asarray(bits), self.model.occ.resolution)))
+        return self._dist[1]
 
     def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
                     radii: np.ndarray | None = None) -> dict:
@@ -184,13 +257,15 @@ class WavefrontRenderer(Renderer):
         n, r = origins.shape[0], self.chunk
         radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
         rad = np.zeros(r, np.float32)
-        acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32), "opacity": np.zeros(n, np.float32)}
+        acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32),
+               "opacity": np.zeros(n, np.float32)}
         slot_ray = np.full(r, -1)
         o = np.zeros((r, 3), np.float32)
         d = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (r, 1))
         k0 = np.full(r, 1 << 30, np.int32)  # free slots: far past every candidate
         trans = np.ones(r, np.float32)
-        nxt = 0
+        dist = self.empty_distance(aux)
+        nxt = first = 0
         while True:
             free = np.flatnonzero(slot_ray < 0)
             take = free[: n - nxt]
@@ -202,11 +277,12 @@ class WavefrontRenderer(Renderer):
             live = slot_ray >= 0
             if not live.any():
                 break
-            bits, shaded, exhausted = self._window(aux, o, d, k0)
-            shaded, exhausted = int(shaded), np.asarray(exhausted)
+            bits, shaded, exhausted, k0 = self._window(aux, dist, o, d, k0)
+            shaded, exhausted, k0 = int(shaded), np.asarray(exhausted), np.array(k0)
             if shaded:
-                m = min(m for m in self.BUDGETS if r * m >= shaded)
-                res = self._shade[m](params, o, d, rad, k0, bits, trans)
+                m = min([m for m in self.BUDGETS if r * m >= shaded] or [max(self.BUDGETS)])
+                res = self._shade[m](params, o, d, rad, k0, bits, trans, first)
+                first = int(res["next_first"])
                 ids = slot_ray[live]
                 for key in acc:
                     acc[key][ids] += np.asarray(res[key])[live]

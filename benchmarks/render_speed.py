@@ -1,0 +1,113 @@
+"""Rendering speed of a trained run, compiled: one 800x800 frame and the viewer's 256x256, with a profile.
+
+    python benchmarks/render_speed.py RUN_DIR [--data DIR] [--split "val[50:100]"] [--profile]
+
+Renders view 0 of the split (the run's own data folder unless --data) at 800x800 and 256x256 with the
+renderer `nerfkit render` uses (inference.make_renderer), once to compile, then times the median of
+3 (800) / 5 (256) renders. Also prints the rounds and the samples the wavefront renderer shaded. With
+--profile, one more 800x800 render runs under jax.profiler and the time per XLA operation kind (summed
+over the render) is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import glob
+import gzip
+import json
+import re
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from nerfkit.cameras import Camera
+from nerfkit.data.loader import load_frames, read_capture
+from nerfkit.evaluate import run_data_dir
+from nerfkit.inference import make_renderer
+from nerfkit.train import load_trained
+
+
+def timed(renderer, params, aux, c2w, camera, repeats: int) -> float:
+    renderer.render_camera(params, aux, c2w, camera)  # compile
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        renderer.render_camera(params, aux, c2w, camera)
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+# Python frames and executor bookkeeping (waits): left out, so the list is the XLA operations and transfers.
+HOST_EVENTS = re.compile(r"^\$|ThunkExecutor|np\.asarray|Await|PjitFunction|CommonPjRt|ParseArguments")
+
+
+def profile(renderer, params, aux, c2w, camera, top: int = 25) -> list[tuple[str, float, int]]:
+    """(XLA op kind, total ms, count) of one render, heaviest first."""
+    with tempfile.TemporaryDirectory() as tmp:
+        jax.profiler.start_trace(tmp)
+        renderer.render_camera(params, aux, c2w, camera)
+        jax.profiler.stop_trace()
+        events = json.load(gzip.open(glob.glob(f"{tmp}/**/*.trace.json.gz", recursive=True)[0]))["traceEvents"]
+    total, count = collections.Counter(), collections.Counter()
+    for e in events:
+        if e.get("ph") == "X" and "dur" in e and not HOST_EVENTS.search(e["name"]):
+            name = re.sub(r"\.\d+$", "", e["name"])
+            total[name] += e["dur"] / 1e3
+            count[name] += 1
+    return [(k, v, count[k]) for k, v in total.most_common(top)]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run", type=Path)
+    ap.add_argument("--data", type=Path, default=None)
+    ap.add_argument("--split", default="val[50:100]")
+    ap.add_argument("--profile", action="store_true")
+    a = ap.parse_args()
+
+    cfg, model, params, aux, step = load_trained(a.run)
+    data = load_frames(read_capture(run_data_dir(a.run, a.data), a.split), a.split)
+    c2w, cam = data.poses[0], data.cameras[0]
+    renderer = make_renderer(model, cfg.train.chunk)
+    print(f"{a.run} (step {step}), {type(renderer).__name__}, chunk {renderer.chunk}; jax {jax.__version__} on "
+          f"{jax.devices()[0].platform}")
+    results = {}
+    for side, repeats in ((800, 3), (256, 5)):
+        camera = Camera.pinhole(side, side, cam.fx * side / cam.width)
+        results[side] = timed(renderer, params, aux, c2w, camera, repeats)
+        print(f"{side}x{side}: {results[side]:.3f} s (median of {repeats}, compiled)", flush=True)
+    if hasattr(renderer, "_shade"):
+        rounds, shaded = 0, 0
+        shade = dict(renderer._shade)
+
+        def counting(f):
+            def g(*args):
+                nonlocal rounds, shaded
+                out = f(*args)
+                rounds += 1
+                shaded += int(out["shaded"])
+                return out
+            return g
+
+        renderer._shade = {m: counting(f) for m, f in shade.items()}
+        camera = Camera.pinhole(800, 800, cam.fx * 800 / cam.width)
+        renderer.render_camera(params, aux, c2w, camera)
+        renderer._shade = shade
+        print(f"800x800: {rounds} shading rounds, {shaded / 1e6:.2f} M samples shaded "
+              f"({shaded / 800**2:.1f} per pixel)")
+    if a.profile:
+        camera = Camera.pinhole(800, 800, cam.fx * 800 / cam.width)
+        print("\nprofile of one 800x800 render (ms summed over the render, count):")
+        for name, ms, n in profile(renderer, params, aux, c2w, camera):
+            print(f"  {ms:9.1f} ms {n:7d}x  {name[:80]}")
+    if not all(np.isfinite(v) for v in results.values()):
+        raise SystemExit(1)
+
+
+if __name__ == "__main__":
+    main()
