@@ -52,7 +52,8 @@ def frame_rate(run: Path, binary: str, resolution: int, seconds: float) -> dict:
 
     th = threading.Thread(target=loop, daemon=True)
     th.start()
-    browser = Chromium(binary, Path(tempfile.mkdtemp()) / "profile", 1024, 768)
+    # A small window: the headless page (software GL on the same cores) echoes more of the drag.
+    browser = Chromium(binary, Path(tempfile.mkdtemp()) / "profile", 640, 480)
     try:
         browser.open_page()
         browser.navigate(viewer.url)
@@ -70,7 +71,7 @@ def frame_rate(run: Path, binary: str, resolution: int, seconds: float) -> dict:
             time.sleep(max(0.0, t0 + (len(shapes) + 1) / 30 - time.perf_counter()))
             shapes.append(st.last_image.shape[:2])
         moving = (viewer.frames_rendered - n0) / (time.perf_counter() - t0)
-        previews = sum(not f[2] for f in st.frames)
+        previews = [f[1] for f in st.frames if not f[2]]
         updates = st.version - v0
         v = st.version
         t1 = time.perf_counter()
@@ -82,22 +83,27 @@ def frame_rate(run: Path, binary: str, resolution: int, seconds: float) -> dict:
         th.join(30)
         browser.close()
         viewer.close()
-    return {"moving_fps": moving, "camera_updates": updates, "drag_poses": len(orbit), "moving_frame": [int(x) for x in shapes[-1]], "previews": previews,
+    return {"moving_fps": moving, "camera_updates": updates, "drag_poses": len(orbit),
+            "moving_frame": [int(x) for x in shapes[-1]], "previews": len(previews),
+            "preview_seconds_mean": float(sum(previews) / max(1, len(previews))), "preview_side": viewer.preview_side,
             "still_seconds_after_rest": still, "still_render_seconds": still_render,
             "still_frame": [int(x) for x in st.last_image.shape[:2]], "rested_version": v}
 
 
 def training_cost(run: Path, data: Path, binary: str, steps: int) -> dict:
+    """steps/s of training without the viewer, with it serving but no browser connected (its own cost:
+    the duty-cycled rendering and the server), and with a headless Chromium connected on the same cores."""
     out = {}
-    for label in ("without viewer", "with viewer"):
+    for label in ("without viewer", "viewer, no browser", "with viewer"):
         cfg = load_run_config(run)
         cfg.train.max_steps, cfg.train.max_minutes, cfg.train.val_every = steps, None, 10**9
         cfg.train.ckpt_every = 10**9
         tmp = Path(tempfile.mkdtemp())
         trainer = Trainer(data, tmp / "run", cfg, progress=False)
         browser = None
-        if label == "with viewer":
+        if label != "without viewer":
             viewer = attach_viewer(trainer, port=0)
+        if label == "with viewer":
             browser = Chromium(binary, tmp / "profile", 1024, 768)
             browser.open_page()
             browser.navigate(viewer.url)
@@ -109,6 +115,7 @@ def training_cost(run: Path, data: Path, binary: str, steps: int) -> dict:
         finally:
             if browser is not None:
                 browser.close()
+            if trainer.viewer is not None:
                 trainer.viewer.close()
         rows = [json.loads(x) for x in (tmp / "run" / "metrics.jsonl").read_text().splitlines()]
         # steps/s after the first 50 steps (compiles excluded), from the logged elapsed times
@@ -116,7 +123,7 @@ def training_cost(run: Path, data: Path, binary: str, steps: int) -> dict:
         b = rows[-1]
         out[label] = {"steps_per_second": (b["step"] - a["step"]) / (b["elapsed"] - a["elapsed"]),
                       "overall": res.steps_per_second}
-        if label == "with viewer":
+        if label != "without viewer":
             out[label]["frames"] = trainer.viewer.frames_rendered
             out[label]["viewer_seconds"] = sum(trainer.viewer.spent[1:])
     return out
@@ -134,14 +141,20 @@ def main():
     if binary is None:
         sys.exit("no Chromium found: apt-get install chromium")
     fr = frame_rate(a.run, binary, a.resolution, a.seconds)
+    print(f"previews while moving: {fr['previews']} frames, {fr['preview_seconds_mean']:.3f} s each on average "
+          f"(render only: {1 / max(fr['preview_seconds_mean'], 1e-9):.1f} frames/s), side adapted to "
+          f"{fr['preview_side']} px")
     print(f"viewer, {a.resolution} px: {fr['moving_fps']:.1f} frames/s while moving ({fr['moving_frame'][1]}x"
-          f"{fr['moving_frame'][0]} previews; the page reported {fr['camera_updates']} of {fr['drag_poses']} poses); at rest a {fr['still_frame'][1]}x{fr['still_frame'][0]} frame "
+          f"{fr['moving_frame'][0]} previews; the page reported {fr['camera_updates']} of {fr['drag_poses']} poses); "
+          f"at rest a {fr['still_frame'][1]}x{fr['still_frame'][0]} frame "
           f"renders in {fr['still_render_seconds']:.2f} s ({fr['still_seconds_after_rest']:.2f} s after the last move)")
     if a.data:
         tc = training_cost(a.run, a.data, binary, a.steps)
-        w, v = tc["without viewer"]["steps_per_second"], tc["with viewer"]["steps_per_second"]
-        print(f"training: {w:.2f} steps/s without the viewer, {v:.2f} with it open ({100 * (1 - v / w):.1f}% slower; "
-              f"{tc['with viewer']['frames']} frames, {tc['with viewer']['viewer_seconds']:.1f} s of rendering)")
+        w = tc["without viewer"]["steps_per_second"]
+        for label in ("viewer, no browser", "with viewer"):
+            v = tc[label]["steps_per_second"]
+            print(f"training, {label}: {v:.2f} steps/s vs {w:.2f} without the viewer ({100 * (1 - v / w):.1f}% "
+                  f"slower; {tc[label]['frames']} frames, {tc[label]['viewer_seconds']:.1f} s of rendering)")
 
 
 if __name__ == "__main__":

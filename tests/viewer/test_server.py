@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nerfkit.cameras import camera_rays, look_at
-from nerfkit.viewer.server import c2w_from_viser, shade_output, view_camera, viser_from_c2w
+from nerfkit.viewer.server import c2w_from_viser, preview_size, shade_output, view_camera, viser_from_c2w
 
 
 @pytest.mark.parametrize("eye", [(4.0, 0.5, 1.0), (-1.0, 3.0, -2.0), (0.0, 0.1, 5.0)])
@@ -47,3 +47,16 @@ def test_output_modes():
     assert op.shape == (4, 5, 3) and np.allclose(op[..., 0], out["opacity"])
     dep = shade_output(out, "Depth", (1, 1, 1))
     assert dep.shape == (4, 5, 3) and np.all((dep >= 0) & (dep <= 1))
+
+
+def test_preview_size_converges_to_the_target_frame_time():
+    """With render time proportional to pixels (t = c side^2), the adapted preview side reaches the one
+    that renders in the target time, and stays within [16, full]."""
+    c, target, full = 8e-6, 1 / 6, 512  # 8 us per pixel: the target side is sqrt(target / c) ~ 144 px
+    side = 64
+    for _ in range(12):
+        side = preview_size(side, c * side**2, target, full)
+    assert abs(side - math.sqrt(target / c)) <= 2
+    assert preview_size(400, 0.01, target, full) == 512  # a fast machine previews at full resolution
+    assert preview_size(20, 10.0, target, full) == 16
+    assert preview_size(100, 100.0, target, full) == 50  # at most halved per frame

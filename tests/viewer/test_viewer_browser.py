@@ -133,7 +133,7 @@ def test_viewer_renders_in_headless_chromium(chromium, run, tmp_path):
         if second.shape == first.shape:
             assert np.abs(second.astype(float) - first).mean() > 3, "the image did not change with the camera"
 
-        # The preview of a moving camera is 1/4 of the resolution, then refined.
+        # A moving camera's previews adapt their resolution (preview_size); once it rests, the frame is refined.
         assert max(second.shape[:2]) == 256
         shot = tmp_path / "viewer.png"
         browser.screenshot(shot)

@@ -113,7 +113,7 @@ def serve_until_interrupted(viewer: Viewer) -> None:
         print("\nviewer stopped", flush=True)
 
 
-TRAINING_FRACTION = 0.08  # the viewer's share of wall time while training (the ceiling: 10%)
+TRAINING_FRACTION = 0.04  # the viewer's share of wall time while training (the ceiling for all of its cost: 10%)
 
 
 def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:

@@ -6,8 +6,11 @@ browser's camera. nerfkit only renders: for every client whose camera or view se
 changed, one frame, sent as the page's background image.
 
 Progressive rendering. While a camera moves (its last update is younger than STILL_AFTER s),
-frames are rendered at 1/PREVIEW_DIV of the chosen resolution (and stretched to the canvas by
-the browser); once it rests, the frame is rendered again at full resolution. Frames are
+frames are rendered at a preview resolution (stretched to the canvas by the browser) that adapts
+to keep TARGET_FPS: after each preview that took s seconds, the next preview's side is scaled by
+sqrt(target / s) (clamped to [1/2, 2] per frame, and to [16 px, the chosen resolution]), as
+nerfstudio's viewer does; a fast machine previews at full resolution. Once the camera rests, the
+frame is rendered again at full resolution. Frames are
 rendered by whoever calls `render_pending()`: the viewer's own loop (`nerfkit view`), or the
 training loop between steps (`nerfkit train --viewer`), where a duty-cycle gate keeps the
 viewer's share of the wall time at most `max_fraction`: after a frame that took s seconds,
@@ -76,6 +79,13 @@ def shade_output(out: dict, mode: str, background) -> np.ndarray:
     return out["rgb"]
 
 
+def preview_size(side: int, seconds: float, target: float, full: int, lo: int = 16) -> int:
+    """The next preview's longer side after one of `side` px took `seconds`: render time ~ pixels ~ side^2,
+    so side * sqrt(target / seconds), at most doubled or halved per frame, within [lo, full]."""
+    scale = min(2.0, max(0.5, math.sqrt(target / max(seconds, 1e-6))))
+    return int(min(full, max(lo, round(side * scale))))
+
+
 def _unused_path(folder: Path, pattern: str) -> Path:
     """folder / pattern.format(k) for the smallest k not yet taken (earlier saves are never overwritten)."""
     k = 0
@@ -109,7 +119,7 @@ class _Client:
 class Viewer:
     """A viser server showing `model` with parameters that may change (training) or not."""
 
-    PREVIEW_DIV = 4
+    TARGET_FPS = 6.0  # frames per second while the camera moves (previews adapt their resolution to it)
     STILL_AFTER = 0.2
 
     def __init__(self, renderer, scene: SceneView, out_dir: Path, host: str = "127.0.0.1", port: int = 7007,
@@ -127,6 +137,7 @@ class Viewer:
         self._saves: list = []  # (client id, kind) requests, served by render_pending
         self.spent: list[float] = []  # seconds of each rendered frame (frame time incl. encoding and sending)
         self.frames_rendered = 0
+        self.preview_side = 64  # adapted by preview_size() after every preview
         self.keyframes: list[tuple[np.ndarray, float]] = []
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.host, self.port = host, self.server.get_port()
@@ -282,7 +293,9 @@ class Viewer:
         if not todo:
             return 0.0
         _, st, key = min(todo, key=lambda x: x[0])  # the longest-waiting client first
-        img, secs = self._render(st.handle, side if key[4] else max(16, side // self.PREVIEW_DIV), mode)
+        img, secs = self._render(st.handle, side if key[4] else min(side, self.preview_side), mode)
+        if not key[4]:
+            self.preview_side = preview_size(self.preview_side, secs, 1.0 / self.TARGET_FPS, side)
         st.handle.scene.set_background_image(img, format="jpeg", jpeg_quality=90)
         st.shown, st.last_image = key, img
         st.frames = (st.frames + [(time.perf_counter(), secs, key[4])])[-30:]
