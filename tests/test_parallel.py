@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
@@ -61,7 +63,7 @@ def result(tmp_path_factory):
                           timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     line = next(x for x in proc.stdout.splitlines() if x.startswith("RESULT "))
-    return json.loads(line[len("RESULT "):])
+    return dict(json.loads(line[len("RESULT "):]), root=str(root))
 
 
 def _close(a, b, rtol):
@@ -84,3 +86,42 @@ def test_a_two_device_checkpoint_resumes_on_one_device(result):
 def test_device_count_and_batch_are_checked(result):
     assert "--devices 3" in result["too_many"] and "sees 2 device" in result["too_many"]
     assert "--batch-rays 255 does not split over 2 devices" in result["odd_batch"]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_two_processes_on_loopback_train_like_two_devices_and_only_process_0_writes(result):
+    """Multi-host data parallelism (parallel.init_distributed) with JAX's CPU backend: two `nerfkit train`
+    processes of one device each, joined over 127.0.0.1, give the losses of one process with two devices
+    (same global batch, each process rendering its half of the rays); one run folder, written once."""
+    root = Path(result["root"])
+    out = root / "two_processes"
+    port = _free_port()
+    cmd = [sys.executable, "-m", "nerfkit", "train", str(root / "scene"), "--out", str(out), "--preset", "tiny",
+           "--max-steps", "30", "--log-every", "1", "--val-every", "1000", "--no-progress"]
+    procs = []
+    for pid in range(2):
+        env = dict(os.environ, JAX_PLATFORMS="cpu", NERFKIT_COORDINATOR=f"127.0.0.1:{port}",
+                   NERFKIT_NUM_PROCESSES="2", NERFKIT_PROCESS_ID=str(pid))
+        env.pop("XLA_FLAGS", None)
+        procs.append(subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
+    logs = [p.communicate(timeout=600)[0] for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], "\n".join(x[-2000:] for x in logs)
+    assert "run folder" in logs[0] and "run folder" in logs[1]
+    rows = [json.loads(x) for x in (out / "metrics.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in rows] == list(range(1, 31))  # written once, by process 0
+    _close(result["tiny2"], [r["loss"] for r in rows], 1e-5)
+    assert (out / "checkpoints" / "ckpt_00000030.msgpack").is_file()
+
+
+def test_a_bad_multi_process_environment_is_one_clear_line(tmp_path):
+    env = dict(os.environ, NERFKIT_COORDINATOR="127.0.0.1:1", NERFKIT_NUM_PROCESSES="2", NERFKIT_PROCESS_ID="5")
+    proc = subprocess.run([sys.executable, "-m", "nerfkit", "train", str(tmp_path), "--out", str(tmp_path / "r")],
+                          env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1
+    assert "NERFKIT_PROCESS_ID=5 must be in 0..NERFKIT_NUM_PROCESSES-1 = 1" in proc.stderr
+    assert "Traceback" not in proc.stderr

@@ -58,7 +58,11 @@ def cmd_train(argv: list[str]) -> int:
     default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name if name in PRESETS else DEFAULT_PRESET,
                         cfg=base)
     args = tyro.cli(TrainArgs, default=default, args=argv, prog="nerfkit train")
-    trainer = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress)
+    from nerfkit.parallel import init_distributed, is_primary
+
+    if init_distributed() > 1 and args.viewer:
+        raise ConfigError("--viewer: not in a multi-process run; view the run folder with `nerfkit view` instead")
+    trainer = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress and is_primary())
     if args.viewer:
         from nerfkit.viewer.run import attach_viewer
 

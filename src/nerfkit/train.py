@@ -16,9 +16,7 @@ import copy
 import functools
 import json
 import math
-import os
 import shlex
-import signal
 import sys
 import time
 from dataclasses import dataclass
@@ -32,6 +30,7 @@ from tqdm.auto import tqdm
 
 from nerfkit import checkpoint as ckpt_lib
 from nerfkit import parallel
+from nerfkit.stopping import StopFlag
 from nerfkit.cameras import draw_pixels, ray_table, rotate_directions, table_directions
 from nerfkit.config import Config, validate
 from nerfkit.data.capture import SceneData
@@ -140,36 +139,6 @@ class TrainResult:
     interrupted: bool
 
 
-class _StopFlag:
-    """SIGINT / SIGTERM ask the loop to stop after the current step; a second SIGINT aborts."""
-
-    def __init__(self):
-        self.signal_name: str | None = None
-        self._old = {}
-
-    def __enter__(self):
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            try:
-                self._old[sig] = signal.signal(sig, self._handle)
-            except ValueError:  # not the main thread: no signal handling
-                pass
-        return self
-
-    def _handle(self, signum, frame):
-        if self.signal_name is not None and signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        self.signal_name = signal.Signals(signum).name
-        msg = f"{self.signal_name} received: finishing this step, saving a checkpoint (Ctrl-C again to abort)\n"
-        try:  # os.write, not print: a handler that prints while the loop prints hits a reentrant-write error
-            os.write(sys.stderr.fileno(), msg.encode())
-        except (OSError, ValueError, AttributeError):  # stderr replaced (e.g. captured): best effort
-            pass
-
-    def __exit__(self, *exc):
-        for sig, old in self._old.items():
-            signal.signal(sig, old)
-
-
 def load_run_config(run_dir: Path) -> Config:
     path = Path(run_dir) / "config.json"
     if not path.is_file():
@@ -240,7 +209,8 @@ class Trainer:
         cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
         self.cfg = cfg
         self.model = build_model(cfg)
-        self.mesh = parallel.data_mesh(parallel.local_devices(cfg.train.devices))
+        self.mesh = parallel.data_mesh(parallel.mesh_devices(cfg.train.devices))
+        self.primary = parallel.is_primary()  # process 0 of a multi-process run writes the run folder
         split = getattr(self.model, "PARALLEL", "rays")  # what the devices split (make_train_step)
         if split == "rays":
             parallel.check_batch(cfg.train.batch_rays, self.mesh)
@@ -254,6 +224,8 @@ class Trainer:
 
     # -- run folder -------------------------------------------------------------------
     def _write_run_files(self):
+        if not self.primary:
+            return
         self.run_dir.mkdir(parents=True, exist_ok=True)
         (self.run_dir / "config.json").write_text(self.cfg.to_json())
         td = self.train_data
@@ -264,11 +236,15 @@ class Trainer:
         (self.run_dir / "scene.json").write_text(json.dumps(scene, indent=2))
 
     def _append(self, name: str, row: dict):
+        if not self.primary:
+            return
         with open(self.run_dir / name, "a") as f:
             f.write(json.dumps(row) + "\n")
 
     def _truncate_logs(self, step: int):
         """After a resume, drop log rows past the restored step (written after the checkpoint)."""
+        if not self.primary:
+            return
         for name in ("metrics.jsonl", "val_metrics.jsonl"):
             rows = [r for r in read_jsonl(self.run_dir / name) if r.get("step", 0) <= step]
             (self.run_dir / name).write_text("".join(json.dumps(r) + "\n" for r in rows))
@@ -286,7 +262,8 @@ class Trainer:
                     "PSNR (dB)", "Validation PSNR")
 
     def validate(self, state, step: int, elapsed: float) -> float:
-        """Render the validation views, save them beside ground truth, log mean PSNR."""
+        """Render the validation views, save them beside ground truth, log mean PSNR (process 0 only)."""
+        state = parallel.host_copy(state)
         out_dir = self.run_dir / "val" / f"step_{step:07d}"
         vd = self.val_data
         scores, renders = [], []
@@ -305,7 +282,9 @@ class Trainer:
         return mean
 
     def save(self, state, step: int, elapsed: float):
-        full = dict(state, elapsed=np.float64(elapsed))
+        if not self.primary:
+            return
+        full = dict(parallel.host_copy(state), elapsed=np.float64(elapsed))
         ckpt_lib.save_checkpoint(self.ckpt_dir, step, full, self.cfg.to_dict()["field"], self.cfg.train.keep_ckpts)
 
     # -- the loop ---------------------------------------------------------------------
@@ -340,9 +319,9 @@ class Trainer:
         bar = tqdm(total=t.max_steps, initial=step, disable=not self.progress, dynamic_ncols=True,
                    desc="train", unit="step", file=sys.stderr, mininterval=1.0)
         interrupted = False
-        with _StopFlag() as stop:
+        with StopFlag() as stop:
             while step < t.max_steps:
-                if time.perf_counter() >= deadline:
+                if parallel.agree(time.perf_counter() >= deadline):
                     tqdm.write(f"--max-minutes {t.max_minutes} reached at step {step}")
                     break
                 state, m = step_fn(state, jnp.int32(step), images, poses)
@@ -381,10 +360,10 @@ class Trainer:
                         bar.total = min(t.max_steps, step + int(rate * max(deadline - now, 0.0)))
                     bar.set_postfix(loss=f"{loss:.4f}", psnr=f"{row['psnr']:.2f}",
                                     val=f"{last_val:.2f}" if last_val is not None else "-")
-                if stop.signal_name:
+                if parallel.agree(bool(stop.signal_name)):
                     interrupted = True
                     break
-                if step % t.val_every == 0 and time.perf_counter() >= val_gate:
+                if step % t.val_every == 0 and time.perf_counter() >= val_gate and self.primary:
                     v0 = time.perf_counter()
                     last_val = self.validate(state, step, elapsed0 + v0 - start)
                     last_val_step = step
@@ -395,11 +374,11 @@ class Trainer:
                     self.save(state, step, elapsed0 + time.perf_counter() - start)
             bar.close()
             elapsed = elapsed0 + time.perf_counter() - start
-            if not interrupted and last_val_step != step and step > 0:
+            if not interrupted and last_val_step != step and step > 0 and self.primary:
                 last_val = self.validate(state, step, elapsed)
                 tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB")
             self.save(state, step, elapsed)
-        if not read_jsonl(self.run_dir / "val_metrics.jsonl") or interrupted:
+        if self.primary and (not read_jsonl(self.run_dir / "val_metrics.jsonl") or interrupted):
             self.plot()
         run_time = time.perf_counter() - start
         sps = (step - first_step) / run_time if run_time > 0 else 0.0
@@ -409,7 +388,8 @@ class Trainer:
         try:
             from nerfkit.report import write_report
 
-            write_report(self.run_dir)
+            if self.primary:
+                write_report(self.run_dir)
         except Exception as e:  # noqa: BLE001 - a report must never cost a finished run
             tqdm.write(f"report not written: {e}")
         return TrainResult(self.run_dir, step, last_val, sps, interrupted)
