@@ -44,7 +44,8 @@ def init_distributed() -> int:
         try:
             n, pid = int(os.environ[ENV[1]]), int(os.environ[ENV[2]])
         except (KeyError, ValueError):
-            raise ConfigError(f"{ENV[0]}={coordinator} needs integer {ENV[1]} (processes) and {ENV[2]} (0..N-1)") from None
+            raise ConfigError(f"{ENV[0]}={coordinator} needs integer {ENV[1]} (processes) and "
+                              f"{ENV[2]} (0..N-1)") from None
         if not (n >= 1 and 0 <= pid < n):
             raise ConfigError(f"{ENV[2]}={pid} must be in 0..{ENV[1]}-1 = {n - 1}")
         jax.distributed.initialize(coordinator_address=coordinator, num_processes=n, process_id=pid)
