@@ -83,7 +83,7 @@ def main():
     width = args.width
     in_image = np.zeros(len(verts), np.int64)
     on_object = np.zeros(len(verts), np.int64)
-    per_view = []
+    per_view, misses = [], []  # misses: (vertex ids, alpha at the pixel) of projections outside, per view
     for f in frames:
         a = alpha_of(f, width)
         h, w = a.shape
@@ -94,15 +94,24 @@ def main():
         ok = a[iv, iu] > 0.5
         in_image[vis] += 1
         on_object[np.flatnonzero(vis)[ok]] += 1
+        misses.append((np.flatnonzero(vis)[~ok], a[iv[~ok], iu[~ok]]))
         per_view.append({"view": f.image.name, "in_image": int(vis.sum()), "inside_fraction": float(ok.mean())})
     seen = in_image > 0
     frac = on_object[seen] / in_image[seen]
     passing = float(np.mean(frac >= args.need))
+    # Where the failing vertices land when they miss: on pixels the object partly covers (0 < alpha <= 0.5,
+    # a silhouette edge) or on empty ones (alpha = 0, geometry where there is none).
+    failing = np.zeros(len(verts), bool)
+    failing[np.flatnonzero(seen)[frac < args.need]] = True
+    miss_alpha = np.concatenate([al[failing[ids]] for ids, al in misses]) if misses else np.zeros(0)
+    edge = float(np.mean(miss_alpha > 0)) if miss_alpha.size else float("nan")
     q = {f"q{p}": float(np.percentile(frac, p)) for p in (0.1, 1, 5, 50)}
     res = {"mesh": str(mesh_path), "vertices": len(verts), "views": len(frames), "split": split, "width": w,
            "vertices_in_some_image": int(seen.sum()), "need": args.need,
            "vertices_passing": passing, "per_vertex_inside_fraction": q,
-           "all_projections_inside": float(on_object.sum() / max(in_image.sum(), 1)), "per_view": per_view}
+           "all_projections_inside": float(on_object.sum() / max(in_image.sum(), 1)),
+           "failing_vertices": int(failing.sum()), "failing_misses": int(miss_alpha.size),
+           "failing_misses_on_partly_covered_pixels": edge, "per_view": per_view}
     (args.run / "exports").mkdir(exist_ok=True)
     (args.run / "exports" / "silhouette.json").write_text(json.dumps(res, indent=2))
     print(f"{len(verts)} vertices, {len(frames)} views of {split} at {w}x{h}: {100 * passing:.2f}% of vertices lie inside the "
@@ -110,6 +119,10 @@ def main():
     print("per-vertex inside fraction, quantiles: " + ", ".join(f"{k} {v:.3f}" for k, v in q.items()))
     print(f"all vertex projections: {100 * res['all_projections_inside']:.2f}% inside; worst view "
           f"{min(per_view, key=lambda r: r['inside_fraction'])}")
+    if failing.any():
+        print(f"{int(failing.sum())} failing vertices; of their {miss_alpha.size} projections outside, "
+              f"{100 * edge:.0f}% land on pixels the object partly covers (0 < alpha <= 0.5), "
+              f"{100 * (1 - edge):.0f}% on empty ones")
 
 
 if __name__ == "__main__":
