@@ -60,3 +60,20 @@ def test_preview_size_converges_to_the_target_frame_time():
     assert preview_size(400, 0.01, target, full) == 512  # a fast machine previews at full resolution
     assert preview_size(20, 10.0, target, full) == 16
     assert preview_size(100, 100.0, target, full) == 50  # at most halved per frame
+
+
+def test_a_zero_height_canvas_keeps_the_last_aspect():
+    """viser can report a 0 px high canvas while the page resizes; its aspect would divide by zero."""
+    from types import SimpleNamespace
+
+    from nerfkit.viewer.server import _Client
+
+    cam = SimpleNamespace(image_width=640, image_height=480)
+    st = _Client(SimpleNamespace(camera=cam))
+    assert st.aspect == 1.0
+    st.note_camera()
+    assert st.version == 1 and st.aspect == pytest.approx(4 / 3)
+    cam.image_width, cam.image_height = 640, 0
+    st.note_camera()
+    assert st.version == 2 and st.aspect == pytest.approx(4 / 3)
+    view_camera(math.radians(50), st.aspect, 256)  # and a camera can be made from it

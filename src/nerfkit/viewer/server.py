@@ -114,6 +114,15 @@ class _Client:
     shown: tuple | None = None  # (version, params version, mode, resolution, full) of the frame on screen
     last_image: np.ndarray | None = None
     frames: list = field(default_factory=list)  # (wall time, seconds, full) of recent frames
+    aspect: float = 1.0  # the browser canvas's last non-degenerate width / height
+
+    def note_camera(self) -> None:
+        """Record a camera update; a canvas reported as 0 px high (the page resizing) keeps the last aspect."""
+        self.version += 1
+        self.moved_at = time.perf_counter()
+        w, h = self.handle.camera.image_width, self.handle.camera.image_height
+        if w > 0 and h > 0:
+            self.aspect = w / h
 
 
 class Viewer:
@@ -168,8 +177,7 @@ class Viewer:
 
         @client.camera.on_update
         def _(_cam) -> None:
-            st.version += 1
-            st.moved_at = time.perf_counter()
+            st.note_camera()
 
     # -- scene and GUI ----------------------------------------------------------------
     def _draw_scene(self) -> None:
@@ -180,7 +188,8 @@ class Viewer:
         for k, (c2w, cam) in enumerate(zip(s.poses, s.cameras)):
             wxyz, pos = viser_from_c2w(c2w)
             thumb = s.thumbnails[k] if s.thumbnails is not None else None
-            self._frustums.append(sc.add_camera_frustum(f"/train_cameras/{k:04d}", fov=2 * math.atan(0.5 * cam.height / cam.fy),
+            fov = 2 * math.atan(0.5 * cam.height / cam.fy)
+            self._frustums.append(sc.add_camera_frustum(f"/train_cameras/{k:04d}", fov=fov,
                                   aspect=cam.width / cam.height, scale=size, image=thumb, format="jpeg",
                                   wxyz=wxyz, position=pos, color=(60, 90, 200)))
         b = s.bound
@@ -225,7 +234,9 @@ class Viewer:
         c2w = c2w_from_viser(cam.wxyz, cam.position)
         self.keyframes.append((c2w, math.degrees(cam.fov)))
         k = len(self.keyframes) - 1
-        self.server.scene.add_camera_frustum(f"/keyframes/{k:03d}", fov=cam.fov, aspect=cam.aspect, scale=0.1,
+        st = self._clients.get(client.client_id)
+        aspect = st.aspect if st is not None else 1.0
+        self.server.scene.add_camera_frustum(f"/keyframes/{k:03d}", fov=cam.fov, aspect=aspect, scale=0.1,
                                              wxyz=cam.wxyz, position=cam.position, color=(220, 40, 40))
         client.add_notification(f"keyframe {k + 1}", "added", auto_close_seconds=2.0)
 
@@ -235,13 +246,13 @@ class Viewer:
         self.keyframes.clear()
 
     # -- rendering --------------------------------------------------------------------
-    def _render(self, client, max_side: int, mode: str) -> tuple[np.ndarray, float]:
-        cam = client.camera
+    def _render(self, st: _Client, max_side: int, mode: str) -> tuple[np.ndarray, float]:
+        cam = st.handle.camera
         c2w = c2w_from_viser(cam.wxyz, cam.position)
         params, aux = self._params
         t0 = time.perf_counter()
         out = self.renderer.render_camera(params, aux, c2w.astype(np.float32),
-                                          view_camera(cam.fov, cam.aspect, max_side))
+                                          view_camera(cam.fov, st.aspect, max_side))
         img = to_uint8(shade_output(out, mode, self.scene.background))
         return img, time.perf_counter() - t0
 
@@ -252,14 +263,14 @@ class Viewer:
         client, cam = st.handle, st.handle.camera
         side = int(self.out_res.value)
         if kind == "view":
-            img, _ = self._render(client, side, self.mode.value)
+            img, _ = self._render(st, side, self.mode.value)
             path = _unused_path(self.out_dir / "views", "view_{:04d}.png")
             save_png(path, img)
         else:
             if not self.keyframes:
                 client.add_notification("no keyframes", "add keyframes first", color="red", auto_close_seconds=4.0)
                 return
-            c = view_camera(cam.fov, cam.aspect, side)
+            c = view_camera(cam.fov, st.aspect, side)
             path = write_camera_path(_unused_path(self.out_dir / "camera_paths", "camera_path_{:03d}.json"),
                                      [k[0] for k in self.keyframes], [k[1] for k in self.keyframes], c.width,
                                      c.height, float(self.path_seconds.value), int(self.path_fps.value),
@@ -276,7 +287,10 @@ class Viewer:
         with self._lock:
             save = self._saves.pop(0) if self._saves else None
         if save is not None:
-            self._serve_save(*save)
+            try:
+                self._serve_save(*save)
+            except OSError as e:  # e.g. a full disk: say so, keep serving (and training)
+                print(f"viewer: could not save: {e}", flush=True)
             return time.perf_counter() - now
         if now < self._gate:
             return 0.0
@@ -293,7 +307,12 @@ class Viewer:
         if not todo:
             return 0.0
         _, st, key = min(todo, key=lambda x: x[0])  # the longest-waiting client first
-        img, secs = self._render(st.handle, side if key[4] else min(side, self.preview_side), mode)
+        try:
+            img, secs = self._render(st, side if key[4] else min(side, self.preview_side), mode)
+        except Exception as e:  # noqa: BLE001 - a browser's odd camera must not end a training run
+            st.shown = key  # (not retried until the camera moves again)
+            print(f"viewer: skipped a frame for browser {st.handle.client_id}: {type(e).__name__}: {e}", flush=True)
+            return time.perf_counter() - now
         if not key[4]:
             self.preview_side = preview_size(self.preview_side, secs, 1.0 / self.TARGET_FPS, side)
         st.handle.scene.set_background_image(img, format="jpeg", jpeg_quality=90)
