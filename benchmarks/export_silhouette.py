@@ -3,12 +3,14 @@
     python benchmarks/export_silhouette.py RUN_DIR [--mesh FILE] [--split "val[50:100]"] [--data DIR]
 
 Exports the run's mesh (`nerfkit export mesh RUN_DIR`, defaults) unless --mesh names one, then
-projects every vertex (the mesh is in the capture's coordinates) into every view of the split
-at the photos' own size (or --width: the photo's alpha averaged over each bigger pixel), and counts, per vertex, the views where it lands inside the image and
-on the object (alpha > 0.5, or the mask where the capture has masks). A mesh whose surfaces lie
-on the object passes the issue's bar when every vertex is inside the silhouette in >= 95% of
-the views that see it in the image. Prints the fraction of vertices that pass, the quantiles
-of the per-vertex inside fraction, and per-view figures; writes RUN_DIR/exports/silhouette.json.
+projects every vertex (the mesh is in the capture's coordinates) into every view of the split at
+the photos' own size (or --width: the photo's alpha averaged over each bigger pixel), and counts,
+per vertex, the views where it lands inside the image and on the object (alpha > 0.5, or the mask
+where the capture has masks). A mesh whose surfaces lie on the object passes the issue's bar when
+every vertex is inside the silhouette in >= 95% of the views that see it in the image. Prints the
+fraction of vertices that pass, the same with the silhouette dilated by one pixel (exact surfaces
+fail the strict test where they are outer contours: see benchmarks/silhouette_control.py), the
+quantiles of the per-vertex inside fraction, and per-view figures; writes RUN_DIR/exports/silhouette.json.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import imageio.v3 as iio
 import numpy as np
 import trimesh
 from PIL import Image
+from scipy.ndimage import maximum_filter
 
 from nerfkit.data.loader import read_capture
 from nerfkit.evaluate import run_data_dir
@@ -57,6 +60,33 @@ def project(verts: np.ndarray, c2w: np.ndarray, cam) -> tuple[np.ndarray, np.nda
     return u, v, front
 
 
+def score(verts: np.ndarray, views, tolerance_px: int = 0):
+    """Per-vertex silhouette counts of points [N, 3] over views [(alpha [H, W], c2w, camera of that size)].
+
+    A projection is inside when the pixel it falls in has alpha > 0.5 (with tolerance_px = t: some pixel
+    within t pixels does, i.e. the silhouette dilated by t). Returns in_image [N] (views where the
+    vertex falls in the image), inside [N], misses [(vertex ids, alpha at their pixel)] per view and
+    per-view (in-image count, inside fraction)."""
+    in_image = np.zeros(len(verts), np.int64)
+    inside = np.zeros(len(verts), np.int64)
+    misses, per_view = [], []
+    for a, c2w, cam in views:
+        h, w = a.shape
+        sil = a > 0.5
+        if tolerance_px:
+            sil = maximum_filter(sil, size=2 * tolerance_px + 1)
+        u, v, front = project(verts, c2w, cam)
+        vis = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+        iu = np.clip(np.floor(u[vis]).astype(int), 0, w - 1)
+        iv = np.clip(np.floor(v[vis]).astype(int), 0, h - 1)
+        ok = sil[iv, iu]
+        in_image[vis] += 1
+        inside[np.flatnonzero(vis)[ok]] += 1
+        misses.append((np.flatnonzero(vis)[~ok], a[iv[~ok], iu[~ok]]))
+        per_view.append((int(vis.sum()), float(ok.mean()) if ok.size else 1.0))
+    return in_image, inside, misses, per_view
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run", type=Path)
@@ -80,25 +110,19 @@ def main():
     split = args.split or d.val_split
     cap = read_capture(run_data_dir(args.run, args.data), split, d.format, d.masks, d.holdout_every)
     frames = cap.frames(split)
-    width = args.width
-    in_image = np.zeros(len(verts), np.int64)
-    on_object = np.zeros(len(verts), np.int64)
-    per_view, misses = [], []  # misses: (vertex ids, alpha at the pixel) of projections outside, per view
+    views = []
     for f in frames:
-        a = alpha_of(f, width)
+        a = alpha_of(f, args.width)
         h, w = a.shape
-        u, v, front = project(verts, f.c2w, f.camera.scaled(w / f.camera.width, w, h))
-        vis = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
-        iu = np.clip(np.floor(u[vis]).astype(int), 0, w - 1)
-        iv = np.clip(np.floor(v[vis]).astype(int), 0, h - 1)
-        ok = a[iv, iu] > 0.5
-        in_image[vis] += 1
-        on_object[np.flatnonzero(vis)[ok]] += 1
-        misses.append((np.flatnonzero(vis)[~ok], a[iv[~ok], iu[~ok]]))
-        per_view.append({"view": f.image.name, "in_image": int(vis.sum()), "inside_fraction": float(ok.mean())})
+        views.append((a, f.c2w, f.camera.scaled(w / f.camera.width, w, h)))
+    in_image, on_object, misses, ok_views = score(verts, views)
+    per_view = [{"view": f.image.name, "in_image": int(n), "inside_fraction": float(k)}
+                for f, (n, k) in zip(frames, ok_views)]
+    _, near_object, _, _ = score(verts, views, tolerance_px=1)
     seen = in_image > 0
     frac = on_object[seen] / in_image[seen]
     passing = float(np.mean(frac >= args.need))
+    passing_1px = float(np.mean(near_object[seen] / in_image[seen] >= args.need))
     # Where the failing vertices land when they miss: on pixels the object partly covers (0 < alpha <= 0.5,
     # a silhouette edge) or on empty ones (alpha = 0, geometry where there is none).
     failing = np.zeros(len(verts), bool)
@@ -108,14 +132,18 @@ def main():
     q = {f"q{p}": float(np.percentile(frac, p)) for p in (0.1, 1, 5, 50)}
     res = {"mesh": str(mesh_path), "vertices": len(verts), "views": len(frames), "split": split, "width": w,
            "vertices_in_some_image": int(seen.sum()), "need": args.need,
-           "vertices_passing": passing, "per_vertex_inside_fraction": q,
+           "vertices_passing": passing, "vertices_passing_within_1px": passing_1px,
+           "per_vertex_inside_fraction": q,
            "all_projections_inside": float(on_object.sum() / max(in_image.sum(), 1)),
            "failing_vertices": int(failing.sum()), "failing_misses": int(miss_alpha.size),
            "failing_misses_on_partly_covered_pixels": edge, "per_view": per_view}
     (args.run / "exports").mkdir(exist_ok=True)
     (args.run / "exports" / "silhouette.json").write_text(json.dumps(res, indent=2))
-    print(f"{len(verts)} vertices, {len(frames)} views of {split} at {w}x{h}: {100 * passing:.2f}% of vertices lie inside the "
-          f"silhouette in >= {100 * args.need:g}% of the views that see them in the image")
+    print(f"{len(verts)} vertices, {len(frames)} views of {split} at {w}x{h}: {100 * passing:.2f}% of vertices lie "
+          f"inside the silhouette in >= {100 * args.need:g}% of the views that see them in the image")
+    n_fail_1px = int(np.sum(near_object[seen] / in_image[seen] < args.need))
+    print(f"within one pixel of the silhouette (it dilated by 1 px): {100 * passing_1px:.2f}% of vertices pass, "
+          f"{n_fail_1px} fail (benchmarks/silhouette_control.py: exact surfaces fail the strict per-pixel test too)")
     print("per-vertex inside fraction, quantiles: " + ", ".join(f"{k} {v:.3f}" for k, v in q.items()))
     print(f"all vertex projections: {100 * res['all_projections_inside']:.2f}% inside; worst view "
           f"{min(per_view, key=lambda r: r['inside_fraction'])}")
