@@ -131,7 +131,8 @@ def test_bad_config_value_is_reported(scene, tmp_path, capsys):
 
 
 def test_make_scene(tmp_path):
-    assert main(["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1", "--n-test", "1"]) == 0
+    assert main(["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1",
+                 "--n-test", "1"]) == 0
     assert (tmp_path / "s" / "transforms_test.json").is_file()
 
 
@@ -145,13 +146,15 @@ def test_view_bad_input_is_a_one_line_error(tmp_path, run, capsys):
 
 def test_view_serves_on_loopback_and_stops_on_ctrl_c(run):
     """`nerfkit view` prints its loopback address, answers HTTP there, and exits 0 on SIGINT."""
+    import os
     import re
     import signal
     import time
     import urllib.request
 
     proc = subprocess.Popen([sys.executable, "-m", "nerfkit", "view", str(run), "--port", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env={**os.environ, "PYTHONFAULTHANDLER": "1"})
     try:
         url, lines, end = None, [], time.monotonic() + 120
         while url is None and time.monotonic() < end:
@@ -165,7 +168,12 @@ def test_view_serves_on_loopback_and_stops_on_ctrl_c(run):
         with urllib.request.urlopen(url, timeout=30) as page:
             assert page.status == 200 and b"<html" in page.read().lower()
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=60)
+        try:
+            out, _ = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:  # say where it hangs: faulthandler prints every thread's stack on SIGABRT
+            proc.send_signal(signal.SIGABRT)
+            raise AssertionError("`nerfkit view` did not stop within 60 s of SIGINT:\n"
+                                 + "".join(lines) + proc.communicate(timeout=30)[0]) from None
     finally:
         if proc.poll() is None:
             proc.kill()
