@@ -1,11 +1,12 @@
 """The viewer's frame rate (moving and still) and its cost to training, in headless Chromium.
 
-    python benchmarks/viewer.py RUN_DIR [--data DATA --steps 300]
+    python benchmarks/viewer.py RUN_DIR [--data DATA --steps 300] [--window 480x480] [--seconds 6]
 
-1. `nerfkit view RUN_DIR`'s renderer behind a viser server, a headless Chromium page connected to it.
-   The browser's camera is dragged along an orbit (a new pose every 1/30 s for --seconds; frames
-   while moving are rendered at 1/4 of --resolution); frames/s rendered during the drag. Then the
-   camera rests: the time of the full-resolution frame.
+1. `nerfkit view RUN_DIR`'s renderer behind a viser server, a headless Chromium page (--window) connected
+   to it. After the first frame, the viewer compiles its coarser preview marches in idle time (timed).
+   Then the browser's camera is dragged along an orbit (a new pose every 1/30 s for --seconds; previews
+   adapt march stride and resolution to the viewer's TARGET_FPS); frames/s rendered during the drag,
+   and the previews' final stride, side and times. Then the camera rests: the full-resolution frame.
 2. With --data: the same preset trained for --steps steps with and without the viewer open (a browser
    connected, camera at rest, the live parameters re-rendered under the duty-cycle gate); steps/s of both.
 """
@@ -38,7 +39,7 @@ def wait(cond, timeout=300.0):
         time.sleep(0.002)
 
 
-def frame_rate(run: Path, binary: str, resolution: int, seconds: float) -> dict:
+def frame_rate(run: Path, binary: str, resolution: int, seconds: float, window=(640, 480)) -> dict:
     cfg, model, params, aux, step = load_trained(run)
     viewer = Viewer(make_renderer(model, cfg.train.chunk), scene_view_of_run(run, cfg), run, port=0)
     viewer.set_params(params, aux, step)
@@ -53,13 +54,16 @@ def frame_rate(run: Path, binary: str, resolution: int, seconds: float) -> dict:
     th = threading.Thread(target=loop, daemon=True)
     th.start()
     # A small window: the headless page (software GL on the same cores) echoes more of the drag.
-    browser = Chromium(binary, Path(tempfile.mkdtemp()) / "profile", 640, 480)
+    browser = Chromium(binary, Path(tempfile.mkdtemp()) / "profile", *window)
     try:
         browser.open_page()
         browser.navigate(viewer.url)
         wait(lambda: any(c.version for c in viewer._clients.values()))
         st = next(c for c in viewer._clients.values() if c.version)
         wait(lambda: st.shown is not None and st.shown[4])  # first still frame (compiles)
+        t_warm = time.perf_counter()  # the viewer compiles its coarser preview marches in idle time
+        wait(lambda: len(viewer._compiled) >= viewer.max_stride)
+        warm_up = time.perf_counter() - t_warm
         shapes = []
         # A drag: a new pose every 1/30 s for `seconds`, as the browser reports a moving camera.
         orbit = orbit_poses(viewer.scene.poses, int(30 * seconds))
@@ -86,8 +90,10 @@ def frame_rate(run: Path, binary: str, resolution: int, seconds: float) -> dict:
     return {"moving_fps": moving, "camera_updates": updates, "drag_poses": len(orbit),
             "moving_frame": [int(x) for x in shapes[-1]], "previews": len(previews),
             "preview_seconds_mean": float(sum(previews) / max(1, len(previews))), "preview_side": viewer.preview_side,
+            "preview_stride": viewer.preview_stride, "preview_seconds_last": [round(x, 3) for x in previews[-8:]],
             "still_seconds_after_rest": still, "still_render_seconds": still_render,
-            "still_frame": [int(x) for x in st.last_image.shape[:2]], "rested_version": v}
+            "still_frame": [int(x) for x in st.last_image.shape[:2]], "rested_version": v,
+            "warm_up_seconds": warm_up}
 
 
 def training_cost(run: Path, data: Path, binary: str, steps: int) -> dict:
@@ -136,14 +142,17 @@ def main():
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--resolution", type=int, default=256)
     ap.add_argument("--seconds", type=float, default=6.0, help="length of the simulated drag")
+    ap.add_argument("--window", default="640x480", help="the browser window, WxH (480x480: square frames)")
     a = ap.parse_args()
     binary = find_chromium()
     if binary is None:
         sys.exit("no Chromium found: apt-get install chromium")
-    fr = frame_rate(a.run, binary, a.resolution, a.seconds)
+    fr = frame_rate(a.run, binary, a.resolution, a.seconds, tuple(int(x) for x in a.window.split("x")))
+    print(f"after the first frame, the viewer compiled its preview marches in {fr['warm_up_seconds']:.1f} s")
     print(f"previews while moving: {fr['previews']} frames, {fr['preview_seconds_mean']:.3f} s each on average "
           f"(render only: {1 / max(fr['preview_seconds_mean'], 1e-9):.1f} frames/s), side adapted to "
-          f"{fr['preview_side']} px")
+          f"{fr['preview_side']} px, march stride {fr['preview_stride']}; the last "
+          f"previews took {fr['preview_seconds_last']} s")
     print(f"viewer, {a.resolution} px: {fr['moving_fps']:.1f} frames/s while moving ({fr['moving_frame'][1]}x"
           f"{fr['moving_frame'][0]} previews; the page reported {fr['camera_updates']} of {fr['drag_poses']} poses); "
           f"at rest a {fr['still_frame'][1]}x{fr['still_frame'][0]} frame "

@@ -106,29 +106,35 @@ def test_ngp_render_requeues_rays_that_overflow_the_budget():
 
 
 
-@pytest.mark.parametrize("scene_type", ["bounded", "unbounded"])
-def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
-    """The wavefront renderer (rays retire once their transmittance is spent, empty space costs
-    only look-ups) shades the same samples with the same weights as the one-pass renderer."""
+def _ball_model(scene_type: str, march_steps: int = 256):
+    """A small hash-grid model whose occupied cells form a ball of grid radius 0.8 (empty space around it
+    to skip) and whose density is high enough for rays to end in it; (model, params, aux, rays o, d)."""
     from nerfkit import occupancy
     from nerfkit.cameras import image_rays, look_at
-    from nerfkit.inference import WavefrontRenderer
 
     cfg = _ngp_config()
     cfg.field.scene_type = scene_type
     cfg.field.hash_levels, cfg.field.hash_max_res = 4, 32
-    cfg.sampler.occ_res, cfg.sampler.march_steps = 16, 256
+    cfg.sampler.occ_res, cfg.sampler.march_steps = 16, march_steps
     cfg.sampler.eval_samples_per_ray = 600  # one pass holds every ray
     if scene_type == "unbounded":
         cfg.sampler.near, cfg.sampler.far, cfg.field.bound = 0.05, 1e3, 1.5
     model = build_model(cfg)
     params, aux = model.init(jax.random.PRNGKey(0))
     params["field"]["density"][1]["b"] = params["field"]["density"][1]["b"].at[0].set(1.5)  # rays end
-    # Occupied: a ball of grid radius 0.8 (empty space around it to skip).
     centres = np.asarray(occupancy.cell_centers(model.occ))
     aux = dict(aux, bits=np.linalg.norm(centres, axis=-1) < 0.8 * model.occ.bound)
     o, d = image_rays(look_at(np.array([0.0, -4.0, 1.0]), np.zeros(3)), 16, 16, 20.0)
-    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    return model, params, aux, o.reshape(-1, 3), d.reshape(-1, 3)
+
+
+@pytest.mark.parametrize("scene_type", ["bounded", "unbounded"])
+def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
+    """The wavefront renderer (rays retire once their transmittance is spent, empty space costs
+    only look-ups) shades the same samples with the same weights as the one-pass renderer."""
+    from nerfkit.inference import WavefrontRenderer
+
+    model, params, aux, o, d = _ball_model(scene_type)
     ref = Renderer(model, chunk=256).render_rays(params, aux, o, d)
 
     class OneSamplePerSlot(WavefrontRenderer):
@@ -141,6 +147,24 @@ def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
     assert ref["opacity"].max() > 0.99  # rays do end: the comparison covers early termination
     if scene_type == "bounded":
         assert ref["opacity"].min() < 0.01  # and rays that cross empty space only
+
+
+@pytest.mark.parametrize("scene_type", ["bounded", "unbounded"])
+@pytest.mark.parametrize("stride", [2, 3])
+def test_a_coarser_march_is_the_march_of_fewer_steps(scene_type, stride):
+    """coarser(renderer, s) (the viewer's moving previews) marches s fine steps as one: the pixels of the
+    same model built with march_steps / s, rendered in one pass; and not the fine march's pixels."""
+    from nerfkit.inference import WavefrontRenderer, coarser
+
+    model, params, aux, o, d = _ball_model(scene_type, march_steps=240)
+    fewer = _ball_model(scene_type, march_steps=240 // stride)[0]
+    ref = Renderer(fewer, chunk=256).render_rays(params, aux, o, d)
+    fine = WavefrontRenderer(model, chunk=64)
+    fast = coarser(fine, stride).render_rays(params, aux, o, d)
+    for k in ("rgb", "depth", "depth_normalized", "opacity"):
+        np.testing.assert_allclose(fast[k], ref[k], rtol=1e-4, atol=1e-4, err_msg=k)
+    assert np.abs(fine.render_rays(params, aux, o, d)["depth"] - ref["depth"]).max() > 1e-3
+    assert ref["opacity"].max() > 0.99
 
 
 def test_antialiased_field_renders_cones_alike_in_both_renderers():
@@ -173,3 +197,18 @@ def test_antialiased_field_renders_cones_alike_in_both_renderers():
     np.testing.assert_allclose(thin["rgb"], Renderer(plain, chunk=256).render_rays(params, aux, o, d)["rgb"],
                                atol=1e-6)
     assert np.abs(ref["rgb"] - thin["rgb"]).mean() > 1e-3
+
+
+def test_warm_up_compiles_every_round_function_a_render_uses():
+    """After warm_up (the viewer's idle-time compile), rendering compiles nothing more."""
+    from nerfkit.inference import WavefrontRenderer, coarser
+
+    model, params, aux, o, d = _ball_model("bounded")
+    for renderer in (WavefrontRenderer(model, chunk=64), coarser(WavefrontRenderer(model, chunk=64), 2)):
+        fns = [renderer._window, *renderer._shade.values()]
+        assert all(f._cache_size() == 0 for f in fns)
+        renderer.warm_up(params, aux)
+        sizes = [f._cache_size() for f in fns]
+        assert sizes == [1] * len(fns)
+        out = renderer.render_rays(params, aux, o, d)
+        assert [f._cache_size() for f in fns] == sizes and out["opacity"].max() > 0.99

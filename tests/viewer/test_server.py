@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from nerfkit.cameras import camera_rays, look_at
-from nerfkit.viewer.server import c2w_from_viser, preview_size, shade_output, view_camera, viser_from_c2w
+from nerfkit.viewer.server import (
+    c2w_from_viser,
+    preview_quality,
+    preview_size,
+    shade_output,
+    view_camera,
+    viser_from_c2w,
+)
 
 
 @pytest.mark.parametrize("eye", [(4.0, 0.5, 1.0), (-1.0, 3.0, -2.0), (0.0, 0.1, 5.0)])
@@ -60,6 +67,31 @@ def test_preview_size_converges_to_the_target_frame_time():
     assert preview_size(400, 0.01, target, full) == 512  # a fast machine previews at full resolution
     assert preview_size(20, 10.0, target, full) == 16
     assert preview_size(100, 100.0, target, full) == 50  # at most halved per frame
+
+
+@pytest.mark.parametrize("speed", [1.0, 10.0, 0.1])
+def test_preview_quality_coarsens_the_march_before_the_resolution(speed):
+    """Render times of lego at 256 px measured at march strides 1-3 (0.35, 0.21, 0.15 s), scaled by side^2
+    and by a machine `speed`: previews settle at full resolution with the finest march that keeps the
+    target frame time, and drop resolution only when the coarsest march is too slow."""
+    per_stride = {1: 0.35, 2: 0.21, 3: 0.15}
+    target, full = 1 / 6, 256
+
+    def seconds(stride, side):
+        return per_stride[stride] * (side / 256) ** 2 / speed
+
+    stride, side = 1, 64
+    for _ in range(30):
+        stride, side = preview_quality(stride, side, seconds(stride, side), target, full, 3)
+    if speed == 1.0:  # this machine: stride 3 at 256 px takes 0.15 s (6.7 frames/s)
+        assert (stride, side) == (3, 256)
+    elif speed == 10.0:  # fast: the full march at full resolution
+        assert (stride, side) == (1, 256)
+    else:  # slow: the coarsest march, and a side that renders near the target time
+        assert stride == 3 and side < full
+        assert 0.6 * target <= seconds(stride, side) <= 1.2 * target
+    # steady: the setting holds
+    assert preview_quality(stride, side, seconds(stride, side), target, full, 3) == (stride, side)
 
 
 def test_a_zero_height_canvas_keeps_the_last_aspect():
