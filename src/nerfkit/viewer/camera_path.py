@@ -25,7 +25,8 @@ import numpy as np
 from nerfkit.errors import DataError
 
 
-def interpolate(c2ws: np.ndarray, fovs: np.ndarray, n_frames: int, cycle: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def interpolate(c2ws: np.ndarray, fovs: np.ndarray, n_frames: int,
+                cycle: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """n_frames camera-to-world matrices [n, 4, 4] and fovs [n] through keyframes c2ws [K, 4, 4], fovs [K]."""
     from scipy.interpolate import CubicSpline
     from scipy.spatial.transform import Rotation, Slerp

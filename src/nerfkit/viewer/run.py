@@ -113,7 +113,8 @@ def serve_until_interrupted(viewer: Viewer) -> None:
         print("\nviewer stopped", flush=True)
 
 
-TRAINING_FRACTION = 0.04  # the viewer's share of wall time while training (the ceiling for all of its cost: 10%)
+# The viewer's share of wall time while training (the ceiling for all of its cost: 10%).
+TRAINING_FRACTION = 0.04
 
 
 def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
@@ -121,8 +122,10 @@ def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
     check_address(host, port)
     td = trainer.train_data
     scene = scene_view(td.poses, td.cameras, thumbnails([td.image(k) for k in range(len(td))]), trainer.cfg)
+    # Training cameras start hidden (one click shows them): drawn with their photos, they cost a headless
+    # or GPU-less browser on the same 2 cores 0.19 cores, against 0.02 hidden (measured on lego).
     trainer.viewer = Viewer(trainer.renderer, scene, trainer.run_dir, host=host, port=port,
-                            max_fraction=TRAINING_FRACTION)
+                            max_fraction=TRAINING_FRACTION, show_cameras=False)
     print(f"viewer at {trainer.viewer.url} (live while training)", flush=True)
     return trainer.viewer
 

@@ -152,7 +152,7 @@ class Viewer:
     STILL_AFTER = 0.2
 
     def __init__(self, renderer, scene: SceneView, out_dir: Path, host: str = "127.0.0.1", port: int = 7007,
-                 max_fraction: float = 1.0, verbose: bool = True):
+                 max_fraction: float = 1.0, verbose: bool = True, show_cameras: bool = True):
         import viser
 
         self.renderer, self.scene, self.out_dir = renderer, scene, Path(out_dir)
@@ -174,6 +174,7 @@ class Viewer:
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.host, self.port = host, self.server.get_port()
         self.server.scene.set_up_direction("+z")
+        self.show_cameras = show_cameras
         self._draw_scene()
         self._build_gui()
         self.server.on_client_connect(self._on_connect)
@@ -214,7 +215,7 @@ class Viewer:
             fov = 2 * math.atan(0.5 * cam.height / cam.fy)
             self._frustums.append(sc.add_camera_frustum(f"/train_cameras/{k:04d}", fov=fov,
                                   aspect=cam.width / cam.height, scale=size, image=thumb, format="jpeg",
-                                  wxyz=wxyz, position=pos, color=(60, 90, 200)))
+                                  wxyz=wxyz, position=pos, color=(60, 90, 200), visible=self.show_cameras))
         b = s.bound
         corners = np.array([[x, y, z] for x in (-b, b) for y in (-b, b) for z in (-b, b)])
         edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if (i ^ j).bit_count() == 1]
@@ -226,10 +227,11 @@ class Viewer:
         self.info = gui.add_markdown("waiting for the first frame...")
         self.mode = gui.add_dropdown("Output", MODES, initial_value="RGB")
         self.resolution = gui.add_number("Max resolution", 256, min=32, max=2048, step=16,
-                                         hint="longest side of the live view (1/4 of it while the camera moves)")
+                                         hint="longest side of the live view (moving: previews keep 6 frames/s)")
         self.out_res = gui.add_number("Save resolution", 800, min=32, max=4096, step=16,
                                       hint="longest side of saved views and of camera-path renders")
-        show = gui.add_checkbox("Training cameras", True)
+        show = gui.add_checkbox("Training cameras", self.show_cameras,
+                                hint="drawing them with their photos costs a browser without a GPU ~0.2 cores")
 
         @show.on_update
         def _(_e) -> None:
