@@ -149,8 +149,7 @@ def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
         assert ref["opacity"].min() < 0.01  # and rays that cross empty space only
 
 
-@pytest.mark.parametrize("scene_type", ["bounded", "unbounded"])
-@pytest.mark.parametrize("stride", [2, 3])
+@pytest.mark.parametrize("scene_type,stride", [("bounded", 2), ("unbounded", 3)])
 def test_a_coarser_march_is_the_march_of_fewer_steps(scene_type, stride):
     """coarser(renderer, s) (the viewer's moving previews) marches s fine steps as one: the pixels of the
     same model built with march_steps / s, rendered in one pass; and not the fine march's pixels."""
