@@ -106,11 +106,18 @@ def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: in
 
 
 def serve_until_interrupted(viewer: Viewer) -> None:
-    """Render frames until Ctrl-C, then say so (the caller closes the viewer)."""
+    """Render frames until Ctrl-C (SIGINT), then say so (the caller closes the viewer). SIGINT raises
+    KeyboardInterrupt here even when the process started with it ignored (a background job of a
+    script), as `nerfkit train` stops on it (stopping.StopFlag)."""
+    import signal
+
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         viewer.serve_forever()
     except KeyboardInterrupt:
         print("\nviewer stopped", flush=True)
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 # The viewer's share of wall time while training (the issue's ceiling for all of its cost: 10%).
