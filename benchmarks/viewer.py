@@ -1,6 +1,6 @@
 """The viewer's frame rate (moving and still) and its cost to training, in headless Chromium.
 
-    python benchmarks/viewer.py RUN_DIR [--data DATA --steps 300] [--window 480x480] [--seconds 6]
+    python benchmarks/viewer.py RUN_DIR [--data DATA --steps 300] [--window 480x583] [--seconds 6]
 
 1. `nerfkit view RUN_DIR`'s renderer behind a viser server, a headless Chromium page (--window) connected
    to it. After the first frame, the viewer compiles its coarser preview marches in idle time (timed).
@@ -142,7 +142,8 @@ def main():
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--resolution", type=int, default=256)
     ap.add_argument("--seconds", type=float, default=6.0, help="length of the simulated drag")
-    ap.add_argument("--window", default="640x480", help="the browser window, WxH (480x480: square frames)")
+    ap.add_argument("--window", default="640x480",
+                    help="the browser window, WxH (480x583: a near-square 256x254 canvas)")
     a = ap.parse_args()
     binary = find_chromium()
     if binary is None:

@@ -328,6 +328,8 @@ class CoarseMarch:
         self.base, self.stride = model, int(stride)
 
     def __getattr__(self, name):
+        if name == "base":  # (not set yet: no recursion)
+            raise AttributeError(name)
         return getattr(self.base, name)
 
     def candidates(self, o, d, key=None, index=None):
