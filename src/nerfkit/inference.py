@@ -251,13 +251,18 @@ class WavefrontRenderer(Renderer):
             self._dist = (bits, jnp.asarray(empty_distance(np.asarray(bits), self.model.occ.resolution)))
         return self._dist[1]
 
-    def warm_up(self, params, aux) -> None:
-        """Compile the round functions (the window and every shading budget) on empty slots, so that no
-        later frame waits for a compile (the viewer calls this in idle time)."""
+    def _free_slots(self) -> tuple[np.ndarray, ...]:
+        """The state of `chunk` free slots: o, d [chunk, 3], radii, k0 (far past every candidate) and
+        transmittance [chunk], with the shapes and dtypes the round functions are compiled for."""
         r = self.chunk
-        o, rad, trans = np.zeros((r, 3), np.float32), np.zeros(r, np.float32), np.ones(r, np.float32)
-        d = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (r, 1))
-        bits, _, _, k0 = self._window(aux, self.empty_distance(aux), o, d, np.full(r, 1 << 30, np.int32))
+        return (np.zeros((r, 3), np.float32), np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (r, 1)),
+                np.zeros(r, np.float32), np.full(r, 1 << 30, np.int32), np.ones(r, np.float32))
+
+    def warm_up(self, params, aux) -> None:
+        """Compile the round functions (the window and every shading budget) on free slots, so that no
+        later frame waits for a compile (the viewer calls this in idle time)."""
+        o, d, rad, k0, trans = self._free_slots()
+        bits, _, _, k0 = self._window(aux, self.empty_distance(aux), o, d, k0)
         k0 = np.array(k0)
         for m in self.BUDGETS:
             jax.block_until_ready(self._shade[m](params, o, d, rad, k0, bits, trans, 0))
@@ -268,14 +273,10 @@ class WavefrontRenderer(Renderer):
         depth, depth_normalized, opacity [N]."""
         n, r = origins.shape[0], self.chunk
         radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
-        rad = np.zeros(r, np.float32)
         acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32),
                "opacity": np.zeros(n, np.float32)}
         slot_ray = np.full(r, -1)
-        o = np.zeros((r, 3), np.float32)
-        d = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (r, 1))
-        k0 = np.full(r, 1 << 30, np.int32)  # free slots: far past every candidate
-        trans = np.ones(r, np.float32)
+        o, d, rad, k0, trans = self._free_slots()
         dist = self.empty_distance(aux)
         nxt = first = 0
         while True:
