@@ -134,7 +134,7 @@ def cmd_export(argv: list[str]) -> int:
 
         a = tyro.cli(ExportMeshArgs, args=rest, prog=prog)
         rec = export_mesh(a.run_dir, a.out, a.resolution, a.threshold, a.max_faces, a.visible_only, a.snap, a.every,
-                          a.data, progress=a.progress)
+                          a.data, progress=a.progress, carve=a.carve)
         print(f"wrote {rec['file']}: {rec['vertices']} vertices, {rec['faces']} faces ({rec['seconds']:.1f} s)")
     elif kind == "pointcloud":
         from nerfkit.export.pointcloud import export_pointcloud

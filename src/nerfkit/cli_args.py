@@ -104,6 +104,10 @@ class ExportMeshArgs:
     """Keep only faces some training view sees (drops the arbitrary surfaces inside objects and under them)."""
     snap: bool = True
     """Move each vertex along its normal (within one grid cell) to where a ray from outside turns half opaque."""
+    carve: bool = True
+    """Where the capture has masks or an alpha channel: move vertices that fall outside the training silhouettes
+    into them (up to two grid cells or two pixels), half a pixel from their edge; drop faces the photos show
+    background through."""
     every: int | None = None
     """Visibility from every K-th training view (default: about 32 views)."""
     data: Path | None = None

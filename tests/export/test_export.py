@@ -95,6 +95,8 @@ def test_mesh_lies_on_the_true_surfaces_in_capture_coordinates(trained, tmp_path
     rec = export_mesh(moved, out, resolution=128, progress=False)
     assert rec["threshold"] == pytest.approx(default_threshold(rec["bound"], 128))
     assert rec["faces"] < rec["faces_of_level_set"] and rec["snapped_to_half_opacity"]  # unseen insides dropped
+    carved = rec["carved_to_silhouettes"]  # the scene's alpha: carved into 24 training silhouettes
+    assert carved["views"] == 24 and carved["outside"] > 0 and carved["absent"] == carved["dropped_faces"] == 0
     mesh = trimesh.load(out, process=False)
     assert len(mesh.faces) == rec["faces"] > 1000
     assert mesh.visual.vertex_colors.shape == (len(mesh.vertices), 4)

@@ -12,7 +12,11 @@ the density at which a ray crossing one grid cell gathers opacity 1 - exp(-T h) 
 surface sits where one cell of the export grid would look half opaque. Faces no training view
 sees are dropped (visibility.py), each vertex is then moved along its normal, within one cell,
 to where a ray coming in from outside turns half opaque (half_opacity_snapper: the surface the
-renders show), and takes the colour the field gives there seen along the inverse normal.
+renders show). Where the capture has masks or an alpha channel, vertices that still fall on the
+background of a training photo move inward into the training silhouettes (carve.py: the level
+set rounds and fattens contours by about a pixel), and faces the photos see background through are
+dropped. Each vertex then takes the colour the field
+gives there seen along the inverse normal.
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from nerfkit.export.run import TrainedRun, check_out, load_run, to_capture, writ
 MESH_SUFFIXES = (".ply", ".obj", ".glb")
 CHUNK = 65536
 SNAP_CELLS = 1.0  # how far (in grid cells) a vertex may move onto the half-opaque surface
+CARVE_CELLS, CARVE_PIXELS = 2.0, 2.0  # how far a vertex may move into the training silhouettes: cells or pixels
 
 
 def default_threshold(bound: float, resolution: int) -> float:
@@ -216,13 +221,41 @@ def seen_faces(verts: np.ndarray, faces: np.ndarray, seen_fn):
     return verts[used], inverse.reshape(faces.shape)
 
 
+def carve_mesh(run: TrainedRun, verts: np.ndarray, faces: np.ndarray, h: float, data, log):
+    """(verts, faces, stats) carved into the training silhouettes (carve.py: moves of up to CARVE_CELLS
+    grid cells of size h or CARVE_PIXELS pixels, whichever is longer), or None when the capture has no
+    masks or alpha channel."""
+    from nerfkit.export.carve import carve, pixel_footprint, training_silhouettes
+
+    sil = training_silhouettes(run, data)
+    if sil is None:
+        log("mesh: the capture has neither masks nor an alpha channel; not carved to silhouettes")
+        return None
+    poses, cams, silhouettes = sil
+    px = pixel_footprint(poses, cams)
+    reach = max(CARVE_CELLS * h, CARVE_PIXELS * px)
+    delta = min(h, px) / 8
+    verts, faces, stats = carve(verts, vertex_normals(verts, faces), faces, poses, cams, silhouettes, delta,
+                                math.ceil(reach / delta))
+    stats["views"] = len(poses)
+    log(f"mesh: {stats['outside']} vertices fell outside the silhouettes of {len(poses)} training views "
+        f"(margin {stats['margin_px']:g} px); {stats['moved_along_normal'] + stats['moved_otherwise']} moved in "
+        f"(at most {reach:.3g}), {stats['absent']} could not and the {stats['dropped_faces']} faces using them were "
+        f"dropped (--no-carve keeps them)")
+    if not len(faces):
+        raise NerfkitError("no face of the mesh lies inside the training silhouettes; check the masks, or pass "
+                           "--no-carve")
+    return verts, faces, stats
+
+
 def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, threshold: float | None = None,
                 max_faces: int | None = None, visible_only: bool = True, snap: bool = True, every: int | None = None,
-                data: Path | None = None, progress: bool = True, log=print) -> dict:
+                data: Path | None = None, progress: bool = True, log=print, carve: bool = True) -> dict:
     """`nerfkit export mesh`: write the run's mesh to `out` (default RUN/exports/mesh.ply) in the
     capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
     visible_only: keep only faces that some training view (every `every`-th) sees; snap: move the
-    vertices onto the half-opaque surface (half_opacity_snapper)."""
+    vertices onto the half-opaque surface (half_opacity_snapper); carve: keep the vertices inside the
+    training silhouettes where the capture has masks or alpha (carve.py)."""
     if not 16 <= resolution <= 1024:
         raise ConfigError(f"--resolution must be between 16 and 1024 grid points per axis (got {resolution})")
     if threshold is not None and not threshold > 0:
@@ -260,6 +293,9 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     if snap:  # onto the half-opaque surface, searched within SNAP_CELLS grid cells
         snapper = half_opacity_snapper(density_fn, SNAP_CELLS * 2.0 * bound / (resolution - 1))
         verts = chunked(snapper, verts, vertex_normals(verts, faces), chunk=16384)
+    carved = carve_mesh(run, verts, faces, 2.0 * bound / (resolution - 1), data, log) if carve else None
+    if carved is not None:
+        verts, faces, carved = carved
     n_faces = len(faces)
     if max_faces is not None:
         verts, faces = simplify(verts, faces, max_faces)
@@ -273,6 +309,7 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
               "threshold": level, "threshold_rule": rule, "bound": bound, "vertices": len(verts), "faces": len(faces),
               "faces_before_simplification": n_faces, "faces_of_level_set": n_level_set,
               "visible_only": visible_only, "snapped_to_half_opacity": snap,
+              "carved_to_silhouettes": carved,
               "occupied_fraction": None if mask is None else float(mask.mean()),
               "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (pose normalisation undone)"}
