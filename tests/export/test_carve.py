@@ -7,7 +7,7 @@ import trimesh
 
 from nerfkit.cameras import Camera
 from nerfkit.data.scene import intersect_sphere, look_at
-from nerfkit.export.carve import MARGIN_PX, carve, outside_count
+from nerfkit.export.carve import MARGIN_PX, TOLERANCE_VIEWS, carve, outside_count
 
 R = 0.5  # the sphere, at the origin
 DIST, SIZE, FOCAL, SUPERSAMPLE = 4.0, 64, 80.0, 4
@@ -52,7 +52,7 @@ def test_carving_pulls_an_oversized_sphere_onto_the_silhouettes_and_drops_a_floa
     assert outside_count(floater, poses, cams, alphas).min() > 0
     before = outside_count(all_verts, poses, cams, alphas, MARGIN_PX)
     delta = FOOTPRINT / 4
-    out, out_faces, stats = carve(all_verts, normals, all_faces, poses, cams, alphas, delta, 16)
+    out, out_faces, stats = carve(all_verts, normals, all_faces, poses, cams, alphas, delta, 16, tolerance=0)
     # The floater is more than 16 delta from the hull in every direction: the faces using it go.
     assert stats["absent"] == len(floater) and stats["dropped_faces"] == len(faces) + 1
     assert len(out) == len(unit) and np.array_equal(out_faces, faces)
@@ -89,3 +89,20 @@ def test_outside_count_uses_the_lens():
     assert outside_count(p[None], pose[None], [cam], [alpha])[0] == 0
     pin = Camera.pinhole(64, 48, 60.0)
     assert outside_count(p[None], pose[None], [pin], [alpha])[0] == 1  # without the lens: a background pixel
+
+
+def test_one_wrong_mask_is_outvoted():
+    """A view whose mask lost the object: the strict hull (t = 0) has nothing left, the default
+    (TOLERANCE_VIEWS = 1) keeps the sphere; two wrong masks outvote it."""
+    poses, cams, alphas = sphere_views()
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+    unit, faces = np.asarray(ball.vertices), np.asarray(ball.faces)
+    verts = 0.8 * R * unit
+    wrong = [np.zeros_like(alphas[0])] + alphas[1:]
+    assert TOLERANCE_VIEWS == 1
+    out, out_faces, stats = carve(verts, unit, faces, poses, cams, wrong, FOOTPRINT / 4, 8)
+    assert np.array_equal(out, verts.astype(np.float32)) and np.array_equal(out_faces, faces)
+    assert stats["outside"] == 0
+    for t, masks in ((0, wrong), (1, [np.zeros_like(alphas[0])] * 2 + alphas[2:])):
+        _, out_faces, stats = carve(verts, unit, faces, poses, cams, masks, FOOTPRINT / 4, 8, tolerance=t)
+        assert len(out_faces) < len(faces) and stats["absent"] > 0

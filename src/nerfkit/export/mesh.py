@@ -239,7 +239,7 @@ def carve_mesh(run: TrainedRun, verts: np.ndarray, faces: np.ndarray, h: float, 
                                 math.ceil(reach / delta))
     stats["views"] = len(poses)
     log(f"mesh: {stats['outside']} vertices fell outside the silhouettes of {len(poses)} training views "
-        f"(margin {stats['margin_px']:g} px); {stats['moved_along_normal'] + stats['moved_otherwise']} moved in "
+        f"(margin {stats['margin_px']:g} px, {stats['tolerance_views']} may disagree); {stats['moved_along_normal'] + stats['moved_otherwise']} moved in "
         f"(at most {reach:.3g}), {stats['absent']} could not and the {stats['dropped_faces']} faces using them were "
         f"dropped (--no-carve keeps them)")
     if not len(faces):
