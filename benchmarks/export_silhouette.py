@@ -2,7 +2,8 @@
 
     python benchmarks/export_silhouette.py RUN_DIR [--mesh FILE] [--split "val[50:100]"] [--data DIR]
 
-Exports the run's mesh (`nerfkit export mesh RUN_DIR`, defaults) unless --mesh names one, then
+Exports the run's mesh (`nerfkit export mesh RUN_DIR`, defaults: carved into the training
+silhouettes; pass --mesh a `--no-carve` export to compare) unless --mesh names one, then
 projects every vertex (the mesh is in the capture's coordinates) into every view of the split at
 the photos' own size (or --width: the photo's alpha averaged over each bigger pixel), and counts,
 per vertex, the views where it lands inside the image and on the object (alpha > 0.5, or the mask

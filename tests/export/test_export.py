@@ -184,14 +184,13 @@ def test_empty_field_is_a_clear_error_and_writes_nothing(trained, tmp_path, caps
     assert "Traceback" not in err and not out.exists()
 
 
-def test_carving_is_on_by_default_and_off_with_no_carve(trained, tmp_path):
+def test_no_carve_through_the_cli(trained, tmp_path):
+    """--no-carve leaves the mesh uncarved (the default carves: test_mesh_lies_on_the_true_surfaces...)."""
     run, _, _ = trained
-    records = []
-    for extra in ([], ["--no-carve"]):
-        out = tmp_path / f"mesh{len(extra)}.ply"
-        assert main(["export", "mesh", str(run), "--out", str(out), "--resolution", "48", "--no-progress"] + extra) == 0
-        records.append(json.loads((run / "exports" / "export_mesh.json").read_text()))
-    assert records[0]["carved_to_silhouettes"]["views"] == 24 and records[1]["carved_to_silhouettes"] is None
+    out = tmp_path / "mesh.ply"
+    assert main(["export", "mesh", str(run), "--out", str(out), "--resolution", "48", "--no-progress", "--no-carve"]) == 0
+    rec = json.loads((run / "exports" / "export_mesh.json").read_text())
+    assert rec["carved_to_silhouettes"] is None and rec["file"] == str(out.resolve())
 
 
 @pytest.mark.parametrize("args, match", [
