@@ -70,7 +70,8 @@ def test_carving_pulls_an_oversized_sphere_onto_the_silhouettes_and_drops_a_floa
     assert stats["moved_along_normal"] + stats["moved_otherwise"] == moved.sum() > len(unit) // 4
     assert stats["moved_otherwise"] >= (moved & wrong).sum() > 0
     assert np.all(r[moved] >= R - delta - (1 + MARGIN_PX) * FOOTPRINT - 1e-6) and np.all(r[moved] < 1.04 * R)
-    print(f"carved radius: mean {r[moved].mean() / R:.4f} R, min {r[moved].min() / R:.4f}, max {r[moved].max() / R:.4f}")
+    print(f"carved radius / R: mean {r[moved].mean() / R:.4f}, min {r[moved].min() / R:.4f}, "
+          f"max {r[moved].max() / R:.4f}")
     # On average within half a pixel plus the margin's diagonal of the sphere (a pixel here is 11% of R;
     # the per-pixel silhouette loses the part of a contour pixel that is less than half covered, the
     # margin keeps points sqrt(2) m from the edge; measured: 0.26 px inside without margin, 0.82 with 0.5 px).

@@ -13,10 +13,9 @@ surface sits where one cell of the export grid would look half opaque. Faces no 
 sees are dropped (visibility.py), each vertex is then moved along its normal, within one cell,
 to where a ray coming in from outside turns half opaque (half_opacity_snapper: the surface the
 renders show). Where the capture has masks or an alpha channel, vertices that still fall on the
-background of a training photo move inward into the training silhouettes (carve.py: the level
-set rounds and fattens contours by about a pixel), and faces the photos see background through are
-dropped. Each vertex then takes the colour the field
-gives there seen along the inverse normal.
+background of training photos move into the training silhouettes (carve.py: the level set
+rounds and fattens contours by about a pixel), and faces the photos show background through are
+dropped. Each vertex then takes the colour the field gives there seen along the inverse normal.
 """
 
 from __future__ import annotations
@@ -238,8 +237,9 @@ def carve_mesh(run: TrainedRun, verts: np.ndarray, faces: np.ndarray, h: float, 
     verts, faces, stats = carve(verts, vertex_normals(verts, faces), faces, poses, cams, silhouettes, delta,
                                 math.ceil(reach / delta))
     stats["views"] = len(poses)
+    moved = stats["moved_along_normal"] + stats["moved_otherwise"]
     log(f"mesh: {stats['outside']} vertices fell outside the silhouettes of {len(poses)} training views "
-        f"(margin {stats['margin_px']:g} px, {stats['tolerance_views']} may disagree); {stats['moved_along_normal'] + stats['moved_otherwise']} moved in "
+        f"(margin {stats['margin_px']:g} px, {stats['tolerance_views']} may disagree); {moved} moved in "
         f"(at most {reach:.3g}), {stats['absent']} could not and the {stats['dropped_faces']} faces using them were "
         f"dropped (--no-carve keeps them)")
     if not len(faces):
