@@ -29,6 +29,7 @@ import trimesh
 from PIL import Image
 from scipy.ndimage import maximum_filter
 
+from nerfkit.cameras import project_points
 from nerfkit.data.loader import read_capture
 from nerfkit.evaluate import run_data_dir
 from nerfkit.train import load_run_config
@@ -51,16 +52,6 @@ def alpha_of(frame, width: int | None = None) -> np.ndarray:
     return a.astype(np.float32) / 255.0
 
 
-def project(verts: np.ndarray, c2w: np.ndarray, cam) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel coordinates (u, v) and in-front flag of points [N, 3] in an OpenGL camera (lens included)."""
-    p = (verts - c2w[:3, 3]) @ c2w[:3, :3]
-    z = -p[:, 2]
-    front = z > 1e-6
-    zs = np.where(front, z, 1.0)
-    u, v = cam.project(p[:, 0] / zs, -p[:, 1] / zs)
-    return u, v, front
-
-
 def score(verts: np.ndarray, views, tolerance_px: int = 0):
     """Per-vertex silhouette counts of points [N, 3] over views [(alpha [H, W], c2w, camera of that size)].
 
@@ -76,7 +67,7 @@ def score(verts: np.ndarray, views, tolerance_px: int = 0):
         sil = a > 0.5
         if tolerance_px:
             sil = maximum_filter(sil, size=2 * tolerance_px + 1)
-        u, v, front = project(verts, c2w, cam)
+        u, v, front = project_points(verts, c2w, cam)
         vis = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
         iu = np.clip(np.floor(u[vis]).astype(int), 0, w - 1)
         iv = np.clip(np.floor(v[vis]).astype(int), 0, h - 1)

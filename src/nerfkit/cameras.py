@@ -195,6 +195,19 @@ def camera_rays(c2w: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.ndarray
     return o.astype(np.float32), d.astype(np.float32)
 
 
+def project_points(points: np.ndarray, c2w: np.ndarray, camera: Camera):
+    """Image coordinates (u, v) [N] of world points [N, 3] seen by `camera` at pose c2w (lens model
+    included), and in_front [N]: the point lies in front of the camera (z-depth > 0; u, v are
+    meaningless elsewhere). The inverse of the rays above: x_cam = R^T (x - o), (x, y) =
+    (x_cam / z, -y_cam / z) with z = -z_cam, then the lens."""
+    p = (np.asarray(points, np.float64) - c2w[:3, 3]) @ np.asarray(c2w, np.float64)[:3, :3]
+    z = -p[:, 2]
+    front = z > 1e-6
+    zs = np.where(front, z, 1.0)
+    u, v = camera.project(p[:, 0] / zs, -p[:, 1] / zs)
+    return u, v, front
+
+
 def ray_table(cameras: list[Camera]) -> dict:
     """What the jitted training step needs to make the ray of any pixel of any frame.
 

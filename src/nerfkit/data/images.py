@@ -90,6 +90,15 @@ def read_rgba(path: Path, expect_size: tuple[int, int] | None = None) -> tuple[n
     return rgb, a
 
 
+def read_masked(path: Path, mask: Path | None, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """RGB [H, W, 3] and alpha [H, W] of an image of `size` = (width, height), its alpha times its
+    mask's where it has one (read_rgba, load_mask)."""
+    rgb, a = read_rgba(path, size)
+    if mask is not None:
+        a = a * load_mask(mask, size, path)
+    return rgb, a
+
+
 def load_image(path: Path, background: np.ndarray, expect_size: tuple[int, int] | None = None) -> np.ndarray:
     """An image as float32 RGB in [0, 1], its alpha composited on `background` (see read_rgba)."""
     rgb, a = read_rgba(path, expect_size)

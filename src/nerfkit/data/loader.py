@@ -24,7 +24,7 @@ from tqdm.auto import tqdm
 
 from nerfkit.data import blender, colmap, llff, multiscale, nerfstudio
 from nerfkit.data.capture import Capture, SceneData
-from nerfkit.data.images import area_downscale, composite, load_mask, read_rgba, resolve_downscale
+from nerfkit.data.images import area_downscale, composite, read_masked, resolve_downscale
 from nerfkit.data.normalize import apply_transform, normalizing_transform
 from nerfkit.errors import DataError
 
@@ -136,10 +136,7 @@ def load_frames(cap: Capture, spec: str, *, downscale: int | None = None, target
     images, alphas = [], []
     use_alpha = cap.alpha or any(f.mask is not None for f in frames)
     for f in tqdm(frames, desc="load images", unit="img", disable=not progress or len(frames) < 20, leave=False):
-        size = (f.camera.width, f.camera.height)
-        rgb, a = read_rgba(f.image, size)
-        if f.mask is not None:
-            a = a * load_mask(f.mask, size, f.image)
+        rgb, a = read_masked(f.image, f.mask, (f.camera.width, f.camera.height))
         images.append(area_downscale(composite(rgb, a, bg), sel.factor))
         if use_alpha:
             alphas.append(np.round(area_downscale(a, sel.factor) * 255).astype(np.uint8))

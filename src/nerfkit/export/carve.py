@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from nerfkit.cameras import Camera
-from nerfkit.data.images import area_downscale, load_mask, read_rgba
+from nerfkit.cameras import Camera, project_points
+from nerfkit.data.images import area_downscale, read_masked
 from nerfkit.data.loader import read_capture, scene_cameras
 
 MARGIN_PX = 0.5
@@ -48,11 +48,7 @@ def outside_count(pts: np.ndarray, poses: np.ndarray, cameras: list[Camera], sil
     out = np.zeros(len(pts), np.int32)
     offsets = [(0.0, 0.0)] + ([(a * margin, b * margin) for a in (-1, 1) for b in (-1, 1)] if margin > 0 else [])
     for pose, cam, sil in zip(poses, cameras, silhouettes):
-        rel = (pts - pose[:3, 3]) @ pose[:3, :3]  # camera coordinates (OpenGL: looking down -z)
-        z = -rel[:, 2]
-        front = z > 1e-6
-        zs = np.where(front, z, 1.0)
-        u0, v0 = cam.project(rel[:, 0] / zs, -rel[:, 1] / zs)
+        u0, v0, front = project_points(pts, pose, cam)
         h, w = sil.shape
         seen = front & (u0 >= 0) & (u0 < w) & (v0 >= 0) & (v0 < h)
         off = np.zeros(len(pts), bool)
@@ -64,6 +60,12 @@ def outside_count(pts: np.ndarray, poses: np.ndarray, cameras: list[Camera], sil
             off |= inside & ~sil[iv, iu]
         out += off
     return out
+
+
+def used_vertices(verts: np.ndarray, faces: np.ndarray):
+    """(verts [V', 3], faces [F, 3]): only the vertices the faces use, the faces renumbered."""
+    used, inverse = np.unique(faces, return_inverse=True)
+    return verts[used], inverse.reshape(faces.shape)
 
 
 def cube_directions() -> np.ndarray:
@@ -117,13 +119,12 @@ def carve(verts: np.ndarray, normals: np.ndarray, faces: np.ndarray, poses: np.n
     absent = np.zeros(len(verts), bool)
     absent[rest[~ok]] = True
     keep = ~absent[faces].any(axis=1)
-    faces = faces[keep]
-    used, inverse = np.unique(faces, return_inverse=True)
+    out_verts, out_faces = used_vertices(verts, faces[keep])
     stats = {"outside": int(len(todo)), "moved_along_normal": along_normal, "moved_otherwise": int(ok.sum()),
              "absent": int(absent.sum()), "dropped_faces": int((~keep).sum()), "step": float(delta),
              "max_move": float(max_steps * delta), "margin_px": float(margin),
              "tolerance_views": int(tolerance)}
-    return verts[used].astype(np.float32), inverse.reshape(faces.shape), stats
+    return out_verts.astype(np.float32), out_faces, stats
 
 
 def pixel_footprint(poses: np.ndarray, cameras: list[Camera]) -> float:
@@ -145,9 +146,6 @@ def training_silhouettes(run, data=None):
     sel = scene_cameras(cap, d.train_split)
     silhouettes = []
     for f in frames:
-        size = (f.camera.width, f.camera.height)
-        _, a = read_rgba(f.image, size)
-        if f.mask is not None:
-            a = a * load_mask(f.mask, size, f.image)
+        _, a = read_masked(f.image, f.mask, (f.camera.width, f.camera.height))
         silhouettes.append(area_downscale(a, sel.factor) > 0.5)
     return sel.poses.astype(np.float64), sel.cameras, silhouettes

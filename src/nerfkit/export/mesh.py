@@ -215,9 +215,9 @@ def seen_faces(verts: np.ndarray, faces: np.ndarray, seen_fn):
     tri = verts[faces]
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     keep = chunked(seen_fn, tri.mean(axis=1).astype(np.float32), normals.astype(np.float32))
-    faces = faces[keep]
-    used, inverse = np.unique(faces, return_inverse=True)
-    return verts[used], inverse.reshape(faces.shape)
+    from nerfkit.export.carve import used_vertices
+
+    return used_vertices(verts, faces[keep])
 
 
 def carve_mesh(run: TrainedRun, verts: np.ndarray, faces: np.ndarray, h: float, data, log):
