@@ -27,8 +27,9 @@ pixel tile over only the Gaussians whose 3-sigma ellipse can reach the tile:
    into a per-tile buffer, then into one float64 buffer per thread (no races); the thread
    buffers are added at the end.
 
-Arithmetic is float64 inside the kernels whatever the input dtype; outputs take the input
-dtype. Kernels are compiled on first use and cached on disk (cache=True).
+The kernels take float64 arrays (the host functions convert: one compiled variant, and the
+float32 and float64 paths are the same code); outputs take the input dtype. Kernels are
+compiled on first use and cached on disk (cache=True).
 """
 
 from __future__ import annotations
@@ -43,41 +44,6 @@ from nerfkit.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
 from nerfkit.splat.project import SIGMA_CUTOFF
 
 TILE = 16
-
-
-@njit(cache=True)
-def _tile_rects(means2d, conics, radii, width, height):
-    """Tile rectangles [N, 4] (tx0, tx1, ty0, ty1), ends exclusive; empty for culled Gaussians."""
-    n = means2d.shape[0]
-    tiles_x = (width + TILE - 1) // TILE
-    tiles_y = (height + TILE - 1) // TILE
-    rects = np.zeros((n, 4), np.int32)
-    for g in range(n):
-        r = radii[g]
-        if r <= 0:
-            continue
-        a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
-        det = a * c - b * b
-        hx = r + 1.0
-        hy = r + 1.0
-        if det > 0.0 and a > 0.0 and c > 0.0:
-            hx = min(hx, SIGMA_CUTOFF * math.sqrt(c / det))
-            hy = min(hy, SIGMA_CUTOFF * math.sqrt(a / det))
-        mx, my = float(means2d[g, 0]), float(means2d[g, 1])
-        if not (math.isfinite(mx) and math.isfinite(my)):
-            continue
-        # pixels j with |j + 0.5 - m| <= h, one pixel of slack for rounding
-        j0 = max(0.0, math.floor(mx - hx - 0.5))
-        j1 = min(width - 1.0, math.floor(mx + hx - 0.5) + 1.0)
-        i0 = max(0.0, math.floor(my - hy - 0.5))
-        i1 = min(height - 1.0, math.floor(my + hy - 0.5) + 1.0)
-        if j0 > j1 or i0 > i1:
-            continue
-        rects[g, 0] = int(j0) // TILE
-        rects[g, 1] = min(tiles_x, int(j1) // TILE + 1)
-        rects[g, 2] = int(i0) // TILE
-        rects[g, 3] = min(tiles_y, int(i1) // TILE + 1)
-    return rects
 
 
 @njit(cache=True)
@@ -101,31 +67,82 @@ def _bin(rects, order, n_tiles, tiles_x):
     return offsets, ids
 
 
-def bin_gaussians(means2d, conics, depths, radii, width: int, height: int):
+def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height: int):
     """Tile lists of Gaussians, each sorted front to back: (offsets [n_tiles + 1] int64, ids [M] int32).
 
     Tiles are numbered row-major, tiles_x = ceil(width / 16) per row."""
     tiles_x = -(-width // TILE)
     tiles_y = -(-height // TILE)
-    rects = _tile_rects(means2d, conics, radii, width, height)
+    rects = _tile_rects(means2d, conics, opacities, radii, width, height)
     live = np.flatnonzero(radii > 0)
     order = live[np.argsort(depths[live], kind="stable")].astype(np.int32)
     return _bin(rects, order, tiles_x * tiles_y, tiles_x)
 
 
+# Each Gaussian covers, inside a tile, only the pixels of its 3-sigma ellipse: rows with
+# |d_y| <= 3 sqrt(Sigma'_yy), and in row d_y the d_x between the roots of
+# a d_x^2 + 2 b d_y d_x + c d_y^2 = 2 SIGMA_MAX; the kernels visit those pixels (one pixel of
+# slack each side, the exact sigma test is still applied per pixel), Gaussian by Gaussian.
+_LOG_ALPHA_MIN = math.log(ALPHA_MIN)
+
+
 @njit(cache=True, inline="always")
-def _pack(means2d, conics, opacities, colors, ids, start, n, geo, col):
-    """Copy a tile's Gaussians into contiguous float64 arrays geo [n, 6] (mx, my, a, b, c, o), col [n, C]."""
-    for k in range(n):
-        g = ids[start + k]
-        geo[k, 0] = means2d[g, 0]
-        geo[k, 1] = means2d[g, 1]
-        geo[k, 2] = conics[g, 0]
-        geo[k, 3] = conics[g, 1]
-        geo[k, 4] = conics[g, 2]
-        geo[k, 5] = opacities[g]
-        for ch in range(colors.shape[1]):
-            col[k, ch] = colors[g, ch]
+def _span(o):
+    """Bound on d^T Q d = 2 sigma where Gaussian of opacity o can pass the alpha test, with rounding slack:
+    sigma <= SIGMA_MAX and o e^{-sigma} >= ALPHA_MIN, i.e. sigma <= log(o / ALPHA_MIN). Negative: never."""
+    if not o >= ALPHA_MIN:
+        return -1.0
+    return 2.0 * min(SIGMA_MAX, math.log(o) - _LOG_ALPHA_MIN) * (1.0 + 1e-6) + 1e-9
+
+
+@njit(cache=True, inline="always")
+def _rows(my, a, det, span, y0, ny):
+    """Tile rows [ys, ye] (relative to y0) that the ellipse d^T Q d <= span may reach."""
+    sy = math.sqrt(span * a / det)  # Sigma'_yy = a / det
+    return max(0, int(math.floor(my - sy - 0.5)) - y0), min(ny - 1, int(math.floor(my + sy - 0.5)) + 1 - y0)
+
+
+@njit(cache=True, inline="always")
+def _cols(mx, dy, a, b, c, span, x0, nx):
+    """Tile columns [xs, xe] (relative to x0) of the ellipse's span in the row at offset dy = m_y - p_y."""
+    disc = b * b * dy * dy - a * (c * dy * dy - span)
+    if disc < 0.0:
+        return 0, -1
+    sq = math.sqrt(disc)
+    hi = (-b * dy + sq) / a  # d_x = m_x - p_x, so p_x spans [m_x - hi, m_x - lo]
+    lo = (-b * dy - sq) / a
+    return max(0, int(math.floor(mx - hi - 0.5)) - x0), min(nx - 1, int(math.floor(mx - lo - 0.5)) + 1 - x0)
+
+
+@njit(cache=True)
+def _tile_rects(means2d, conics, opacities, radii, width, height):
+    """Tile rectangles [N, 4] (tx0, tx1, ty0, ty1), ends exclusive, of the pixel boxes that hold each
+    Gaussian's ellipse d^T Q d <= _span(o) (at most its radius square); empty when it cannot show."""
+    n = means2d.shape[0]
+    tiles_x = (width + TILE - 1) // TILE
+    tiles_y = (height + TILE - 1) // TILE
+    rects = np.zeros((n, 4), np.int32)
+    for g in range(n):
+        a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
+        mx, my = float(means2d[g, 0]), float(means2d[g, 1])
+        det = a * c - b * b
+        span = _span(float(opacities[g]))
+        if radii[g] <= 0 or not (a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(mx) and math.isfinite(my)):
+            continue
+        hx = min(radii[g] + 1.0, math.sqrt(span * c / det))  # Sigma'_xx = c / det
+        hy = min(radii[g] + 1.0, math.sqrt(span * a / det))
+        # pixels j with |j + 0.5 - m| <= h, one pixel of slack for rounding
+        j0 = max(0.0, math.floor(mx - hx - 0.5))
+        j1 = min(width - 1.0, math.floor(mx + hx - 0.5) + 1.0)
+        i0 = max(0.0, math.floor(my - hy - 0.5))
+        i1 = min(height - 1.0, math.floor(my + hy - 0.5) + 1.0)
+        if j0 > j1 or i0 > i1:
+            continue
+        rects[g, 0] = int(j0) // TILE
+        rects[g, 1] = min(tiles_x, int(j1) // TILE + 1)
+        rects[g, 2] = int(i0) // TILE
+        rects[g, 3] = min(tiles_y, int(i1) // TILE + 1)
+    return rects
 
 
 @njit(parallel=True, cache=True)
@@ -134,41 +151,56 @@ def _forward(means2d, conics, colors, opacities, background, offsets, ids, width
     tiles_x = (width + TILE - 1) // TILE
     for t in prange(offsets.size - 1):
         start = offsets[t]
-        n = offsets[t + 1] - start
-        geo = np.empty((n, 6))
-        col = np.empty((n, n_ch))
-        _pack(means2d, conics, opacities, colors, ids, start, n, geo, col)
-        acc = np.empty(n_ch)
         x0 = (t % tiles_x) * TILE
         y0 = (t // tiles_x) * TILE
-        for y in range(y0, min(y0 + TILE, height)):
-            py = y + 0.5
-            for x in range(x0, min(x0 + TILE, width)):
-                px = x + 0.5
-                acc[:] = 0.0
-                trans = 1.0
-                last = 0
-                for k in range(n):
-                    dx = geo[k, 0] - px
-                    dy = geo[k, 1] - py
-                    sigma = 0.5 * (geo[k, 2] * dx * dx + geo[k, 4] * dy * dy) + geo[k, 3] * dx * dy
+        nx = min(TILE, width - x0)
+        ny = min(TILE, height - y0)
+        trans = np.ones((TILE, TILE))
+        done = np.zeros((TILE, TILE), np.bool_)
+        last = np.zeros((TILE, TILE), np.int32)
+        acc = np.zeros((TILE, TILE, n_ch))
+        n_live = nx * ny
+        for k in range(offsets[t + 1] - start):
+            g = ids[start + k]
+            mx, my = float(means2d[g, 0]), float(means2d[g, 1])
+            a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
+            o = float(opacities[g])
+            det = a * c - b * b
+            span = _span(o)
+            if not (a > 0.0 and det > 0.0 and span > 0.0):
+                continue
+            ys, ye = _rows(my, a, det, span, y0, ny)
+            for y in range(ys, ye + 1):
+                dy = my - (y0 + y + 0.5)
+                xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
+                for x in range(xs, xe + 1):
+                    if done[y, x]:
+                        continue
+                    dx = mx - (x0 + x + 0.5)
+                    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
                     if sigma < 0.0 or sigma > SIGMA_MAX:
                         continue
-                    alpha = min(ALPHA_MAX, geo[k, 5] * math.exp(-sigma))
+                    alpha = min(ALPHA_MAX, o * math.exp(-sigma))
                     if alpha < ALPHA_MIN:
                         continue
-                    next_t = trans * (1.0 - alpha)
+                    next_t = trans[y, x] * (1.0 - alpha)
                     if next_t < T_MIN:
-                        break
-                    w = alpha * trans
+                        done[y, x] = True
+                        n_live -= 1
+                        continue
+                    w = alpha * trans[y, x]
                     for ch in range(n_ch):
-                        acc[ch] += w * col[k, ch]
-                    trans = next_t
-                    last = k + 1
+                        acc[y, x, ch] += w * colors[g, ch]
+                    trans[y, x] = next_t
+                    last[y, x] = k + 1
+            if n_live == 0:
+                break
+        for y in range(ny):
+            for x in range(nx):
                 for ch in range(n_ch):
-                    image[y, x, ch] = acc[ch] + trans * background[ch]
-                t_final[y, x] = trans
-                n_contrib[y, x] = last
+                    image[y0 + y, x0 + x, ch] = acc[y, x, ch] + trans[y, x] * background[ch]
+                t_final[y0 + y, x0 + x] = trans[y, x]
+                n_contrib[y0 + y, x0 + x] = last[y, x]
 
 
 @njit(parallel=True, cache=True)
@@ -179,74 +211,91 @@ def _backward(means2d, conics, colors, opacities, background, offsets, ids, widt
     tiles_x = (width + TILE - 1) // TILE
     for t in prange(offsets.size - 1):
         start = offsets[t]
-        n = offsets[t + 1] - start
-        geo = np.empty((n, 6))
-        col = np.empty((n, n_ch))
-        _pack(means2d, conics, opacities, colors, ids, start, n, geo, col)
-        acc = np.zeros((n, 6 + n_ch))
-        rec = np.empty(n_ch)
         x0 = (t % tiles_x) * TILE
         y0 = (t // tiles_x) * TILE
-        for y in range(y0, min(y0 + TILE, height)):
-            py = y + 0.5
-            for x in range(x0, min(x0 + TILE, width)):
-                px = x + 0.5
-                t_end = float(t_final[y, x])
-                g_t = float(grad_t[y, x])
+        nx = min(TILE, width - x0)
+        ny = min(TILE, height - y0)
+        trans = np.empty((TILE, TILE))  # T_k, recovered back to front from T_final
+        g_t = np.empty((TILE, TILE))  # dL/dT_final + background . G
+        rec = np.zeros((TILE, TILE, n_ch))  # R_k
+        n_max = 0
+        for y in range(ny):
+            for x in range(nx):
+                trans[y, x] = t_final[y0 + y, x0 + x]
+                g_t[y, x] = grad_t[y0 + y, x0 + x]
                 for ch in range(n_ch):
-                    g_t += background[ch] * grad_image[y, x, ch]
-                rec[:] = 0.0
-                trans = t_end
-                for k in range(n_contrib[y, x] - 1, -1, -1):
-                    dx = geo[k, 0] - px
-                    dy = geo[k, 1] - py
-                    a, b, c = geo[k, 2], geo[k, 3], geo[k, 4]
+                    g_t[y, x] += background[ch] * grad_image[y0 + y, x0 + x, ch]
+                n_max = max(n_max, n_contrib[y0 + y, x0 + x])
+        grad = np.empty(6 + n_ch)
+        tid = numba.get_thread_id()
+        for k in range(n_max - 1, -1, -1):
+            g = ids[start + k]
+            mx, my = float(means2d[g, 0]), float(means2d[g, 1])
+            a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
+            o = float(opacities[g])
+            det = a * c - b * b
+            span = _span(o)
+            if not (a > 0.0 and det > 0.0 and span > 0.0):
+                continue
+            grad[:] = 0.0
+            ys, ye = _rows(my, a, det, span, y0, ny)
+            for y in range(ys, ye + 1):
+                dy = my - (y0 + y + 0.5)
+                xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
+                for x in range(xs, xe + 1):
+                    if k >= n_contrib[y0 + y, x0 + x]:
+                        continue
+                    dx = mx - (x0 + x + 0.5)
                     sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
                     if sigma < 0.0 or sigma > SIGMA_MAX:
                         continue
                     e = math.exp(-sigma)
-                    raw = geo[k, 5] * e
+                    raw = o * e
                     alpha = min(ALPHA_MAX, raw)
                     if alpha < ALPHA_MIN:
                         continue
                     one_minus = 1.0 - alpha
-                    trans = trans / one_minus
-                    w = alpha * trans
+                    trans[y, x] /= one_minus
+                    w = alpha * trans[y, x]
                     d_alpha = 0.0
                     for ch in range(n_ch):
-                        gc = grad_image[y, x, ch]
-                        acc[k, 6 + ch] += w * gc
-                        d_alpha += (col[k, ch] - rec[ch]) * gc
-                        rec[ch] = alpha * col[k, ch] + one_minus * rec[ch]
-                    d_alpha = d_alpha * trans - g_t * t_end / one_minus
+                        gc = grad_image[y0 + y, x0 + x, ch]
+                        grad[6 + ch] += w * gc
+                        d_alpha += (colors[g, ch] - rec[y, x, ch]) * gc
+                        rec[y, x, ch] = alpha * colors[g, ch] + one_minus * rec[y, x, ch]
+                    d_alpha = d_alpha * trans[y, x] - g_t[y, x] * t_final[y0 + y, x0 + x] / one_minus
                     if raw < ALPHA_MAX:
-                        acc[k, 5] += e * d_alpha
+                        grad[5] += e * d_alpha
                         d_sigma = -alpha * d_alpha
-                        acc[k, 0] += d_sigma * (a * dx + b * dy)
-                        acc[k, 1] += d_sigma * (b * dx + c * dy)
-                        acc[k, 2] += d_sigma * 0.5 * dx * dx
-                        acc[k, 3] += d_sigma * dx * dy
-                        acc[k, 4] += d_sigma * 0.5 * dy * dy
-        tid = numba.get_thread_id()
-        for k in range(n):
-            g = ids[start + k]
+                        grad[0] += d_sigma * (a * dx + b * dy)
+                        grad[1] += d_sigma * (b * dx + c * dy)
+                        grad[2] += d_sigma * 0.5 * dx * dx
+                        grad[3] += d_sigma * dx * dy
+                        grad[4] += d_sigma * 0.5 * dy * dy
             for q in range(6 + n_ch):
-                out[tid, g, q] += acc[k, q]
+                out[tid, g, q] += grad[q]
+
+
+def _f64(*arrays):
+    """C-contiguous float64 copies (one compiled kernel variant serves every input dtype)."""
+    return [np.ascontiguousarray(a, np.float64) for a in arrays]
 
 
 def forward(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int):
     """Render (numpy in, numpy out): image [H, W, C], t_final [H, W], n_contrib [H, W] int32.
 
-    Inputs as in reference.rasterize_reference; outputs in the dtype of `colors`."""
+    Inputs as in reference.rasterize_reference; float outputs in the dtype of `colors`."""
     dtype = np.result_type(colors.dtype, np.float32)
-    offsets, ids = bin_gaussians(means2d, conics, depths, radii, width, height)
-    image = np.empty((height, width, colors.shape[1]), dtype)
-    t_final = np.empty((height, width), dtype)
+    means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
+    radii = np.ascontiguousarray(radii, np.int32)
+    offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
+    image = np.empty((height, width, colors.shape[1]))
+    t_final = np.empty((height, width))
     n_contrib = np.empty((height, width), np.int32)
     with numba.parallel_chunksize(1):
         _forward(means2d, conics, colors, opacities, background, offsets, ids, width, height, image, t_final,
                  n_contrib)
-    return image, t_final, n_contrib
+    return image.astype(dtype, copy=False), t_final.astype(dtype, copy=False), n_contrib
 
 
 def backward(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int, t_final,
@@ -255,13 +304,18 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
 
     Returns dL/d(means2d [N, 2], conics [N, 3], colors [N, C], opacities [N], background [C]),
     each in its input's dtype."""
-    offsets, ids = bin_gaussians(means2d, conics, depths, radii, width, height)
+    dtypes = [a.dtype for a in (means2d, conics, colors, opacities, background)]
+    means2d, conics, colors, opacities, background, t_final, grad_image, grad_t = _f64(
+        means2d, conics, colors, opacities, background, t_final, grad_image, grad_t)
+    radii = np.ascontiguousarray(radii, np.int32)
+    n_contrib = np.ascontiguousarray(n_contrib, np.int32)
+    offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
     n, n_ch = colors.shape
     out = np.zeros((numba.get_num_threads(), n, 6 + n_ch))
     with numba.parallel_chunksize(1):
         _backward(means2d, conics, colors, opacities, background, offsets, ids, width, height, t_final, n_contrib,
                   grad_image, grad_t, out)
     total = out.sum(0) if out.shape[0] > 1 else out[0]
-    g_bg = np.einsum("hw,hwc->c", t_final.astype(np.float64), grad_image.astype(np.float64))
-    return (total[:, 0:2].astype(means2d.dtype), total[:, 2:5].astype(conics.dtype),
-            total[:, 6:].astype(colors.dtype), total[:, 5].astype(opacities.dtype), g_bg.astype(background.dtype))
+    g_bg = np.einsum("hw,hwc->c", t_final, grad_image)
+    grads = (total[:, 0:2], total[:, 2:5], total[:, 6:], total[:, 5], g_bg)
+    return tuple(g.astype(dt) for g, dt in zip(grads, dtypes))
