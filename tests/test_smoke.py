@@ -133,6 +133,7 @@ def test_process_data_images(arc_photos, tmp_path, capsys):
     assert len(json.loads((out / "transforms.json").read_text())["frames"]) == n
 
 
+@pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")  # imageio-ffmpeg forks ffmpeg, which execs at once
 def test_process_data_video_with_the_opencv_lens(arc_photos, tmp_path, capsys):
     # imageio-ffmpeg both ways, sequential matching and the OPENCV bundle adjustment.
     iio.imwrite(tmp_path / "arc.mp4", np.stack(arc_photos), fps=10, codec="libx264", quality=10, macro_block_size=1)
