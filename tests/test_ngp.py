@@ -94,12 +94,13 @@ def test_ngp_render_requeues_rays_that_overflow_the_budget():
 
     o, d = image_rays(look_at(np.array([0.0, -4.0, 1.0]), np.zeros(3)), 12, 12, 20.0)
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
-    cfg.sampler.eval_samples_per_ray = 400  # >= every ray's candidates: one pass
     model = build_model(cfg)
+    model.eval_samples_per_ray = 400  # >= every ray's candidates: one pass
     params, aux = model.init(jax.random.PRNGKey(0))
     ref = Renderer(model, chunk=64).render_rays(params, aux, o, d)
-    cfg.sampler.eval_samples_per_ray = 8  # most rays cross ~60 occupied steps: overflow
-    small = Renderer(build_model(cfg), chunk=64).render_rays(params, aux, o, d)
+    small_model = build_model(cfg)
+    small_model.eval_samples_per_ray = 8  # most rays cross ~60 occupied steps: overflow
+    small = Renderer(small_model, chunk=64).render_rays(params, aux, o, d)
     for k in ("rgb", "depth", "opacity"):
         np.testing.assert_allclose(small[k], ref[k], atol=1e-5, err_msg=k)
     assert ref["opacity"].max() > 0.1  # the comparison is not between two empty images
@@ -116,10 +117,10 @@ def _ball_model(scene_type: str, march_steps: int = 256):
     cfg.field.scene_type = scene_type
     cfg.field.hash_levels, cfg.field.hash_max_res = 4, 32
     cfg.sampler.occ_res, cfg.sampler.march_steps = 16, march_steps
-    cfg.sampler.eval_samples_per_ray = 600  # one pass holds every ray
     if scene_type == "unbounded":
         cfg.sampler.near, cfg.sampler.far, cfg.field.bound = 0.05, 1e3, 1.5
     model = build_model(cfg)
+    model.eval_samples_per_ray = 600  # one pass holds every ray
     params, aux = model.init(jax.random.PRNGKey(0))
     params["field"]["density"][1]["b"] = params["field"]["density"][1]["b"].at[0].set(1.5)  # rays end
     centres = np.asarray(occupancy.cell_centers(model.occ))
@@ -175,10 +176,11 @@ def test_antialiased_field_renders_cones_alike_in_both_renderers():
 
     cfg = _ngp_config()
     cfg.field.hash_levels, cfg.field.hash_max_res = 4, 32
-    cfg.sampler.occ_res, cfg.sampler.march_steps, cfg.sampler.eval_samples_per_ray = 16, 256, 600
+    cfg.sampler.occ_res, cfg.sampler.march_steps = 16, 256
     plain = build_model(cfg)
     cfg.field.antialias = True
     model = build_model(cfg)
+    plain.eval_samples_per_ray = model.eval_samples_per_ray = 600
     params, aux = model.init(jax.random.PRNGKey(0))
     rng = np.random.default_rng(0)  # features of size 1, so that every level matters
     params["field"]["grid"]["tables"] = [rng.normal(size=t.shape).astype(np.float32)

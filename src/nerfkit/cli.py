@@ -7,6 +7,8 @@ the run folder's saved config; any single knob can then be overridden.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import sys
@@ -35,6 +37,51 @@ from nerfkit.cli_args import (
 )
 from nerfkit.config import DEFAULT_PRESET, PRESET_HELP, PRESETS, preset
 from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.flags import explicit_settings
+
+
+def _one_line(text: str, prog: str) -> str:
+    """tyro's boxed parse error as one line: the message, its first suggestion, and where the help is."""
+    sections, cur = [], []
+    for raw in text.splitlines():
+        if raw.lstrip().startswith(("╭", "╰")):  # the box's title and bottom
+            continue
+        line = raw.strip().strip("│").rstrip()
+        line = line[1:] if line.startswith(" ") else line  # the box's inner margin
+        if not line.strip() or set(line.strip()) <= set("─╭╮╰╯ "):
+            if cur and set(line.strip()) <= set("─ ") and line.strip():
+                sections.append(cur)
+                cur = []
+            continue
+        cur.append(line)
+    if cur:
+        sections.append(cur)
+    if not sections:
+        return f"invalid arguments; see {prog} --help"
+    first = sections[0]
+    if first[0].startswith("Missing from"):
+        names = [x.strip() for x in first[1:] if x.startswith("    ") and not x.startswith("     ")]
+        msg = "missing " + ", ".join(names or [" ".join(x.strip() for x in first[1:])])
+    elif first[0].startswith("Unrecognized options"):
+        msg = first[0]
+    else:
+        msg = " ".join(x.strip() for x in first)
+    for sec in sections[1:]:
+        if sec[0].strip().startswith("Perhaps you meant") and len(sec) > 1:
+            msg += f"; perhaps you meant {sec[1].split()[0]}"
+    return f"{msg.rstrip('.')}; see {prog} --help"
+
+
+def parse(cls, argv: list[str], prog: str, default=None):
+    """tyro.cli, with a parse error turned into one ConfigError line (exit 1 in main) instead of a box."""
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err):
+            return tyro.cli(cls, args=argv, prog=prog, default=default)
+    except SystemExit as e:
+        if e.code in (0, None):
+            raise
+        raise ConfigError(_one_line(err.getvalue(), prog)) from None
 
 
 def _flag_value(argv: list[str], flag: str) -> str | None:
@@ -47,8 +94,9 @@ def _flag_value(argv: list[str], flag: str) -> str | None:
     return None
 
 
-def cmd_train(argv: list[str]) -> int:
-    from nerfkit.train import Trainer, load_run_config
+def parse_train_args(argv: list[str]) -> TrainArgs:
+    """`nerfkit train` arguments: the preset's config (or, with --resume, the run's own) with the flags on top."""
+    from nerfkit.train import load_run_config
 
     name = _flag_value(argv, "--preset") or DEFAULT_PRESET
     base = preset(name) if name in PRESETS else preset(DEFAULT_PRESET)
@@ -57,12 +105,19 @@ def cmd_train(argv: list[str]) -> int:
         base = load_run_config(Path(out))  # a resumed run keeps its own config
     default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name if name in PRESETS else DEFAULT_PRESET,
                         cfg=base)
-    args = tyro.cli(TrainArgs, default=default, args=argv, prog="nerfkit train")
+    return parse(TrainArgs, argv, "nerfkit train", default=default)
+
+
+def cmd_train(argv: list[str]) -> int:
+    from nerfkit.train import Trainer
+
+    args = parse_train_args(argv)
     from nerfkit.parallel import init_distributed, is_primary
 
     if init_distributed() > 1 and args.viewer:
         raise ConfigError("--viewer: not in a multi-process run; view the run folder with `nerfkit view` instead")
-    trainer = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress and is_primary())
+    trainer = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress and is_primary(),
+                      overwrite=args.overwrite, given=explicit_settings(argv), preset=args.preset)
     if args.viewer:
         from nerfkit.viewer.run import attach_viewer
 
@@ -84,7 +139,7 @@ def cmd_train(argv: list[str]) -> int:
 def cmd_eval(argv: list[str]) -> int:
     from nerfkit.evaluate import evaluate_run, format_eval_table
 
-    a = tyro.cli(EvalArgs, args=argv, prog="nerfkit eval")
+    a = parse(EvalArgs, argv, "nerfkit eval")
     res = evaluate_run(a.run_dir, a.data, a.split, a.downscale, a.every, a.chunk, baked=a.baked)
     print(format_eval_table(res))
     print(f"wrote {res['written']}")
@@ -94,7 +149,7 @@ def cmd_eval(argv: list[str]) -> int:
 def cmd_render(argv: list[str]) -> int:
     from nerfkit.evaluate import render_run
 
-    a = tyro.cli(RenderArgs, args=argv, prog="nerfkit render")
+    a = parse(RenderArgs, argv, "nerfkit render")
     info = render_run(a.run_dir, a.data, a.split, a.orbit, a.width, a.height, a.out, a.fps, a.chunk,
                       camera_path=a.camera_path)
     print(f"rendered {info['frames']} frames at {info['width']}x{info['height']} "
@@ -106,12 +161,12 @@ def cmd_view(argv: list[str]) -> int:
     if any(x == "--baked" or x.startswith("--baked=") for x in argv):
         from nerfkit.bake.web import serve_baked
 
-        b = tyro.cli(ViewBakedArgs, args=argv, prog="nerfkit view")
+        b = parse(ViewBakedArgs, argv, "nerfkit view")
         serve_baked(b.baked, b.host, b.port)
         return 0
     from nerfkit.viewer.run import view_run
 
-    a = tyro.cli(ViewArgs, args=argv, prog="nerfkit view")
+    a = parse(ViewArgs, argv, "nerfkit view")
     view_run(a.run_dir, a.host, a.port, a.chunk)
     return 0
 
@@ -132,21 +187,21 @@ def cmd_export(argv: list[str]) -> int:
     if kind == "mesh":
         from nerfkit.export.mesh import export_mesh
 
-        a = tyro.cli(ExportMeshArgs, args=rest, prog=prog)
+        a = parse(ExportMeshArgs, rest, prog)
         rec = export_mesh(a.run_dir, a.out, a.resolution, a.threshold, a.max_faces, a.visible_only, a.snap, a.every,
                           a.data, progress=a.progress, carve=a.carve)
         print(f"wrote {rec['file']}: {rec['vertices']} vertices, {rec['faces']} faces ({rec['seconds']:.1f} s)")
     elif kind == "pointcloud":
         from nerfkit.export.pointcloud import export_pointcloud
 
-        a = tyro.cli(ExportPointcloudArgs, args=rest, prog=prog)
+        a = parse(ExportPointcloudArgs, rest, prog)
         rec = export_pointcloud(a.run_dir, a.out, a.split, a.every, a.min_opacity, a.voxel_size, a.data, a.chunk,
                                 progress=a.progress)
         print(f"wrote {rec['file']}: {rec['points']} points ({rec['seconds']:.1f} s)")
     else:
         from nerfkit.export.cameras import export_cameras
 
-        a = tyro.cli(ExportCamerasArgs, args=rest, prog=prog)
+        a = parse(ExportCamerasArgs, rest, prog)
         rec = export_cameras(a.run_dir, a.out, a.split, a.data)
         print(f"wrote {rec['file']}: {rec['frames']} cameras")
     picture = Path(a.run_dir) / "exports" / rec["picture"]
@@ -162,7 +217,7 @@ def cmd_export(argv: list[str]) -> int:
 def cmd_bake(argv: list[str]) -> int:
     from nerfkit.bake.bake import bake_run
 
-    a = tyro.cli(BakeArgs, args=argv, prog="nerfkit bake")
+    a = parse(BakeArgs, argv, "nerfkit bake")
     bake_run(a.run_dir, a.out, a.resolution, a.sh_bands, a.finetune_minutes, a.max_mb, progress=a.progress)
     print(f"next: nerfkit view --baked {a.out} (open it in a browser); nerfkit eval {a.run_dir} --baked {a.out} "
           f"(PSNR/SSIM of the baked scene)")
@@ -172,7 +227,7 @@ def cmd_bake(argv: list[str]) -> int:
 def cmd_make_multiscale(argv: list[str]) -> int:
     from nerfkit.data.multiscale import make_multiscale
 
-    a = tyro.cli(MakeMultiscaleArgs, args=argv, prog="nerfkit make-multiscale")
+    a = parse(MakeMultiscaleArgs, argv, "nerfkit make-multiscale")
     info = make_multiscale(a.data_dir, a.out, a.levels, a.progress)
     print(f"wrote {info['images']} images ({', '.join(info['splits'])} at {a.levels} scales) and metadata.json to "
           f"{a.out}; evaluate every scale with nerfkit eval RUN --data {a.out} --split SPLIT")
@@ -182,7 +237,7 @@ def cmd_make_multiscale(argv: list[str]) -> int:
 def cmd_make_scene(argv: list[str]) -> int:
     from nerfkit.data.scene import make_scene
 
-    a = tyro.cli(MakeSceneArgs, args=argv, prog="nerfkit make-scene")
+    a = parse(MakeSceneArgs, argv, "nerfkit make-scene")
     path = make_scene(a.out_dir, size=a.size, n_train=a.n_train, n_val=a.n_val, n_test=a.n_test, seed=a.seed)
     print(f"wrote the procedural scene to {path} ({a.n_train} train, {a.n_val} val, {a.n_test} test views, {a.size}px)")
     return 0
@@ -193,7 +248,7 @@ def cmd_demo(argv: list[str]) -> int:
     from nerfkit.evaluate import evaluate_run, format_eval_table, render_run
     from nerfkit.train import Trainer
 
-    a = tyro.cli(DemoArgs, args=argv, prog="nerfkit demo")
+    a = parse(DemoArgs, argv, "nerfkit demo")
     t0 = time.perf_counter()
     scene = make_scene(a.out / "scene", size=a.size)
     print(f"[1/4] procedural scene: {scene}")
@@ -232,7 +287,7 @@ def cmd_demo(argv: list[str]) -> int:
 def cmd_experiment(argv: list[str]) -> int:
     from nerfkit.experiments import antialias_experiment, pe_ablation
 
-    a = tyro.cli(ExperimentArgs, args=argv, prog="nerfkit experiment")
+    a = parse(ExperimentArgs, argv, "nerfkit experiment")
     if a.experiment == "antialias":
         for flag in ("--preset", "--orbit-frames", "--target-width", "--downscale"):
             if _flag_value(argv, flag) is not None:
@@ -259,7 +314,7 @@ def cmd_experiment(argv: list[str]) -> int:
 def cmd_benchmark(argv: list[str]) -> int:
     from nerfkit.benchmark import benchmark
 
-    a = tyro.cli(BenchmarkArgs, args=argv, prog="nerfkit benchmark")
+    a = parse(BenchmarkArgs, argv, "nerfkit benchmark")
     out = a.out if a.out is not None else Path("runs") / f"benchmark_{a.root.resolve().name}_{a.preset}"
     benchmark(a.root, out, preset=a.preset, budget_minutes=a.budget_minutes, max_steps=a.max_steps, jobs=a.jobs,
               only=a.only, eval_every=a.eval_every, progress=a.progress)
@@ -272,7 +327,7 @@ def cmd_process_data(argv: list[str]) -> int:
     from nerfkit.process.capture import process_images, process_video
     from nerfkit.process.sfm import SfmOptions
 
-    a = tyro.cli(ProcessArgs, args=argv, prog="nerfkit process-data")
+    a = parse(ProcessArgs, argv, "nerfkit process-data")
     if a.max_image_size < 64:
         raise ConfigError(f"--max-image-size must be at least 64 (got {a.max_image_size})")
     opts = SfmOptions(camera_model=a.camera_model, max_image_size=a.max_image_size, verbose=a.verbose)
@@ -288,7 +343,7 @@ def cmd_process_data(argv: list[str]) -> int:
 def cmd_report(argv: list[str]) -> int:
     from nerfkit.report import write_experiment_report, write_report
 
-    a = tyro.cli(ReportArgs, args=argv, prog="nerfkit report")
+    a = parse(ReportArgs, argv, "nerfkit report")
     if (a.run_dir / "results.json").is_file() and not (a.run_dir / "config.json").is_file():
         path = write_experiment_report(a.run_dir)
     else:
@@ -363,6 +418,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"nerfkit {verb}: aborted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of our output went away (`nerfkit train --help | head`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

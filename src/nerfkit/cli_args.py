@@ -26,6 +26,8 @@ class TrainArgs:
     """Starting configuration: ngp (default) | seed | nerf | mipnerf | demo | tiny (see README)."""
     resume: bool = False
     """Continue the run in --out from its newest checkpoint (with its saved config)."""
+    overwrite: bool = False
+    """Start again in an --out that holds an earlier run: its run files are removed first."""
     progress: bool = True
     """Show a progress bar."""
     viewer: bool = False

@@ -19,6 +19,12 @@ from typing import Any, Literal, Union
 from nerfkit.errors import ConfigError
 
 
+# Settings of earlier versions that no model reads: config.json files that hold them still load.
+RETIRED = frozenset({
+    "sampler.eval_samples_per_ray",  # the one-pass ngp renderer's budget; the wavefront renderer has its own
+})
+
+
 @dataclass
 class DataConfig:
     """Which images to load and how."""
@@ -128,8 +134,6 @@ class SamplerConfig:
     evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""
     max_samples: int = 65536
     """ngp: samples per training step; rays per step adapt to fill it (at most --batch-rays)."""
-    eval_samples_per_ray: int = 48
-    """ngp: average sample budget per ray when rendering (rays that overflow are re-queued)."""
 
 
 @dataclass
@@ -197,13 +201,16 @@ class Config:
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> "Config":
-        """Rebuild a config (e.g. a run folder's config.json); ConfigError if it is not a valid one."""
+        """Rebuild a config (e.g. a run folder's config.json); ConfigError if it is not a valid one. Settings
+        that earlier versions wrote and no model reads any more (RETIRED) are dropped."""
         try:
+            sections = {k: {n: v for n, v in d[k].items() if f"{k}.{n}" not in RETIRED}
+                        for k in ("data", "field", "sampler", "train")}
             cfg = Config(
-                data=DataConfig(**d["data"]),
-                field=FieldConfig(**d["field"]),
-                sampler=SamplerConfig(**d["sampler"]),
-                train=TrainConfig(**d["train"]),
+                data=DataConfig(**sections["data"]),
+                field=FieldConfig(**sections["field"]),
+                sampler=SamplerConfig(**sections["sampler"]),
+                train=TrainConfig(**sections["train"]),
             )
         except (KeyError, TypeError) as e:
             raise ConfigError(f"config is not a nerfkit config ({e})") from None
@@ -302,7 +309,6 @@ def validate(cfg: Config) -> Config:
         need(s.occ_res >= 2 and s.occ_update_every >= 1 and s.march_steps >= 2,
              "need --occ-res >= 2, --occ-update-every >= 1, --march-steps >= 2")
         need(s.max_samples >= s.march_steps, f"--max-samples must be >= --march-steps ({s.march_steps})")
-        need(s.eval_samples_per_ray >= 1, "--eval-samples-per-ray must be >= 1")
     need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
     need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")
     return cfg

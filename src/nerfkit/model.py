@@ -198,6 +198,10 @@ class NGPModel:
         self.occ = occupancy.OccupancyConfig(resolution=s.occ_res, bound=self.field.grid_bound,
                                              threshold=0.01 / self.step_size, warmup_decay=s.occ_warmup_decay)
         self.background = background_color(cfg.data.background)
+        # Sample budget per ray of render_rays(train=False), the one-pass renderer (inference.Renderer): only
+        # tests and references use it (images are rendered by inference.WavefrontRenderer); rays that overflow
+        # are re-queued, so it changes the speed, not the result.
+        self.eval_samples_per_ray = 48
         # Unresolved (no data seen): the defaults of resolve.py.
         self.near = s.near if s.near is not None else (0.05 if self.unbounded else 0.0)
         self.far = s.far if s.far is not None else 1e4
@@ -247,7 +251,7 @@ class NGPModel:
         and the number of samples used."""
         s = self.cfg.sampler
         n = o.shape[0]
-        budget = s.max_samples if train else n * s.eval_samples_per_ray
+        budget = s.max_samples if train else n * self.eval_samples_per_ray
         k_march, k_bg = jax.random.split(key)
         m = self.march(aux, o, d, budget, k_march if (train and s.perturb) else None)
         ray = m["ray_idx"]

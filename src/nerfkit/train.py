@@ -17,6 +17,7 @@ import functools
 import json
 import math
 import shlex
+import shutil
 import sys
 import time
 from dataclasses import dataclass
@@ -36,6 +37,7 @@ from nerfkit.config import Config, validate
 from nerfkit.data.capture import SceneData
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.flags import refuse_unused
 from nerfkit.inference import make_renderer
 from nerfkit.metrics import mse_to_psnr, psnr as psnr_np
 from nerfkit.model import build_model
@@ -48,6 +50,26 @@ def make_optimizer(cfg: Config):
     t = cfg.train
     schedule = optax.exponential_decay(t.lr, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
     return optax.adam(schedule, b2=t.adam_b2, eps=t.adam_eps), schedule
+
+
+def draw_batch(key, step, n_images: int, h: int, w: int, t, sizes=None):
+    """The pixels (img, i, j) [batch_rays] of one step, uniform over n_images images of h x w pixels;
+    inside the centred crop of side precrop_frac while step < precrop_steps (t: the TrainConfig). On
+    images of several sizes (sizes [N, 2] of (height, width), multiscale data) every pixel of every
+    image is equally likely (cameras.draw_pixels) and there is no crop."""
+    b = t.batch_rays
+    k_img, k_i, k_j = jax.random.split(key, 3)
+    if sizes is not None:
+        return draw_pixels(k_img, b, sizes)
+    crop_h = max(1, int(round(h * t.precrop_frac)))
+    crop_w = max(1, int(round(w * t.precrop_frac)))
+    img = jax.random.randint(k_img, (b,), 0, n_images)
+    cropping = step < t.precrop_steps
+    hh = jnp.where(cropping, crop_h, h)
+    ww = jnp.where(cropping, crop_w, w)
+    i = (h - hh) // 2 + jnp.floor(jax.random.uniform(k_i, (b,)) * hh).astype(jnp.int32)
+    j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
+    return img, i, j
 
 
 def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
@@ -75,26 +97,14 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
         model = copy.copy(model)
         model.shard_samples = functools.partial(parallel.shard_rays, mesh=mesh)
     base_key = jax.random.PRNGKey(t.seed)
-    crop_h = max(1, int(round(h * t.precrop_frac)))
-    crop_w = max(1, int(round(w * t.precrop_frac)))
     sizes = None if data.sizes is None else jnp.asarray(data.sizes)
     lossmult = jnp.asarray(data.lossmult)
 
     def step_fn(state, step, images, poses, table):
         key = jax.random.fold_in(base_key, step)
-        k_img, k_i, k_j, k_render, k_aux = jax.random.split(key, 5)
-        n = images.shape[0]
-        b = t.batch_rays
+        k_draw, k_render, k_aux = jax.random.split(key, 3)
+        img, i, j = draw_batch(k_draw, step, images.shape[0], h, w, t, sizes)
         weights = None
-        if sizes is None:
-            img = jax.random.randint(k_img, (b,), 0, n)
-            cropping = step < t.precrop_steps
-            hh = jnp.where(cropping, crop_h, h)
-            ww = jnp.where(cropping, crop_w, w)
-            i = (h - hh) // 2 + jnp.floor(jax.random.uniform(k_i, (b,)) * hh).astype(jnp.int32)
-            j = (w - ww) // 2 + jnp.floor(jax.random.uniform(k_j, (b,)) * ww).astype(jnp.int32)
-        else:  # images of several sizes: every pixel equally likely, weighted by its area (mip-NeRF)
-            img, i, j = draw_pixels(k_img, b, sizes)
         if split_rays:
             img, i, j = parallel.shard_rays((img, i, j), mesh)
         if sizes is not None:
@@ -178,20 +188,56 @@ def evenly_spaced(n: int, k: int) -> list[int]:
     return sorted({int(round(x)) for x in np.linspace(0, n - 1, k)})
 
 
+# What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
+# run refuses a folder holding any of them unless told to overwrite, and then removes exactly these.
+RUN_FILES = ("config.json", "scene.json", "metrics.jsonl", "val_metrics.jsonl", "plots", "val", "checkpoints",
+             "report.html", "renders", "exports", "eval_*")
+
+
+def run_files(run_dir: Path) -> list[Path]:
+    """The files and folders of an earlier run in run_dir (RUN_FILES), sorted."""
+    run_dir = Path(run_dir)
+    return sorted({p for pattern in RUN_FILES for p in run_dir.glob(pattern)})
+
+
+def clear_run(run_dir: Path) -> None:
+    """Remove an earlier run's files (run_files) from run_dir; anything else in it stays."""
+    for p in run_files(run_dir):
+        shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+
+
 class Trainer:
     def __init__(self, data_dir: str | Path, run_dir: str | Path, cfg: Config, resume: bool = False,
-                 progress: bool = True):
+                 progress: bool = True, overwrite: bool = False, given: dict[str, str] | None = None,
+                 preset: str | None = None):
+        """`given`: the settings the user set explicitly ({"field.width": "--width"}, flags.explicit_settings)
+        and `preset` the preset they started from: a given setting the model or the data will not read
+        is refused (flags.refuse_unused). `overwrite`: a fresh run into a folder that holds an earlier
+        run's files removes them first (otherwise it is refused)."""
         self.cfg = validate(cfg)
         self.data_dir = Path(data_dir)
         self.run_dir = Path(run_dir)
         self.resume = resume
         self.progress = progress
         self.ckpt_dir = self.run_dir / "checkpoints"
-        if not resume and ckpt_lib.list_checkpoints(self.ckpt_dir):
-            raise NerfkitError(f"{self.run_dir}: already holds a run; pass --resume to continue it or pick a new --out")
+        given = given or {}
+        where = f"--preset {preset}" if preset and not resume else "this run's model"
+        refuse_unused(cfg, given, where)
+        if resume and overwrite:
+            raise ConfigError("--resume and --overwrite: pick one (continue the run, or start it again from scratch)")
+        old = [] if resume else run_files(self.run_dir)
+        if old and not overwrite:
+            if ckpt_lib.list_checkpoints(self.ckpt_dir):
+                raise NerfkitError(f"{self.run_dir}: already holds a run; pass --resume to continue it, --overwrite "
+                                   f"to start it again (its files are removed) or pick a new --out")
+            raise NerfkitError(f"{self.run_dir}: holds an earlier run's files ({', '.join(p.name for p in old[:4])}"
+                               f"{', ...' if len(old) > 4 else ''}) but no checkpoint; pass --overwrite to remove "
+                               f"them and start again, or pick a new --out")
+        self.overwrite = bool(old)
         d = cfg.data
         spec_train, spec_val = default_splits(cfg)
         self.capture = read_capture(self.data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
+        refuse_unused(cfg, given, where, self.capture)
         spec_train, spec_val = default_splits(cfg, list(self.capture.splits))
         load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
         self.train_data = load_frames(self.capture, spec_train, **load)
@@ -226,6 +272,8 @@ class Trainer:
     def _write_run_files(self):
         if not self.primary:
             return
+        if self.overwrite:
+            clear_run(self.run_dir)
         self.run_dir.mkdir(parents=True, exist_ok=True)
         (self.run_dir / "config.json").write_text(self.cfg.to_json())
         td = self.train_data
@@ -303,6 +351,7 @@ class Trainer:
                 self._truncate_logs(step)
                 tqdm.write(f"resumed from {path} at step {step}")
             else:
+                self._truncate_logs(0)  # rows of a run that died before its first checkpoint
                 tqdm.write(f"no checkpoint in {self.ckpt_dir}: starting from step 0")
         images, poses, state = parallel.replicate(
             (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)

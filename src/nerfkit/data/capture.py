@@ -102,6 +102,8 @@ class Capture:
     """"bounded" when the files say the scene fits a box (instant-ngp's aabb_scale 1)."""
     levels: dict[str, int] = field(default_factory=dict)
     """Splits holding L > 1 levels of the same views, level-major (multiscale.py): a slice selects views."""
+    masks_dropped: bool = False
+    """The capture has object masks that --no-masks told the reader to ignore."""
 
     def where(self, split: str) -> str:
         return self.source.get(split, str(self.root))

@@ -71,6 +71,7 @@ def read_capture(root: str | Path, spec: str, format: str = "auto", masks: bool 
     else:
         cap = colmap.read_colmap(root, holdout_every, masks)
     if not masks:
+        cap.masks_dropped = cap.has_masks
         for f in cap.all_frames:
             f.mask = None
     return cap

@@ -1,0 +1,124 @@
+"""Which settings each model reads, so that a flag is either used or refused, never silently ignored.
+
+A setting is named "section.field" (e.g. "field.width"); its command-line flag is --field-name
+(--no-field-name for a boolean's False). `unused(cfg, capture)` lists the settings the configured
+model will not read, with the reason:
+
+    by kind       field.depth, field.width, ... are read by the MLP fields (mlp, mip) only;
+                  field.hash_*, field.bound, sampler.occ_*, sampler.march_steps, ... by ngp only
+    by value      field.l_xyz without positional encoding (--no-pe), field.l_dir without view
+                  directions, train.precrop_frac without a warm-up (--precrop-steps 0),
+                  data.target_width when --downscale is given, sampler.occ_warmup_decay
+                  without a warm-up (--occ-warmup 0)
+    by the data   data.holdout_every for captures with their own splits (Blender), data.masks
+                  for captures without object masks
+
+`refuse_unused` turns the ones the user gave explicitly into one ConfigError naming the flag and
+the reason. Every other setting is read by every model (tests/test_flags.py proves both sides for
+every flag of `nerfkit train` and every preset).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from nerfkit.config import PRESETS, Config
+from nerfkit.errors import ConfigError
+
+SECTIONS = ("data", "field", "sampler", "train")
+MLP_KINDS = frozenset({"mlp", "mip"})
+
+# Settings that only some model kinds read (every setting not listed is read by all of them).
+BY_KIND: dict[str, frozenset[str]] = {
+    **{f"field.{n}": MLP_KINDS for n in ("depth", "width", "l_xyz", "l_dir", "viewdirs")},
+    "field.pe": frozenset({"mlp"}),
+    **{f"field.{n}": frozenset({"ngp"}) for n in (
+        "hash_levels", "hash_features", "hash_log2_size", "hash_base_res", "hash_max_res", "hidden", "antialias",
+        "bound", "scene_type")},
+    **{f"sampler.{n}": MLP_KINDS for n in ("n_samples", "n_importance")},
+    **{f"sampler.{n}": frozenset({"ngp"}) for n in (
+        "occ_res", "occ_update_every", "occ_warmup", "occ_warmup_decay", "march_steps", "max_samples")},
+}
+
+# Settings filled in from the data (resolve.py), never from the command line.
+FROM_DATA = frozenset({"field.appearance_count"})
+
+KIND_NAMES = {"mlp": "NeRF MLP", "mip": "mip-NeRF", "ngp": "hash-grid (ngp)"}
+
+
+def setting_names() -> list[str]:
+    """Every "section.field" of a Config, in declaration order."""
+    cfg = Config()
+    return [f"{s}.{f.name}" for s in SECTIONS for f in dataclasses.fields(getattr(cfg, s))]
+
+
+def flag_of(name: str) -> str:
+    """The flag of a setting: "field.l_xyz" -> "--l-xyz"."""
+    return "--" + name.split(".", 1)[1].replace("_", "-")
+
+
+def setting_of_flag(flag: str) -> str | None:
+    """The setting a flag sets ("--no-pe" -> "field.pe", "--l_xyz=4" -> "field.l_xyz"), or None."""
+    key = flag.split("=", 1)[0].lstrip("-").replace("_", "-")
+    by_flag = {flag_of(n)[2:]: n for n in setting_names()}
+    if key in by_flag:
+        return by_flag[key]
+    if key.startswith("no-") and key[3:] in by_flag:
+        return by_flag[key[3:]]
+    return None
+
+
+def explicit_settings(argv: list[str]) -> dict[str, str]:
+    """{setting: the flag as typed} of every setting flag in argv."""
+    out = {}
+    for a in argv:
+        if a.startswith("--"):
+            name = setting_of_flag(a)
+            if name is not None:
+                out[name] = a.split("=", 1)[0]
+    return out
+
+
+def presets_using(name: str) -> list[str]:
+    """The presets whose model reads setting `name`."""
+    kinds = BY_KIND.get(name)
+    return [p for p, make in PRESETS.items() if kinds is None or make().field.kind in kinds]
+
+
+def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]:
+    """{setting: why the configured model does not read it}; with a capture (data/capture.Capture),
+    also the data settings it makes moot. `where` names the model in the reasons ("--preset ngp")."""
+    f, s, t, d = cfg.field, cfg.sampler, cfg.train, cfg.data
+    kind = f.kind
+    out = {n: f"the {KIND_NAMES[kind]} model of {where} does not read it" for n, kinds in BY_KIND.items()
+           if kind not in kinds}
+    if kind == "mlp" and not f.pe:
+        out["field.l_xyz"] = out["field.l_dir"] = "positional encoding is off (--no-pe)"
+    if kind in MLP_KINDS and not f.viewdirs:
+        out["field.l_dir"] = "the colour does not depend on the view direction (--no-viewdirs)"
+    if kind == "ngp" and s.occ_warmup == 0:
+        out["sampler.occ_warmup_decay"] = "there is no occupancy warm-up (--occ-warmup 0)"
+    if t.precrop_steps == 0:
+        out["train.precrop_frac"] = "there is no centre-crop warm-up (--precrop-steps 0)"
+    if d.downscale is not None:
+        out["data.target_width"] = "--downscale sets the image size"
+    if capture is not None:
+        if capture.format == "blender":
+            out["data.holdout_every"] = f"the Blender capture {capture.root} has its own splits"
+        if not capture.has_masks and not capture.masks_dropped:
+            out["data.masks"] = f"the capture {capture.root} has no object masks"
+    return out
+
+
+def refuse_unused(cfg: Config, given: dict[str, str], where: str, capture=None) -> None:
+    """ConfigError for the first explicitly given setting (`given`: setting -> flag as typed) that the
+    model or the data will not read; `where` names the model in the message ("--preset ngp")."""
+    moot = unused(cfg, capture, where)
+    for name, typed in given.items():
+        if name in FROM_DATA:
+            raise ConfigError(f"{typed}: set from the data, not a flag; drop it")
+        if name in moot:
+            hint = ""
+            if name in BY_KIND and cfg.field.kind not in BY_KIND[name]:
+                hint = f", or pick a preset that uses it: {', '.join(presets_using(name))}"
+            raise ConfigError(f"{typed} has no effect: {moot[name]}; drop it{hint}")
