@@ -91,7 +91,8 @@ def rasterize(means2d, conics, colors, opacities, depths, radii, background, wid
 
     Args:
       means2d [N, 2] pixel coordinates (u, v), conics [N, 3] (a, b, c) of the inverse 2D
-      covariance, colors [N, C], opacities [N] (in [0, 1]), depths [N] z-depth (sort key),
+      covariance (positive definite, as project_gaussians gives; the tile kernels skip
+      others, the reference does not), colors [N, C], opacities [N] (in [0, 1]), depths [N] z-depth (sort key),
       radii [N] int (0 = culled), background [C]; width, height (static).
       backend: "numba" (CPU tile kernels), "reference" (pure JAX brute force) or "auto"
       (numba on a CPU default device, reference otherwise).

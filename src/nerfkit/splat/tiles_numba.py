@@ -1,18 +1,25 @@
 """CPU tile rasteriser kernels (numba): binning, forward blend and backward pass.
 
 Same image as reference.py (see its docstring for the blending rules), computed per 16 x 16
-pixel tile over only the Gaussians whose 3-sigma ellipse can reach the tile:
+pixel tile over only the Gaussians that can reach the tile. A Gaussian of opacity o passes
+the alpha test only inside its ellipse d^T Q d <= s(o) = 2 min(SIGMA_MAX, log(o / ALPHA_MIN))
+(Q the conic; o < ALPHA_MIN: nowhere), which lies inside its 3-sigma ellipse and so inside
+its radius square. Conics must be positive definite (project.py's are: Sigma' >= 0.3 I);
+Gaussians with others are skipped.
 
-1. Binning. The pixel rectangle of Gaussian k is its mean +- h, h_x = min(r_k + 1,
-   3 sqrt(Sigma'_xx)) (and likewise for y; Sigma' = conic^{-1}): it holds the whole 3-sigma
-   ellipse, which lies in the radius square. Live Gaussians (r_k > 0) are visited in
-   depth order (stable argsort) and appended to every tile their rectangle touches, so each
-   tile's list comes out already sorted by depth (a counting sort by tile, stable in depth:
-   the same order as a sort on the (tile, depth) keys of the 3DGS code).
-2. Forward, parallel over tiles: each pixel walks its tile's list front to back, stops
-   early when T would drop below T_MIN, and records n_contrib = 1 + the list position of
-   the last Gaussian it blended.
-3. Backward, parallel over tiles, back to front from n_contrib - 1 with T recovered as
+1. Binning. Gaussian k's pixel box is its mean +- h, h_x = min(r_k + 1, sqrt(s(o) Sigma'_xx))
+   (likewise y; Sigma' = Q^{-1}), one pixel of slack for rounding. Live Gaussians (r_k > 0)
+   are visited in depth order (stable argsort) and appended to every tile their box
+   touches, so each tile's list comes out already sorted by depth (a counting sort by tile,
+   stable in depth: the order a sort on (tile, depth) keys gives, as in the 3DGS code).
+2. Forward, tiles spread over worker threads (the kernels release the GIL). Within a tile, the Gaussians are taken front to back and
+   each visits only the pixels of its ellipse, scanline by scanline (the rows within
+   sqrt(s Sigma'_yy), in each row the d_x between the roots of d^T Q d = s; one pixel of
+   slack, and the exact per-pixel tests still decide). Per pixel: T, the colour sum, a
+   done flag (set when T would drop below T_MIN) and n_contrib = 1 + the list position of
+   the last Gaussian blended. The tile stops when all its pixels are done.
+3. Backward, tiles spread over worker threads: the same scan back to front from the tile's largest
+   n_contrib, each pixel taking part for k < n_contrib, with T recovered as
    T_k = T_{k+1} / (1 - alpha_k) from T_final, and R_k (the colour behind k per unit
    transmittance) as R_{k-1} = alpha_k c_k + (1 - alpha_k) R_k. For a loss L with
    G = dL/dcolour [C] and g_T = dL/dT_final + background . G at a pixel:
@@ -23,8 +30,8 @@ pixel tile over only the Gaussians whose 3-sigma ellipse can reach the tile:
        dL/dsigma = -alpha dL/dalpha,  dsigma/dm = (a d_x + b d_y, b d_x + c d_y),
        dsigma/d(a, b, c) = (d_x^2 / 2, d_x d_y, d_y^2 / 2);
 
-   clamped alphas (o e^{-sigma} >= ALPHA_MAX) pass no gradient to o or sigma. Each tile sums
-   into a per-tile buffer, then into one float64 buffer per thread (no races); the thread
+   clamped alphas (o e^{-sigma} >= ALPHA_MAX) pass no gradient to o or sigma. A Gaussian's
+   sums over a tile's pixels go into one float64 buffer per worker (no races); the worker
    buffers are added at the end.
 
 The kernels take float64 arrays (the host functions convert: one compiled variant, and the
@@ -35,15 +42,20 @@ compiled on first use and cached on disk (cache=True).
 from __future__ import annotations
 
 import math
+import os
+import queue
+from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from nerfkit.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
 from nerfkit.splat.project import SIGMA_CUTOFF
 
 TILE = 16
+THREADS: int | None = None  # worker threads; None: every CPU in os.sched_getaffinity
+CHUNKS_PER_WORKER = 8
+_POOL: ThreadPoolExecutor | None = None
 
 
 @njit(cache=True)
@@ -79,10 +91,6 @@ def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height:
     return _bin(rects, order, tiles_x * tiles_y, tiles_x)
 
 
-# Each Gaussian covers, inside a tile, only the pixels of its 3-sigma ellipse: rows with
-# |d_y| <= 3 sqrt(Sigma'_yy), and in row d_y the d_x between the roots of
-# a d_x^2 + 2 b d_y d_x + c d_y^2 = 2 SIGMA_MAX; the kernels visit those pixels (one pixel of
-# slack each side, the exact sigma test is still applied per pixel), Gaussian by Gaussian.
 _LOG_ALPHA_MIN = math.log(ALPHA_MIN)
 
 
@@ -145,11 +153,13 @@ def _tile_rects(means2d, conics, opacities, radii, width, height):
     return rects
 
 
-@njit(parallel=True, cache=True)
-def _forward(means2d, conics, colors, opacities, background, offsets, ids, width, height, image, t_final, n_contrib):
+@njit(cache=True, nogil=True)
+def _forward(means2d, conics, colors, opacities, background, offsets, ids, width, height, image, t_final, n_contrib,
+             first, stride):
+    """Tiles first, first + stride, ... (one worker's share)."""
     n_ch = colors.shape[1]
     tiles_x = (width + TILE - 1) // TILE
-    for t in prange(offsets.size - 1):
+    for t in range(first, offsets.size - 1, stride):
         start = offsets[t]
         x0 = (t % tiles_x) * TILE
         y0 = (t // tiles_x) * TILE
@@ -203,13 +213,13 @@ def _forward(means2d, conics, colors, opacities, background, offsets, ids, width
                 n_contrib[y0 + y, x0 + x] = last[y, x]
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True, nogil=True)
 def _backward(means2d, conics, colors, opacities, background, offsets, ids, width, height, t_final, n_contrib,
-              grad_image, grad_t, out):
-    """Per-thread gradient sums out [threads, N, 6 + C]: (m_x, m_y, a, b, c, o, colours)."""
+              grad_image, grad_t, out, first, stride):
+    """Gradient sums over tiles first, first + stride, ... into out [N, 6 + C]: (m_x, m_y, a, b, c, o, colours)."""
     n_ch = colors.shape[1]
     tiles_x = (width + TILE - 1) // TILE
-    for t in prange(offsets.size - 1):
+    for t in range(first, offsets.size - 1, stride):
         start = offsets[t]
         x0 = (t % tiles_x) * TILE
         y0 = (t // tiles_x) * TILE
@@ -227,7 +237,6 @@ def _backward(means2d, conics, colors, opacities, background, offsets, ids, widt
                     g_t[y, x] += background[ch] * grad_image[y0 + y, x0 + x, ch]
                 n_max = max(n_max, n_contrib[y0 + y, x0 + x])
         grad = np.empty(6 + n_ch)
-        tid = numba.get_thread_id()
         for k in range(n_max - 1, -1, -1):
             g = ids[start + k]
             mx, my = float(means2d[g, 0]), float(means2d[g, 1])
@@ -273,7 +282,7 @@ def _backward(means2d, conics, colors, opacities, background, offsets, ids, widt
                         grad[3] += d_sigma * dx * dy
                         grad[4] += d_sigma * 0.5 * dy * dy
             for q in range(6 + n_ch):
-                out[tid, g, q] += grad[q]
+                out[g, q] += grad[q]
 
 
 def _f64(*arrays):
@@ -281,10 +290,46 @@ def _f64(*arrays):
     return [np.ascontiguousarray(a, np.float64) for a in arrays]
 
 
-def forward(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int):
+def worker_count(threads: int | None = None) -> int:
+    """Worker threads a call with `threads` uses (None: THREADS, else every CPU this process may use)."""
+    return max(1, threads or THREADS or len(os.sched_getaffinity(0)))
+
+
+def _run(kernel, threads: int | None, args_of) -> None:
+    """Run kernel(*args_of(w), first, stride) over all tiles on n worker threads (the kernels release
+    the GIL). The tiles are cut into CHUNKS_PER_WORKER x n interleaved chunks (chunk i: tiles i,
+    i + stride, ...: each spread over the image, so of similar cost), handed out as workers free
+    up, which keeps a worker that the OS delays (a shared machine) from holding up the rest;
+    w (0 .. n - 1) names a per-worker buffer no other running chunk uses."""
+    n = worker_count(threads)
+    if n == 1:
+        kernel(*args_of(0), 0, 1)
+        return
+    global _POOL
+    if _POOL is None or _POOL._max_workers < n:
+        _POOL = ThreadPoolExecutor(n, thread_name_prefix="splat")
+    free = queue.SimpleQueue()
+    for w in range(n):
+        free.put(w)
+    stride = CHUNKS_PER_WORKER * n
+
+    def chunk(first):
+        w = free.get()
+        try:
+            kernel(*args_of(w), first, stride)
+        finally:
+            free.put(w)
+
+    for f in [_POOL.submit(chunk, i) for i in range(stride)]:
+        f.result()
+
+
+def forward(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int,
+            threads: int | None = None):
     """Render (numpy in, numpy out): image [H, W, C], t_final [H, W], n_contrib [H, W] int32.
 
-    Inputs as in reference.rasterize_reference; float outputs in the dtype of `colors`."""
+    Inputs as in reference.rasterize_reference; float outputs in the dtype of `colors`.
+    threads: worker threads (default THREADS, or all CPUs this process may use)."""
     dtype = np.result_type(colors.dtype, np.float32)
     means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
     radii = np.ascontiguousarray(radii, np.int32)
@@ -292,14 +337,13 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
     image = np.empty((height, width, colors.shape[1]))
     t_final = np.empty((height, width))
     n_contrib = np.empty((height, width), np.int32)
-    with numba.parallel_chunksize(1):
-        _forward(means2d, conics, colors, opacities, background, offsets, ids, width, height, image, t_final,
-                 n_contrib)
+    _run(_forward, threads, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width, height,
+                                       image, t_final, n_contrib))
     return image.astype(dtype, copy=False), t_final.astype(dtype, copy=False), n_contrib
 
 
 def backward(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int, t_final,
-             n_contrib, grad_image, grad_t):
+             n_contrib, grad_image, grad_t, threads: int | None = None):
     """Gradients of a loss L given G = dL/dimage [H, W, C] and dL/dt_final [H, W].
 
     Returns dL/d(means2d [N, 2], conics [N, 3], colors [N, C], opacities [N], background [C]),
@@ -311,10 +355,10 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
     n_contrib = np.ascontiguousarray(n_contrib, np.int32)
     offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
     n, n_ch = colors.shape
-    out = np.zeros((numba.get_num_threads(), n, 6 + n_ch))
-    with numba.parallel_chunksize(1):
-        _backward(means2d, conics, colors, opacities, background, offsets, ids, width, height, t_final, n_contrib,
-                  grad_image, grad_t, out)
+    workers = worker_count(threads)
+    out = np.zeros((workers, n, 6 + n_ch))
+    _run(_backward, workers, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width, height,
+                                        t_final, n_contrib, grad_image, grad_t, out[w]))
     total = out.sum(0) if out.shape[0] > 1 else out[0]
     g_bg = np.einsum("hw,hwc->c", t_final, grad_image)
     grads = (total[:, 0:2], total[:, 2:5], total[:, 6:], total[:, 5], g_bg)
