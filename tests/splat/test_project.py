@@ -91,7 +91,7 @@ def test_culling_behind_camera_and_outside_the_image():
         (0.0, 0.0, 0.005),  # in front of the eye but before the near plane
         (30.0, 0.0, 2.0),  # far right of the image
         (0.0, -30.0, 2.0),  # far above
-        (CAM.width * 2.0 / CAM.fx - CAM.cx * 2.0 / CAM.fx + 0.05, 0.0, 2.0),  # just right of the edge, radius reaches in
+        ((CAM.width - CAM.cx) * 2.0 / CAM.fx + 0.05, 0.0, 2.0),  # centre just right of the image, radius reaches in
     ]], np.float32)
     radii = np.asarray(project(pts, log_scales=np.full((6, 3), np.log(0.08), np.float32))["radii"])
     assert radii[0] > 0 and radii[5] > 0

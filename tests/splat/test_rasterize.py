@@ -191,6 +191,24 @@ def test_gaussian_straddling_tile_corners(center):
         assert_grads_close(kernel_grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha), 1e-10)
 
 
+def test_sharp_and_needle_conics_match_reference():
+    # covariances far below the 0.3 px^2 dilation (conic a up to 1e4 px^-2) and a long thin needle:
+    # the scanline spans stay exact, and e^{-sigma} is not advanced by products where that would overflow
+    cov = np.array([[[1e-4, 0.0], [0.0, 1e-4]], [[0.02, 0.0], [0.0, 3.0]], [[60.0, 59.7], [59.7, 60.0]],
+                    [[0.5, 0.0], [0.0, 0.04]]])
+    conics, radii = conic_of(cov)
+    with jax.enable_x64(True):
+        scene = padded([np.asarray(a, np.float64) for a in (
+            [(10.5, 7.5), (20.3, 12.0), (22.0, 18.0), (30.0, 30.1)], conics, np.eye(4)[:, :3] + 0.1,
+            [0.9, 0.8, 0.7, 1.0], [1.0, 2.0, 3.0, 4.0])] + [radii, np.zeros(3)])
+        image, _, _ = tiles_numba.forward(*scene, W, H)
+        ref_image, _ = _reference_forward(*as_jax(scene), W, H)
+        np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
+        assert image[7, 10, 0] > 0.8  # the sharpest one still lights its own pixel
+        g_img, g_alpha = loss_weights(9, 3, np.float64)
+        assert_grads_close(kernel_grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha), 1e-10)
+
+
 def test_empty_scene_gives_background():
     background = np.array([0.2, 0.4, 0.6], np.float32)
     empty = [np.zeros((0, 2), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32),
@@ -209,8 +227,8 @@ def test_culled_and_offscreen_gaussians_contribute_nothing():
     assert np.array_equal(image, np.broadcast_to(scene[6], image.shape)) and np.all(t_final == 1.0)
     assert np.all(n_contrib == 0)
     off = list(random_scene(n=6, seed=6))
-    off[0] = np.asarray([[-40.0, 10.0], [W + 40.0, 10.0], [10.0, -40.0], [10.0, H + 40.0], [-30, -30], [W + 30, H + 30]],
-                        np.float32)  # outside by more than their radii
+    off[0] = np.asarray([[-40.0, 10.0], [W + 40.0, 10.0], [10.0, -40.0], [10.0, H + 40.0], [-30, -30],
+                         [W + 30, H + 30]], np.float32)  # outside by more than their radii
     assert np.all(off[5] < 30)
     g_img, g_alpha = loss_weights(6, 3, np.float32)
     for s in (scene, off):

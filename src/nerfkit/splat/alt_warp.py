@@ -67,7 +67,8 @@ def _forward(means2d: wp.array2d(dtype=float), conics: wp.array2d(dtype=float), 
 @wp.kernel
 def _backward(means2d: wp.array2d(dtype=float), conics: wp.array2d(dtype=float), colors: wp.array2d(dtype=float),
               opacities: wp.array(dtype=float), background: wp.array(dtype=float), offsets: wp.array(dtype=int),
-              ids: wp.array(dtype=int), tiles_x: int, t_final: wp.array2d(dtype=float), n_contrib: wp.array2d(dtype=int),
+              ids: wp.array(dtype=int), tiles_x: int, t_final: wp.array2d(dtype=float),
+              n_contrib: wp.array2d(dtype=int),
               grad_image: wp.array3d(dtype=float), grad_t: wp.array2d(dtype=float), rec: wp.array3d(dtype=float),
               out: wp.array2d(dtype=float)):
     i, j = wp.tid()

@@ -12,13 +12,13 @@ Gaussians with others are skipped.
    are visited in depth order (stable argsort) and appended to every tile their box
    touches, so each tile's list comes out already sorted by depth (a counting sort by tile,
    stable in depth: the order a sort on (tile, depth) keys gives, as in the 3DGS code).
-2. Forward, tiles spread over worker threads (the kernels release the GIL). Within a tile, the Gaussians are taken front to back and
-   each visits only the pixels of its ellipse, scanline by scanline (the rows within
-   sqrt(s Sigma'_yy), in each row the d_x between the roots of d^T Q d = s; one pixel of
-   slack, and the exact per-pixel tests still decide; e^{-sigma} is advanced along the row by
-   two products per pixel, see _row_exp). Per pixel: T, the colour sum, a
-   done flag (set when T would drop below T_MIN) and n_contrib = 1 + the list position of
-   the last Gaussian blended. The tile stops when all its pixels are done.
+2. Forward, tiles spread over worker threads (the kernels release the GIL). Within a tile,
+   the Gaussians are taken front to back and each visits only the pixels of its ellipse,
+   scanline by scanline (the rows within sqrt(s Sigma'_yy), in each row the d_x between the
+   roots of d^T Q d = s; one pixel of slack, and the exact per-pixel tests still decide;
+   e^{-sigma} is advanced along the row by two products per pixel, see _row_exp). Per pixel: T,
+   the colour sum, a done flag (set when T would drop below T_MIN) and n_contrib = 1 + the list
+   position of the last Gaussian blended. The tile stops when all its pixels are done.
 3. Backward, tiles spread over worker threads: the same scan back to front from the tile's largest
    n_contrib, each pixel taking part for k < n_contrib, with T recovered as
    T_k = T_{k+1} / (1 - alpha_k) from T_final, and R_k (the colour behind k per unit
@@ -93,6 +93,7 @@ def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height:
 
 
 _LOG_ALPHA_MIN = math.log(ALPHA_MIN)
+_A_RECUR = 25.0  # conic a (px^-2) up to which e^{-sigma} is advanced by products along rows
 
 
 @njit(cache=True, inline="always")
@@ -129,7 +130,9 @@ def _row_exp(dx, dy, a, b, c):
 
     Along a row, d_x drops by 1 per pixel and sigma(d_x - 1) - sigma(d_x) = -(a d_x + b d_y) + a/2,
     whose own step is +a: e^{-sigma} advances as e <- e r, r <- r e^{-a}, two products per pixel
-    instead of an exp (relative drift ~1e-15 over a tile row; both passes use the same sequence)."""
+    instead of an exp (relative drift ~1e-15 over a tile row; both passes use the same sequence).
+    With Sigma' >= 0.3 I (project.py's dilation), a <= 1 / 0.3 and |log r| stays below ~10 over the
+    span and its slack; sharper conics (a > _A_RECUR) take an exp per pixel instead (no overflow)."""
     sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
     return math.exp(-sigma), math.exp(a * dx + b * dy - 0.5 * a)
 
@@ -207,6 +210,8 @@ def _forward(means2d, conics, colors, opacities, background, offsets, ids, width
                     sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
                     if sigma < 0.0 or sigma > SIGMA_MAX:
                         continue
+                    if a > _A_RECUR:
+                        e = math.exp(-sigma)
                     alpha = min(ALPHA_MAX, o * e)
                     if alpha < ALPHA_MIN:
                         continue
@@ -287,6 +292,8 @@ def _backward(means2d, conics, colors, opacities, background, offsets, ids, widt
                     sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
                     if sigma < 0.0 or sigma > SIGMA_MAX:
                         continue
+                    if a > _A_RECUR:
+                        e = math.exp(-sigma)
                     raw = o * e
                     alpha = min(ALPHA_MAX, raw)
                     if alpha < ALPHA_MIN:
