@@ -21,7 +21,8 @@ tile grid: a Gaussian's ellipse lies inside its radius square and so inside the 
 binned to. (The 3DGS code instead cuts at the tile rectangle, which depends on the grid.)
 
 This is O(pixels x Gaussians): used by the tests and as the portable (GPU) path, with
-autodiff for gradients. Pixels are processed in blocks to bound memory at block x N.
+autodiff for gradients. Pixels are processed in blocks (checkpointed for the backward pass) to
+bound memory at a few block x N arrays.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ ALPHA_MAX = 0.99
 ALPHA_MIN = 1.0 / 255.0
 T_MIN = 1e-4
 SIGMA_MAX = 0.5 * SIGMA_CUTOFF**2
+PAIRS_PER_BLOCK = 1 << 22  # pixel-Gaussian pairs per block (16 MiB per float32 [block, N] array)
 
 
 def pixel_centres(width: int, height: int, dtype=jnp.float32) -> jax.Array:
@@ -68,14 +70,17 @@ def blend(alpha, colors, background) -> tuple[jax.Array, jax.Array]:
 
 
 def rasterize_reference(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int,
-                        pixel_block: int = 4096) -> tuple[jax.Array, jax.Array]:
+                        pixel_block: int | None = None) -> tuple[jax.Array, jax.Array]:
     """Render N projected Gaussians: means2d [N, 2], conics [N, 3], colors [N, C], opacities [N],
     depths [N], radii [N] (0 = culled), background [C]; width, height static.
 
     Returns image [H, W, C] and alpha [H, W] = 1 - T_final. Differentiable by autodiff in all
     float inputs except depths and radii (the order and culling are piecewise constant).
+    pixel_block: pixels per step of the loop over the image (default: PAIRS_PER_BLOCK / N).
     """
     n = means2d.shape[0]
+    if pixel_block is None:
+        pixel_block = max(1, PAIRS_PER_BLOCK // max(n, 1))
     order = jnp.argsort(jax.lax.stop_gradient(depths), stable=True)
     live = (radii > 0)[order]
     m, q, col = means2d[order], conics[order], colors[order]
@@ -86,6 +91,7 @@ def rasterize_reference(means2d, conics, colors, opacities, depths, radii, backg
     n_blocks = -(-n_pix // block)
     pix = jnp.concatenate([pix, jnp.zeros((n_blocks * block - n_pix, 2), pix.dtype)]).reshape(n_blocks, block, 2)
 
+    @jax.checkpoint  # under autodiff keep only each block's inputs, recompute its [block, N] arrays
     def render_block(p):
         if n == 0:
             return jnp.broadcast_to(background, (block, colors.shape[1])), jnp.ones(block, means2d.dtype)
