@@ -77,6 +77,16 @@ def scene_stats(args, size: int) -> dict:
             "frac_pixels_T_below_1e-3": float((t_final < 1e-3).mean())}
 
 
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
 def next_pow2(x: int) -> int:
     return 1 << max(0, int(x - 1).bit_length())
 
@@ -253,7 +263,7 @@ def main():
     a = ap.parse_args()
     configs = CONFIGS[:1] if a.quick else CONFIGS
     reps = 1 if a.quick else a.reps
-    result = {"machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+    result = {"machine": {"cpu": cpu_model(), "cores": os.cpu_count(),
                           "worker_threads": tiles_numba.worker_count(), "loadavg_start": os.getloadavg()},
               "versions": {"numba": numba.__version__, "jax": jax.__version__}, "frames_per_config": 2,
               "reps": reps, "configs": []}

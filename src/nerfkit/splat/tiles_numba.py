@@ -184,6 +184,7 @@ def _forward(means2d, conics, colors, opacities, background, offsets, ids, width
         done = np.zeros((TILE, TILE), np.bool_)
         last = np.zeros((TILE, TILE), np.int32)
         acc = np.zeros((TILE, TILE, n_ch))
+        col = np.empty(n_ch)
         n_live = nx * ny
         for k in range(offsets[t + 1] - start):
             g = ids[start + k]
@@ -194,6 +195,8 @@ def _forward(means2d, conics, colors, opacities, background, offsets, ids, width
             span = _span(o)
             if not (a > 0.0 and det > 0.0 and span > 0.0):
                 continue
+            for ch in range(n_ch):
+                col[ch] = colors[g, ch]
             q = math.exp(-a)
             ys, ye = _rows(my, a, det, span, y0, ny)
             for y in range(ys, ye + 1):
@@ -222,7 +225,7 @@ def _forward(means2d, conics, colors, opacities, background, offsets, ids, width
                         continue
                     w = alpha * trans[y, x]
                     for ch in range(n_ch):
-                        acc[y, x, ch] += w * colors[g, ch]
+                        acc[y, x, ch] += w * col[ch]
                     trans[y, x] = next_t
                     last[y, x] = k + 1
             if n_live == 0:
