@@ -11,6 +11,11 @@ from nerfkit.splat.project import (LOWPASS_DILATION, SH_C0, covariance_3d, proje
                                    quaternion_to_rotation, sh_colors, world_to_camera)
 from nerfkit.splat.rasterize import rasterize
 
+try:  # the x64 context manager: top-level since JAX 0.8, jax.experimental before
+    from jax import enable_x64
+except ImportError:
+    from jax.experimental import enable_x64
+
 CAM = Camera(44, 36, 40.0, 42.0, 21.0, 19.5)  # off-centre principal point, fx != fy
 INTR = (CAM.fx, CAM.fy, CAM.cx, CAM.cy)
 C2W = look_at(np.array([3.0, -2.0, 1.5]), np.array([0.1, 0.2, 0.0]))
@@ -57,7 +62,7 @@ def test_covariance_from_scales_and_normalised_quaternion():
 
 
 def test_ewa_covariance_is_the_projection_jacobian_sandwich():
-    with jax.enable_x64(True):
+    with enable_x64(True):
         rng = np.random.default_rng(2)
         means = rng.uniform(-0.5, 0.5, (6, 3))
         log_s = rng.normal(size=(6, 3)) * 0.3 - 2.0

@@ -23,6 +23,11 @@ from nerfkit.splat import tiles_numba
 from nerfkit.splat.rasterize import rasterize
 from nerfkit.splat.reference import rasterize_reference
 
+try:  # the x64 context manager: top-level since JAX 0.8, jax.experimental before
+    from jax import enable_x64
+except ImportError:
+    from jax.experimental import enable_x64
+
 W, H = 44, 36
 NAMES = ("means2d", "conics", "colors", "opacities", "background")
 
@@ -106,7 +111,7 @@ def test_forward_float32_matches_reference(channels):
 
 
 def test_forward_and_backward_float64_match_reference():
-    with jax.enable_x64(True):
+    with enable_x64(True):
         scene = random_scene(seed=1, dtype=np.float64)
         image, t_final, _ = tiles_numba.forward(*scene, W, H)
         ref_image, ref_alpha = _reference_forward(*as_jax(scene), W, H)
@@ -177,7 +182,7 @@ def test_gaussian_straddling_tile_corners(center):
     # an elongated, rotated Gaussian centred on / next to a tile corner, over a faint one behind it
     cov = np.array([[[40.0, 25.0], [25.0, 30.0]], [[200.0, 0.0], [0.0, 150.0]]])
     conics, radii = conic_of(cov)
-    with jax.enable_x64(True):
+    with enable_x64(True):
         scene = padded([np.asarray(a, np.float64) for a in (
             [center, (20.0, 17.0)], conics, [[0.9, 0.2, 0.1], [0.1, 0.3, 0.8]], [0.8, 0.3], [1.0, 2.0])] + [
             radii, np.zeros(3)])
@@ -197,7 +202,7 @@ def test_sharp_and_needle_conics_match_reference():
     cov = np.array([[[1e-4, 0.0], [0.0, 1e-4]], [[0.02, 0.0], [0.0, 3.0]], [[60.0, 59.7], [59.7, 60.0]],
                     [[0.5, 0.0], [0.0, 0.04]]])
     conics, radii = conic_of(cov)
-    with jax.enable_x64(True):
+    with enable_x64(True):
         scene = padded([np.asarray(a, np.float64) for a in (
             [(10.5, 7.5), (20.3, 12.0), (22.0, 18.0), (30.0, 30.1)], conics, np.eye(4)[:, :3] + 0.1,
             [0.9, 0.8, 0.7, 1.0], [1.0, 2.0, 3.0, 4.0])] + [radii, np.zeros(3)])
