@@ -9,8 +9,8 @@
    `nerfkit train X --preset ngp --max-minutes M --downscale 2 --out OUT/run_*` (checkpoints
    every --ckpt-every steps are kept), then `nerfkit eval RUN --split test`.
 3. Every kept checkpoint is evaluated on all held-out photos afterwards, so the PSNR-against-
-   training-time curve costs the runs nothing; the table, OUT/real_capture.json and
-   OUT/real_capture.png hold it.
+   training-time curve costs the runs nothing; the table, benchmarks/results/<capture>_real_capture.json
+   (with the commit it ran on) and its .png hold it.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from provenance import provenance
 
 from nerfkit import checkpoint as ckpt_lib
 from nerfkit.data.llff import read_llff
@@ -61,9 +62,10 @@ def main():
     ap.add_argument("--minutes", type=float, default=10.0)
     ap.add_argument("--downscale", type=int, default=2)
     ap.add_argument("--ckpt-every", type=int, default=250)
+    ap.add_argument("--results", type=Path, default=Path(__file__).resolve().parent / "results")
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
-    result = {"data": str(a.data), "minutes": a.minutes, "downscale": a.downscale}
+    result = {"data": str(a.data), "minutes": a.minutes, "downscale": a.downscale, "provenance": provenance()}
 
     sfm = a.out / "sfm"
     if not sfm.is_dir():
@@ -83,9 +85,11 @@ def main():
     runs = {"shipped poses (LLFF)": (a.data, a.out / "run_llff"), "process-data poses": (sfm, a.out / "run_sfm")}
     for label, (data, run) in runs.items():
         if not (run / "eval_test.json").is_file():
-            nerfkit("train", str(data), "--out", str(run), "--preset", "ngp", "--max-minutes", str(a.minutes),
-                    "--downscale", str(a.downscale), "--ckpt-every", str(a.ckpt_every), "--keep-ckpts", "1000")
-            nerfkit("eval", str(run), "--split", "test")
+            result[f"{label} train_wall_s"] = round(nerfkit(
+                "train", str(data), "--out", str(run), "--preset", "ngp", "--max-minutes", str(a.minutes),
+                "--downscale", str(a.downscale), "--ckpt-every", str(a.ckpt_every), "--keep-ckpts", "1000",
+                "--overwrite", "--no-progress"), 1)
+            nerfkit("eval", str(run), "--split", "test", "--overwrite")
         ev = json.loads((run / "eval_test.json").read_text())
         result[label] = {"run": str(run), "eval": {k: ev[k] for k in ("psnr", "ssim", "n_views", "step")},
                          "curve": curve(run)}
@@ -104,11 +108,13 @@ def main():
     diff = result[labels[0]]["eval"]["psnr"] - result[labels[1]]["eval"]["psnr"]
     print(f"difference: {diff:+.2f} dB")
     result["difference_db"] = diff
-    (a.out / "real_capture.json").write_text(json.dumps(result, indent=2))
+    a.results.mkdir(parents=True, exist_ok=True)
+    path = a.results / f"{a.data.name}_real_capture.json"
+    path.write_text(json.dumps(result, indent=2))
     plot_curves({lab: ([r["minutes"] for r in result[lab]["curve"]], [r["psnr"] for r in result[lab]["curve"]])
-                 for lab in labels}, a.out / "real_capture.png", "training time (min)", "test PSNR (dB)",
+                 for lab in labels}, path.with_suffix(".png"), "training time (min)", "test PSNR (dB)",
                 f"{a.data.name}: ngp, --downscale {a.downscale}, masks")
-    print(f"wrote {a.out / 'real_capture.json'} and {a.out / 'real_capture.png'}")
+    print(f"wrote {path} and {path.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

@@ -1,16 +1,18 @@
 """`nerfkit benchmark ROOT`: every scene trained and evaluated into one table; resumable (a finished
-scene is skipped, an interrupted one resumed); --jobs runs scenes in parallel processes; bad input
-is a one-line error."""
+scene with the same settings is reused, an interrupted one resumed; other settings are refused or, with
+--overwrite, trained again); a failed scene is a row marked failed and exit 1; --jobs runs scenes in
+parallel processes; bad input is a one-line error."""
 
 from __future__ import annotations
 
 import json
+import shutil
 
 import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from nerfkit.benchmark import RESULT, benchmark, find_scenes
+from nerfkit.benchmark import RESULT, SETTINGS, benchmark, find_scenes, nerfkit_version, scene_settings
 from nerfkit.cli import main
 from nerfkit.config import preset
 from nerfkit.data.scene import make_scene
@@ -33,6 +35,8 @@ def test_benchmark_trains_every_scene_resumes_the_interrupted_one_and_skips_fini
     cfg = preset("tiny")
     cfg.train.max_steps = 2
     Trainer(root / "beta", out / "beta", cfg, progress=False).run()  # an interrupted scene: no benchmark.json
+    (out / "beta" / SETTINGS).write_text(json.dumps(scene_settings(root / "beta", "tiny", None, 4, 1,
+                                                                  nerfkit_version())))
     assert main(["benchmark", str(root), "--out", str(out), "--preset", "tiny", "--max-steps", "4",
                  "--no-progress"]) == 0
     table = json.loads((out / "results.json").read_text())
@@ -52,8 +56,44 @@ def test_benchmark_trains_every_scene_resumes_the_interrupted_one_and_skips_fini
     capsys.readouterr()
     assert main(["benchmark", str(root), "--out", str(out), "--preset", "tiny", "--max-steps", "4",
                  "--no-progress"]) == 0
-    assert "skipped" in capsys.readouterr().out
+    assert "finished earlier with the same settings" in capsys.readouterr().out
     assert stamps == {s: (out / s / RESULT).stat().st_mtime_ns for s in rows}
+
+
+def test_a_result_with_other_settings_is_refused_or_retrained_with_overwrite(root, tmp_path, capsys):
+    out = tmp_path / "out"
+    args = ["benchmark", str(root), "--out", str(out), "--preset", "tiny", "--no-progress", "--only", "alpha"]
+    assert main([*args, "--max-steps", "2"]) == 0
+    before = json.loads((out / "alpha" / RESULT).read_text())
+    capsys.readouterr()
+    assert main([*args, "--max-steps", "3"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "max_steps 2 -> 3" in err[0] and "--overwrite" in err[0]
+    assert json.loads((out / "alpha" / RESULT).read_text()) == before  # nothing changed
+    assert main([*args, "--max-steps", "3", "--overwrite"]) == 0
+    after = json.loads((out / "alpha" / RESULT).read_text())
+    assert after["steps"] == 3 and after["settings"]["max_steps"] == 3 and not after["resumed"]
+    # A run folder with no record of its settings (trained by hand) is not taken for a result either.
+    (out / "alpha" / SETTINGS).unlink()
+    assert main([*args, "--max-steps", "3"]) == 1
+    assert SETTINGS in capsys.readouterr().err
+
+
+def test_a_failed_scene_is_a_row_and_a_nonzero_exit(root, tmp_path, capsys):
+    bad_root = tmp_path / "scenes"
+    shutil.copytree(root, bad_root)
+    (bad_root / "beta" / "train" / "r_0.png").write_bytes(b"not a png")
+    out = tmp_path / "out"
+    assert main(["benchmark", str(bad_root), "--out", str(out), "--preset", "tiny", "--max-steps", "2",
+                 "--no-progress"]) == 1
+    table = json.loads((out / "results.json").read_text())
+    rows = {r["scene"]: r for r in table["scenes"]}
+    assert rows["alpha"]["status"] == "finished" and rows["beta"]["status"] == "failed"
+    assert "r_0.png" in rows["beta"]["error"] and table["failed"] == ["beta"]
+    assert table["mean"]["scenes"] == 1 and table["mean"]["psnr"] == pytest.approx(rows["alpha"]["psnr"])
+    assert "mean of 1 of 2 scenes" in (out / "results.md").read_text()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "1 of 2 scene(s) failed (beta)" in err[0]
 
 
 def test_jobs_run_scenes_in_their_own_processes(root, tmp_path):

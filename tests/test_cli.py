@@ -38,11 +38,14 @@ def test_help_lists_commands(capsys):
 
 
 def test_console_script_entry_point():
-    out = subprocess.run([sys.executable, "-m", "nerfkit", "train", "--help"], capture_output=True, text=True)
-    assert out.returncode == 0
-    for flag in ("--out", "--preset", "--max-steps", "--max-minutes", "--downscale", "--seed", "--resume",
-                 "--train-split", "--val-split", "--no-pe", "--n-importance", "--depth", "--width"):
-        assert flag in out.stdout, flag
+    for preset, flags in (("ngp", ("--hash-levels", "--march-steps", "--occ-res")),
+                          ("seed", ("--no-pe", "--n-importance", "--depth", "--width"))):
+        out = subprocess.run([sys.executable, "-m", "nerfkit", "train", "--preset", preset, "--help"],
+                             capture_output=True, text=True)
+        assert out.returncode == 0
+        for flag in ("--out", "--preset", "--max-steps", "--max-minutes", "--downscale", "--seed", "--resume",
+                     "--train-split", "--val-split", *flags):
+            assert flag in out.stdout, (preset, flag)
 
 
 def test_unknown_command_fails(capsys):
@@ -130,10 +133,18 @@ def test_bad_config_value_is_reported(scene, tmp_path, capsys):
     assert "--near must be smaller than --far" in capsys.readouterr().err
 
 
-def test_make_scene(tmp_path):
-    assert main(["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1",
-                 "--n-test", "1"]) == 0
-    assert (tmp_path / "s" / "transforms_test.json").is_file()
+def test_make_scene(tmp_path, capsys):
+    args = ["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1", "--n-test", "3"]
+    assert main(args) == 0
+    meta = {s: json.loads((tmp_path / "s" / f"transforms_{s}.json").read_text()) for s in ("train", "val", "test")}
+    assert [len(m["frames"]) for m in meta.values()] == [2, 1, 3]
+    assert iio.imread(tmp_path / "s" / "train" / "r_0.png").shape[:2] == (8, 8)
+    # Into a folder that is not empty: refused, nothing changed; --overwrite writes (here other poses: --seed).
+    capsys.readouterr()
+    assert main(args) == 1 and "--overwrite" in capsys.readouterr().err
+    assert main([*args, "--seed", "5", "--overwrite"]) == 0
+    again = json.loads((tmp_path / "s" / "transforms_train.json").read_text())
+    assert again["frames"][0]["transform_matrix"] != meta["train"]["frames"][0]["transform_matrix"]
 
 
 def test_view_bad_input_is_a_one_line_error(tmp_path, run, capsys):

@@ -267,7 +267,8 @@ def test_packed_weights_stay_exact_after_many_opaque_rays():
 
 import dataclasses  # noqa: E402
 
-from nerfkit.cameras import image_rays, look_at  # noqa: E402
+from nerfkit.cameras import look_at  # noqa: E402
+from reference import image_rays  # noqa: E402
 from nerfkit.config import preset  # noqa: E402
 from nerfkit.inference import Renderer  # noqa: E402
 from nerfkit.model import NeRFModel, build_model  # noqa: E402

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import importlib
 import json
-import math
 import pkgutil
 
 import imageio.v3 as iio
@@ -17,10 +16,8 @@ import numpy as np
 import pytest
 
 import nerfkit
-from nerfkit.cameras import Camera
+import photos
 from nerfkit.cli import main
-from nerfkit.data import scene as proc
-from nerfkit.data.synthetic import render
 
 pytestmark = pytest.mark.smoke
 
@@ -112,14 +109,8 @@ def test_exports_and_report(run, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def arc_photos(tmp_path_factory):
-    """Ten 192 px photos of the procedural scene (with its textured surround) along a short arc,
-    5 degrees apart: close enough for SIFT to match its repetitive textures (a full ring is not)."""
-    size = 192
-    cam = Camera.pinhole(size, size, 0.5 * size / math.tan(0.5 * proc.CAMERA_ANGLE_X))
-    frames = [render(proc.orbit_pose(math.radians(5 * k), math.radians(30 + 5 * (k % 2))), cam, env=True)[0]
-              for k in range(10)]
-    return [np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8) for rgb in frames]
+def arc_photos():
+    return photos.arc_photos()
 
 
 def test_process_data_images(arc_photos, tmp_path, capsys):

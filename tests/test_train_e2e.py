@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nerfkit.config import preset
-from nerfkit.data.blender import load_blender
+from reference import load_blender
 from nerfkit.data.scene import make_scene
 from nerfkit.inference import Renderer
 from nerfkit.metrics import psnr

@@ -20,7 +20,7 @@ The Blender scenes' cameras are pinhole with cx = W/2, cy = H/2 and fx = fy = fo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
@@ -149,11 +149,6 @@ def _from_pycolmap(cam) -> Camera:
                   float(cam.principal_point_x), float(cam.principal_point_y), model, params)
 
 
-def pixel_directions(i, j, height: int, width: int, focal):
-    """Camera-space directions [..., 3] of pixel centres at rows i, cols j of the ideal
-    camera `Camera.pinhole(width, height, focal)` (any array module)."""
-    return pinhole_directions(i, j, focal, focal, 0.5 * width, 0.5 * height)
-
 
 def pinhole_directions(i, j, fx, fy, cx, cy):
     """Camera-space directions [..., 3] ((u - cx)/fx, -(v - cy)/fy, -1), u = j + 0.5, v = i + 0.5.
@@ -176,17 +171,6 @@ def rotate_directions(c2w, d_cam):
     return o, d
 
 
-def rays_from_pixels(c2w, i, j, height: int, width: int, focal):
-    """World-space rays through pixels (i, j) of ideal pinhole cameras c2w [..., 4, 4].
-
-    Returns origins, directions, both [..., 3].
-    """
-    return rotate_directions(c2w, pixel_directions(i, j, height, width, focal))
-
-
-def image_rays(c2w: np.ndarray, height: int, width: int, focal: float) -> tuple[np.ndarray, np.ndarray]:
-    """All pixel-centre rays of an ideal pinhole camera: origins, directions of shape [H, W, 3]."""
-    return camera_rays(c2w, Camera.pinhole(width, height, focal))
 
 
 def camera_rays(c2w: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.ndarray]:

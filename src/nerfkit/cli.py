@@ -11,6 +11,7 @@ import contextlib
 import io
 import json
 import os
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -38,6 +39,7 @@ from nerfkit.cli_args import (
 from nerfkit.config import DEFAULT_PRESET, PRESET_HELP, PRESETS, preset
 from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.flags import explicit_settings
+from nerfkit.outputs import check_new_folder
 
 
 def _one_line(text: str, prog: str) -> str:
@@ -105,12 +107,24 @@ def parse_train_args(argv: list[str]) -> TrainArgs:
         base = load_run_config(Path(out))  # a resumed run keeps its own config
     default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name if name in PRESETS else DEFAULT_PRESET,
                         cfg=base)
-    return parse(TrainArgs, argv, "nerfkit train", default=default)
+    args = parse(TrainArgs, argv, "nerfkit train", default=default)
+    given = explicit_settings(argv)
+    if "train.max_steps" in given and "train.max_minutes" not in given:
+        args.cfg.train.max_minutes = None  # a step budget alone replaces the preset's time budget
+    return args
 
 
 def cmd_train(argv: list[str]) -> int:
     from nerfkit.train import Trainer
 
+    if any(a in ("-h", "--help", "--help-all") for a in argv):
+        from nerfkit.cli_help import train_help
+
+        name = _flag_value(argv, "--preset") or DEFAULT_PRESET
+        if name not in PRESETS:
+            raise ConfigError(f"--preset {name}: no such preset; pick one of {', '.join(PRESETS)}")
+        print(train_help(name, full="--help-all" in argv))
+        return 0
     args = parse_train_args(argv)
     from nerfkit.parallel import init_distributed, is_primary
 
@@ -126,6 +140,8 @@ def cmd_train(argv: list[str]) -> int:
         res = trainer.run()
         val = f"{res.val_psnr:.2f} dB" if res.val_psnr is not None else "n/a"
         print(f"step {res.step}, {res.steps_per_second:.2f} steps/s, val PSNR {val}; run folder: {res.run_dir}")
+        if not res.interrupted:
+            print(f"next: nerfkit render {shlex.quote(str(res.run_dir))} --orbit 60")
         if trainer.viewer is not None and not res.interrupted:
             from nerfkit.viewer.run import linger
 
@@ -140,7 +156,8 @@ def cmd_eval(argv: list[str]) -> int:
     from nerfkit.evaluate import evaluate_run, format_eval_table
 
     a = parse(EvalArgs, argv, "nerfkit eval")
-    res = evaluate_run(a.run_dir, a.data, a.split, a.downscale, a.every, a.chunk, baked=a.baked)
+    res = evaluate_run(a.run_dir, a.data, a.split, a.downscale, a.every, a.chunk, baked=a.baked,
+                       overwrite=a.overwrite)
     print(format_eval_table(res))
     print(f"wrote {res['written']}")
     return 0
@@ -151,7 +168,7 @@ def cmd_render(argv: list[str]) -> int:
 
     a = parse(RenderArgs, argv, "nerfkit render")
     info = render_run(a.run_dir, a.data, a.split, a.orbit, a.width, a.height, a.out, a.fps, a.chunk,
-                      camera_path=a.camera_path)
+                      camera_path=a.camera_path, overwrite=a.overwrite)
     print(f"rendered {info['frames']} frames at {info['width']}x{info['height']} "
           f"({info['seconds_per_frame']:.2f} s/frame) into {info['out']} (rgb.mp4, depth.mp4)")
     return 0
@@ -188,21 +205,24 @@ def cmd_export(argv: list[str]) -> int:
         from nerfkit.export.mesh import export_mesh
 
         a = parse(ExportMeshArgs, rest, prog)
+        if not a.visible_only and _flag_value(rest, "--every") is not None:
+            raise ConfigError("--every thins the training views of the visibility pass, which --no-visible-only "
+                              "turns off; drop one of them")
         rec = export_mesh(a.run_dir, a.out, a.resolution, a.threshold, a.max_faces, a.visible_only, a.snap, a.every,
-                          a.data, progress=a.progress, carve=a.carve)
+                          a.data, progress=a.progress, carve=a.carve, overwrite=a.overwrite)
         print(f"wrote {rec['file']}: {rec['vertices']} vertices, {rec['faces']} faces ({rec['seconds']:.1f} s)")
     elif kind == "pointcloud":
         from nerfkit.export.pointcloud import export_pointcloud
 
         a = parse(ExportPointcloudArgs, rest, prog)
         rec = export_pointcloud(a.run_dir, a.out, a.split, a.every, a.min_opacity, a.voxel_size, a.data, a.chunk,
-                                progress=a.progress)
+                                progress=a.progress, overwrite=a.overwrite)
         print(f"wrote {rec['file']}: {rec['points']} points ({rec['seconds']:.1f} s)")
     else:
         from nerfkit.export.cameras import export_cameras
 
         a = parse(ExportCamerasArgs, rest, prog)
-        rec = export_cameras(a.run_dir, a.out, a.split, a.data)
+        rec = export_cameras(a.run_dir, a.out, a.split, a.data, overwrite=a.overwrite)
         print(f"wrote {rec['file']}: {rec['frames']} cameras")
     picture = Path(a.run_dir) / "exports" / rec["picture"]
     if (Path(a.run_dir) / "report.html").is_file():
@@ -218,9 +238,10 @@ def cmd_bake(argv: list[str]) -> int:
     from nerfkit.bake.bake import bake_run
 
     a = parse(BakeArgs, argv, "nerfkit bake")
-    bake_run(a.run_dir, a.out, a.resolution, a.sh_bands, a.finetune_minutes, a.max_mb, progress=a.progress)
-    print(f"next: nerfkit view --baked {a.out} (open it in a browser); nerfkit eval {a.run_dir} --baked {a.out} "
-          f"(PSNR/SSIM of the baked scene)")
+    bake_run(a.run_dir, a.out, a.resolution, a.sh_bands, a.finetune_minutes, a.max_mb, progress=a.progress,
+             overwrite=a.overwrite)
+    print(f"next: nerfkit view --baked {shlex.quote(str(a.out))}")
+    print(f"next: nerfkit eval {shlex.quote(str(a.run_dir))} --baked {shlex.quote(str(a.out))}")
     return 0
 
 
@@ -238,6 +259,7 @@ def cmd_make_scene(argv: list[str]) -> int:
     from nerfkit.data.scene import make_scene
 
     a = parse(MakeSceneArgs, argv, "nerfkit make-scene")
+    check_new_folder(a.out_dir, a.overwrite, "OUT_DIR")
     path = make_scene(a.out_dir, size=a.size, n_train=a.n_train, n_val=a.n_val, n_test=a.n_test, seed=a.seed)
     print(f"wrote the procedural scene to {path} ({a.n_train} train, {a.n_val} val, {a.n_test} test views, {a.size}px)")
     return 0
@@ -246,21 +268,21 @@ def cmd_make_scene(argv: list[str]) -> int:
 def cmd_demo(argv: list[str]) -> int:
     from nerfkit.data.scene import make_scene
     from nerfkit.evaluate import evaluate_run, format_eval_table, render_run
-    from nerfkit.train import Trainer
+    from nerfkit.train import Trainer, run_files
 
     a = parse(DemoArgs, argv, "nerfkit demo")
     t0 = time.perf_counter()
-    scene = make_scene(a.out / "scene", size=a.size)
-    print(f"[1/4] procedural scene: {scene}")
+    run, scene_dir = a.out / "run", a.out / "scene"
+    check_new_folder(scene_dir, a.overwrite, "--out")
+    if (run_files(run) or (a.out / "demo_summary.json").exists()) and not a.overwrite:
+        raise ConfigError(f"--out {a.out}: holds an earlier demo run ({run}); pass --overwrite to start again, or "
+                          f"pick another --out")
     cfg = preset(a.preset)
     cfg.train.max_minutes = a.max_minutes
-    run = a.out / "run"
-    if (run / "checkpoints").is_dir():
-        import shutil
-
-        shutil.rmtree(run)  # the demo always starts fresh
+    scene = make_scene(scene_dir, size=a.size)
+    print(f"[1/4] procedural scene: {scene}")
     print(f"[2/4] training ({a.preset} preset, up to {a.max_minutes:g} min) into {run}")
-    res = Trainer(scene, run, cfg).run()
+    res = Trainer(scene, run, cfg, overwrite=a.overwrite).run()
     print("[3/4] evaluating on the test views")
     ev = evaluate_run(run, scene, "test")
     print(format_eval_table(ev))
@@ -284,15 +306,22 @@ def cmd_demo(argv: list[str]) -> int:
     return 0
 
 
+# Flags that only one experiment reads (the other refuses them).
+EXPERIMENT_ONLY = {"pe-ablation": ("--preset", "--orbit-frames", "--target-width", "--downscale"),
+                   "antialias": ("--models", "--mlp-size")}
+
+
 def cmd_experiment(argv: list[str]) -> int:
     from nerfkit.experiments import antialias_experiment, pe_ablation
 
     a = parse(ExperimentArgs, argv, "nerfkit experiment")
+    for flag in EXPERIMENT_ONLY["pe-ablation" if a.experiment == "antialias" else "antialias"]:
+        if any(x == flag or x.startswith(flag + "=") for x in argv):
+            why = ("its models and the data's scales are fixed" if a.experiment == "antialias" else
+                   "its three models are MLPs of the preset, differing only in the encoding")
+            raise ConfigError(f"{flag} does not apply to the {a.experiment} experiment ({why}); drop it "
+                              f"(see nerfkit experiment --help)")
     if a.experiment == "antialias":
-        for flag in ("--preset", "--orbit-frames", "--target-width", "--downscale"):
-            if _flag_value(argv, flag) is not None:
-                raise ConfigError(f"{flag} does not apply to the antialias experiment (its models and the data's "
-                                  f"scales are fixed; see nerfkit experiment --help)")
         models = [m.strip() for m in a.models.split(",") if m.strip()] if a.models else None
         antialias_experiment(a.data_dir, a.out, a.budget_minutes, a.max_steps, models=models, mlp_size=a.mlp_size,
                              seed=a.seed,
@@ -316,10 +345,13 @@ def cmd_benchmark(argv: list[str]) -> int:
 
     a = parse(BenchmarkArgs, argv, "nerfkit benchmark")
     out = a.out if a.out is not None else Path("runs") / f"benchmark_{a.root.resolve().name}_{a.preset}"
-    benchmark(a.root, out, preset=a.preset, budget_minutes=a.budget_minutes, max_steps=a.max_steps, jobs=a.jobs,
-              only=a.only, eval_every=a.eval_every, progress=a.progress)
+    table = benchmark(a.root, out, preset=a.preset, budget_minutes=a.budget_minutes, max_steps=a.max_steps,
+                      jobs=a.jobs, only=a.only, eval_every=a.eval_every, progress=a.progress, overwrite=a.overwrite)
     if a.only is None:
         print("\n" + (out / "results.md").read_text())
+    if table["failed"]:
+        raise NerfkitError(f"{len(table['failed'])} of {len(table['scenes'])} scene(s) failed "
+                           f"({', '.join(table['failed'])}); the table marks them")
     return 0
 
 
@@ -328,6 +360,9 @@ def cmd_process_data(argv: list[str]) -> int:
     from nerfkit.process.sfm import SfmOptions
 
     a = parse(ProcessArgs, argv, "nerfkit process-data")
+    if a.kind == "images" and any(x == "--frames" or x.startswith("--frames=") for x in argv):
+        raise ConfigError("--frames applies to `process-data video` (frames kept from the video); every photo of "
+                          "a folder is used: drop it")
     if a.max_image_size < 64:
         raise ConfigError(f"--max-image-size must be at least 64 (got {a.max_image_size})")
     opts = SfmOptions(camera_model=a.camera_model, max_image_size=a.max_image_size, verbose=a.verbose)
@@ -336,7 +371,7 @@ def cmd_process_data(argv: list[str]) -> int:
         process_images(a.source, a.out, **common)
     else:
         process_video(a.source, a.out, a.frames, **common)
-    print(f"next: nerfkit train {a.out} --out runs/{a.out.name}")
+    print(f"next: nerfkit train {shlex.quote(str(a.out))} --out {shlex.quote('runs/' + a.out.name)}")
     return 0
 
 

@@ -57,6 +57,8 @@ class EvalArgs:
     """Rays per rendering chunk (default: the run's --chunk)."""
     baked: Path | None = None
     """Score this baked scene (nerfkit bake RUN --out DIR) instead of the field; writes eval_<split>_baked.json."""
+    overwrite: bool = False
+    """Replace this split's earlier evaluation (eval_<split>.json and its images)."""
 
 
 @dataclasses.dataclass
@@ -85,6 +87,8 @@ class RenderArgs:
     """Video frame rate (default: the camera path's, else 24)."""
     chunk: int | None = None
     """Rays per rendering chunk (default: the run's --chunk)."""
+    overwrite: bool = False
+    """Render into an output folder that is not empty (files of the same names are replaced)."""
 
 
 @dataclasses.dataclass
@@ -116,6 +120,8 @@ class ExportMeshArgs:
     """The data folder (for the training cameras); default: the one the run was trained on."""
     progress: bool = True
     """Show progress bars."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
 
 
 @dataclasses.dataclass
@@ -141,6 +147,8 @@ class ExportPointcloudArgs:
     """Rays per rendering chunk (default: the run's --chunk)."""
     progress: bool = True
     """Show progress bars."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
 
 
 @dataclasses.dataclass
@@ -153,9 +161,11 @@ class ExportCamerasArgs:
     out: Path | None = None
     """JSON file (default: RUN_DIR/exports/cameras.json)."""
     split: str | None = None
-    """Frames to export (default: the run's training split)."""
+    """Export only these frames, e.g. 'test' (default: every frame, each listed under its split in the run)."""
     data: Path | None = None
     """The data folder; default: the one the run was trained on."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
 
 
 @dataclasses.dataclass
@@ -167,7 +177,7 @@ class BakeArgs:
     run_dir: tyro.conf.Positional[Path]
     """A run folder written by `nerfkit train` (fast field, bounded scene)."""
     out: Path
-    """Folder to write the baked scene into (created; an existing baked scene there is replaced)."""
+    """Folder to write the baked scene into (new or empty; --overwrite replaces a baked scene there)."""
     resolution: int | None = None
     """Grid cells per axis of the scene box (a multiple of 8); default: 256, or the finest of 224, 192, ...
     whose bake fits --max-mb."""
@@ -179,6 +189,8 @@ class BakeArgs:
     """Size budget in MB: fail before writing when the bake would be larger (lower --resolution or --sh-bands)."""
     progress: bool = True
     """Show progress bars."""
+    overwrite: bool = False
+    """Replace the baked scene in --out if there is one."""
 
 
 @dataclasses.dataclass
@@ -217,9 +229,15 @@ class MakeSceneArgs:
     size: int = 64
     """Image width and height in pixels."""
     n_train: int = 60
+    """Training views."""
     n_val: int = 10
+    """Validation views."""
     n_test: int = 10
+    """Test views."""
     seed: int = 0
+    """Seed of the camera poses."""
+    overwrite: bool = False
+    """Write into a folder that is not empty (files of the same names are replaced)."""
 
 
 @dataclasses.dataclass
@@ -251,6 +269,8 @@ class DemoArgs:
     """Scene image size (training, evaluation and the orbit video)."""
     orbit_frames: int = 48
     """Frames in the orbit video."""
+    overwrite: bool = False
+    """Start again in an --out that holds an earlier demo (its scene and run are replaced)."""
 
 
 @dataclasses.dataclass
@@ -280,7 +300,7 @@ class ExperimentArgs:
     orbit_frames: int = 40
     """Frames of each model's orbit video (at the training resolution)."""
     grid_views: int | None = None
-    """Validation views shown in image grids (default: 2 for pe-ablation, at least 2; 1 for antialias)."""
+    """Validation views shown in image grids (default: 2 for pe-ablation, 1 for antialias)."""
     val_every: int | None = None
     """Validate every N steps during training (default: the preset's)."""
     train_split: str | None = None
@@ -303,8 +323,8 @@ class ExperimentArgs:
 @dataclasses.dataclass
 class BenchmarkArgs:
     """Train and evaluate every scene folder under ROOT with one preset and budget (resumable: finished
-    scenes are skipped, interrupted ones resumed); writes OUT/<scene>/ run folders and the table
-    OUT/results.md, results.json and results.png."""
+    scenes with the same settings are reused, interrupted ones resumed); writes OUT/<scene>/ run folders and
+    the table OUT/results.md, results.json and results.png; a failed scene is a row marked failed, exit 1."""
 
     root: tyro.conf.Positional[Path]
     """Folder holding scene folders (e.g. nerf_synthetic/, or captures made by process-data)."""
@@ -322,6 +342,8 @@ class BenchmarkArgs:
     """Only this scene folder (by name)."""
     eval_every: int = 1
     """Evaluate every K-th view of each scene's validation split."""
+    overwrite: bool = False
+    """Train again the scenes whose earlier result in --out has other settings (otherwise refused)."""
     progress: bool = True
     """Show progress bars."""
 

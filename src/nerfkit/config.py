@@ -143,7 +143,8 @@ class TrainConfig:
     max_steps: int = 200_000
     """Train until this step (in total, also with --resume)."""
     max_minutes: float | None = None
-    """Stop after this many minutes of wall time (compile included), whichever comes first."""
+    """Stop after this many minutes of wall time (compile included), whichever comes first. Presets have a
+    default (ngp 10, demo 3, seed 20, nerf and mipnerf 30); --max-steps alone lifts it."""
     batch_rays: int = 1024
     """Rays per step, drawn at random across all training images."""
     lr: float = 5e-4
@@ -321,7 +322,7 @@ def _seed() -> Config:
     return Config(
         field=FieldConfig(depth=4, width=128, l_xyz=10, l_dir=4),
         sampler=SamplerConfig(n_samples=64, n_importance=0, near=0.0, far=5.0),
-        train=TrainConfig(val_every=1000, ckpt_every=1000, val_views=4),
+        train=TrainConfig(max_minutes=20.0, val_every=1000, ckpt_every=1000, val_views=4),
     )
 
 
@@ -331,7 +332,7 @@ def _nerf() -> Config:
     return Config(
         field=FieldConfig(depth=8, width=256),
         sampler=SamplerConfig(n_samples=64, n_importance=128, near=2.0, far=6.0),
-        train=TrainConfig(lr_decay_steps=500_000, precrop_steps=500, precrop_frac=0.5),
+        train=TrainConfig(max_minutes=30.0, lr_decay_steps=500_000, precrop_steps=500, precrop_frac=0.5),
     )
 
 
@@ -342,7 +343,7 @@ def _mipnerf() -> Config:
     return Config(
         field=FieldConfig(kind="mip", depth=8, width=256, l_xyz=16, l_dir=4),
         sampler=SamplerConfig(n_samples=128, n_importance=128, near=2.0, far=6.0),
-        train=TrainConfig(lr_decay_steps=500_000),
+        train=TrainConfig(max_minutes=30.0, lr_decay_steps=500_000),
     )
 
 
@@ -351,7 +352,7 @@ def _demo() -> Config:
     # 256 px) so `nerfkit demo` trains, evaluates and renders in about 5 minutes on 2 CPU cores.
     cfg = _ngp()
     cfg.field.hash_log2_size = 16
-    cfg.train.val_views, cfg.train.log_every = 3, 25
+    cfg.train.val_views, cfg.train.log_every, cfg.train.max_minutes = 3, 25, 3.0
     return cfg
 
 
@@ -377,7 +378,8 @@ def _ngp() -> Config:
         field=FieldConfig(kind="ngp", hash_log2_size=17, hash_max_res=1024),
         sampler=SamplerConfig(near=None, far=None, occ_res=64, march_steps=512, max_samples=1 << 16),
         train=TrainConfig(
-            max_steps=20_000, batch_rays=4096, lr=1e-2, lr_decay_steps=20_000, adam_b2=0.99, adam_eps=1e-15,
+            max_steps=20_000, max_minutes=10.0, batch_rays=4096, lr=1e-2, lr_decay_steps=20_000, adam_b2=0.99,
+            adam_eps=1e-15,
             val_every=500, ckpt_every=500, val_views=4, log_every=25, chunk=4096,
         ),
     )
@@ -393,6 +395,17 @@ PRESET_HELP = {
     "demo": "the fast field sized for the embedded procedural scene (nerfkit demo)",
     "tiny": "smallest model, for tests",
 }
+
+
+def set_budget(cfg: Config, max_minutes: float | None, max_steps: int | None) -> Config:
+    """The budget a user gave, in place of the preset's: minutes and/or steps, whichever comes first; steps
+    alone lift the preset's default time budget (None: keep the preset's value)."""
+    if max_steps is not None:
+        cfg.train.max_steps = int(max_steps)
+        cfg.train.max_minutes = None
+    if max_minutes is not None:
+        cfg.train.max_minutes = float(max_minutes)
+    return cfg
 
 
 def preset(name: str) -> Config:

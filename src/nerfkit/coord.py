@@ -31,11 +31,6 @@ def contract(x: jnp.ndarray) -> jnp.ndarray:
     return jnp.where(n <= 1.0, x, (2.0 - 1.0 / n) * x / n)
 
 
-def uncontract(y: jnp.ndarray) -> jnp.ndarray:
-    """The inverse of contract on the open ball |y| < 2: x = y / (|y| (2 - |y|)) outside the unit ball."""
-    n = jnp.maximum(jnp.linalg.norm(y, axis=-1, keepdims=True), 1e-12)
-    return jnp.where(n <= 1.0, y, y / (n * jnp.maximum(2.0 - n, 1e-6)))
-
 
 def radial_stretch(y: jnp.ndarray) -> jnp.ndarray:
     """d|x| / d|y| at contracted points y [..., 3] -> [...]: 1 inside the unit ball,

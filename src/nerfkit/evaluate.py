@@ -14,16 +14,12 @@ from nerfkit.cameras import Camera, ellipse_orbit_poses, orbit_poses
 from nerfkit.data.loader import load_frames, read_capture, scene_cameras
 from nerfkit.data.multiscale import level_specs
 from nerfkit.errors import ConfigError
-from nerfkit.inference import make_renderer
+from nerfkit.inference import check_chunk, make_renderer
 from nerfkit.metrics import psnr, ssim
-from nerfkit.train import Trainer, TrainResult, load_run_config, load_trained
+from nerfkit.outputs import check_new_folder
+from nerfkit.train import Trainer, TrainResult, load_run_config, load_run_scene, load_trained
 from nerfkit.viewer.camera_path import focal_from_fov_y, read_camera_path
-from nerfkit.viz import background_rgb, colorize_renders, save_png, side_by_side, write_video
-
-
-def check_chunk(chunk: int | None) -> None:
-    if chunk is not None and chunk < 1:
-        raise ConfigError(f"--chunk must be >= 1 (got {chunk})")
+from nerfkit.viz import background_rgb, colorize_renders, comparison, save_png, write_video
 
 
 def split_slug(spec: str) -> str:
@@ -35,11 +31,11 @@ def run_data_dir(run_dir: Path, data_dir: Path | None) -> Path:
     """The data folder of a run: the one given, else the one it was trained on (scene.json)."""
     if data_dir is not None:
         return Path(data_dir)
-    path = Path(run_dir) / "scene.json"
-    try:
-        return Path(json.loads(path.read_text())["data_dir"])
-    except (OSError, ValueError, KeyError, TypeError):
-        raise ConfigError(f"{path}: no data folder recorded; pass --data DATA_DIR") from None
+    path = Path(load_run_scene(run_dir)["data_dir"])
+    if not path.is_dir():
+        raise ConfigError(f"{path}: the data folder this run was trained on is gone; pass --data DIR (where the "
+                          f"capture is now)")
+    return path
 
 
 def appearance_note(cfg) -> str | None:
@@ -52,12 +48,13 @@ def appearance_note(cfg) -> str | None:
 
 def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
                  chunk: int | None = None, progress: bool = True, checkpoint: Path | None = None,
-                 write: bool = True, baked: Path | None = None) -> dict:
+                 write: bool = True, baked: Path | None = None, overwrite: bool = False) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
     Multiscale data (data/multiscale.py): every level is scored at its own size, and the mean
     over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
-    `checkpoint`: evaluate that checkpoint instead of the newest."""
+    `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
+    is replaced only with `overwrite` (otherwise ConfigError before any work)."""
     if every < 1:
         raise ConfigError(f"--every must be >= 1 (got {every})")
     check_chunk(chunk)
@@ -77,6 +74,9 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     levels = level_specs(cap, split)
     name = (f"eval_{split_slug(split)}" + ("_multiscale" if levels is not None else "")
             + ("_baked" if baked is not None else ""))
+    if write and not overwrite and ((run_dir / f"{name}.json").exists() or (run_dir / name).exists()):
+        raise ConfigError(f"{run_dir / (name + '.json')}: an earlier evaluation of {split} is there; pass --overwrite "
+                          f"to replace it")
     bg = background_rgb(cfg.data.background)
 
     def score(spec, out_dir, ds, tw):
@@ -116,7 +116,8 @@ def train_and_evaluate(data_dir: Path, run_dir: Path, cfg, every: int = 1, progr
     if res.interrupted:
         raise KeyboardInterrupt
     run_cfg = load_run_config(run_dir)
-    ev = evaluate_run(run_dir, data_dir, run_cfg.data.val_split, every=every, progress=progress)
+    # The evaluation of the run just trained (an earlier one, of a resumed run's checkpoint, is out of date).
+    ev = evaluate_run(run_dir, data_dir, run_cfg.data.val_split, every=every, progress=progress, overwrite=True)
     return res, run_cfg, ev
 
 
@@ -132,15 +133,30 @@ def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir
                          "ssim": ssim(r["rgb"], data.images[k])})
         renders.append(r)
     seconds = time.perf_counter() - t0
-    depth_imgs, _ = colorize_renders(renders, bg)
-    for k, r, depth_img in zip(ids, renders, depth_imgs) if out_dir is not None else ():
+    depth_imgs, (lo, hi) = colorize_renders(renders, bg)
+    for k, r, depth_img, v in zip(ids, renders, depth_imgs, per_view) if out_dir is not None else ():
         save_png(out_dir / f"view_{k:03d}_rgb.png", r["rgb"])
         save_png(out_dir / f"view_{k:03d}_depth.png", depth_img)
-        save_png(out_dir / f"view_{k:03d}.png", side_by_side([data.images[k], r["rgb"], depth_img]))
+        save_png(out_dir / f"view_{k:03d}.png", comparison(data.images[k], r["rgb"], depth_img, lo / data.scale,
+                                                           hi / data.scale, v["psnr"], background=bg))
         np.save(out_dir / f"view_{k:03d}_depth.npy", (r["depth"] / data.scale).astype(np.float32), allow_pickle=False)
     return {"n_views": len(ids), "psnr": float(np.mean([v["psnr"] for v in per_view])),
             "ssim": float(np.mean([v["ssim"] for v in per_view])), "seconds_per_view": seconds / max(len(ids), 1),
-            "per_view": per_view}
+            "per_view": per_view, "worst": worst_views(per_view), "outlier_db": OUTLIER_DB}
+
+
+OUTLIER_DB = 3.0  # a view this far below the median PSNR is pointed out
+
+
+def worst_views(per_view: list[dict], k: int = 3) -> list[dict]:
+    """The k lowest-scoring views (view, name, psnr), each marked "outlier" when more than OUTLIER_DB below
+    the median: a photo to look at (a moving object, a mask that leaves part out, blur)."""
+    if not per_view:
+        return []
+    median = float(np.median([v["psnr"] for v in per_view]))
+    low = sorted(per_view, key=lambda v: v["psnr"])[:k]
+    return [{"view": v["view"], "name": v["name"], "psnr": v["psnr"], "outlier": v["psnr"] < median - OUTLIER_DB}
+            for v in low]
 
 
 def format_eval_table(result: dict) -> str:
@@ -154,13 +170,20 @@ def format_eval_table(result: dict) -> str:
                  f"{result['psnr']:7.2f} {result['ssim']:7.4f}")
     if result.get("appearance"):
         lines.append(result["appearance"])
+    worst = result.get("worst") or worst_views(result["per_view"])
+    if len(result["per_view"]) > 1 and worst:
+        lines.append("worst views: " + ", ".join(f"{w['view']} {Path(w['name']).name} {w['psnr']:.2f} dB"
+                                                 + (" (outlier)" if w["outlier"] else "") for w in worst))
+        if any(w["outlier"] for w in worst):
+            lines.append(f"outlier: more than {OUTLIER_DB:g} dB below the median view; look at that photo (something "
+                         f"that moved, a mask that leaves part out, blur) in the eval folder")
     return "\n".join(lines)
 
 
 def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, orbit: int | None = None,
                width: int | None = None, height: int | None = None, out: Path | None = None,
                fps: int | None = None, chunk: int | None = None, progress: bool = True,
-               camera_path: Path | None = None) -> dict:
+               camera_path: Path | None = None, overwrite: bool = False) -> dict:
     """Render a split's poses, an N-frame orbit or a camera path (nerfstudio's camera_path.json)
     at any resolution: RGB and colour-mapped depth PNGs, depth as float32 .npy (sum_i w_i t_i),
     and an MP4 of each."""
@@ -175,7 +198,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     run_dir = Path(run_dir)
     cfg, model, params, aux, step = load_trained(run_dir)
     data_dir = run_data_dir(run_dir, data_dir)
-    scene = json.loads((run_dir / "scene.json").read_text())
+    scene = load_run_scene(run_dir)
     d = cfg.data
     cap = read_capture(data_dir, cfg.data.train_split if split is None else split, d.format, d.masks, d.holdout_every)
     path = read_camera_path(camera_path) if camera_path is not None else None
@@ -212,7 +235,8 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     elif split is None:
         cams = [cams[0]] * len(poses)
     fps = fps or 24
-    out = Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}"
+    out = check_new_folder(Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}",
+                           overwrite)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     renders = []
     t0 = time.perf_counter()

@@ -10,7 +10,7 @@ model will not read, with the reason:
                   directions, train.precrop_frac without a warm-up (--precrop-steps 0),
                   data.target_width when --downscale is given, sampler.occ_warmup_decay
                   without a warm-up (--occ-warmup 0)
-    by the data   data.holdout_every for captures with their own splits (Blender), data.masks
+    by the data   data.holdout_every for captures with their own splits (Blender, *_filenames), data.masks
                   for captures without object masks
 
 `refuse_unused` turns the ones the user gave explicitly into one ConfigError naming the flag and
@@ -103,8 +103,8 @@ def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]
     if d.downscale is not None:
         out["data.target_width"] = "--downscale sets the image size"
     if capture is not None:
-        if capture.format == "blender":
-            out["data.holdout_every"] = f"the Blender capture {capture.root} has its own splits"
+        if capture.own_splits:
+            out["data.holdout_every"] = f"the {capture.format} capture {capture.root} has its own splits"
         if not capture.has_masks and not capture.masks_dropped:
             out["data.masks"] = f"the capture {capture.root} has no object masks"
     return out
@@ -122,3 +122,34 @@ def refuse_unused(cfg: Config, given: dict[str, str], where: str, capture=None) 
             if name in BY_KIND and cfg.field.kind not in BY_KIND[name]:
                 hint = f", or pick a preset that uses it: {', '.join(presets_using(name))}"
             raise ConfigError(f"{typed} has no effect: {moot[name]}; drop it{hint}")
+
+
+def describe_model(cfg: Config) -> str:
+    """One line naming the model that runs, with the settings it reads (and only those)."""
+    f, s = cfg.field, cfg.sampler
+    near_far = "" if s.near is None or s.far is None else f", near {s.near:g}, far {s.far:g}"
+    app = f"; appearance embeddings of {f.appearance_dim}" if f.appearance_dim else ""
+    if f.kind == "ngp":
+        scene = f"{f.scene_type} scene, " if f.scene_type != "auto" else ""
+        box = "" if f.bound is None else (f"inner ball {f.bound:g}, " if f.scene_type == "unbounded" else
+                                          f"box {f.bound:g}, ")
+        return (f"ngp: hash grid {f.hash_levels} levels x {f.hash_features} features, 2^{f.hash_log2_size} entries, "
+                f"{f.hash_base_res}-{f.hash_max_res} cells; MLPs {f.hidden} wide{', anti-aliased' if f.antialias else ''}"
+                f"; {scene}{box}occupancy grid {s.occ_res}^3, {s.march_steps} march steps, up to {s.max_samples} "
+                f"samples per step{near_far}{app}")
+    samples = f"{s.n_samples}" + (f" + {s.n_importance}" if s.n_importance else "") + " samples per ray"
+    if f.kind == "mip":
+        enc = f"integrated PE of cones L_xyz={f.l_xyz}" + (f", L_dir={f.l_dir}" if f.viewdirs else "")
+        return f"mip-NeRF: MLP D={f.depth} W={f.width}, {enc}{'' if f.viewdirs else ', no view directions'}; " \
+               f"{samples}{near_far}{app}"
+    enc = (f"PE L_xyz={f.l_xyz}" + (f", L_dir={f.l_dir}" if f.viewdirs else "")) if f.pe else "no PE (raw x, d)"
+    return (f"NeRF MLP D={f.depth} W={f.width}, {enc}{'' if f.viewdirs else ', no view directions'}; {samples}"
+            f"{' (coarse + fine)' if s.n_importance else ''}{near_far}{app}")
+
+
+def describe_budget(cfg: Config) -> str:
+    """The training budget in words."""
+    t = cfg.train
+    if t.max_minutes is None:
+        return f"{t.max_steps} steps"
+    return f"{t.max_minutes:g} min of wall time or {t.max_steps} steps, whichever comes first"

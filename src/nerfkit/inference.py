@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit import occupancy
+from nerfkit.errors import ConfigError
 from nerfkit.cameras import Camera, camera_rays
 from nerfkit.frustum import pixel_base_radius
 
@@ -350,6 +351,12 @@ def coarser(renderer: WavefrontRenderer, stride: int) -> WavefrontRenderer:
     r = type(renderer)(CoarseMarch(renderer.model, stride), renderer.chunk)
     r.empty_distance = renderer.empty_distance
     return r
+
+
+def check_chunk(chunk: int | None) -> None:
+    """ConfigError unless a --chunk value is None (the run's own) or at least 1."""
+    if chunk is not None and chunk < 1:
+        raise ConfigError(f"--chunk must be >= 1 (got {chunk})")
 
 
 def make_renderer(model, chunk: int = 4096) -> Renderer:

@@ -16,8 +16,9 @@ def psnr(pred: np.ndarray, target: np.ndarray) -> float:
 
 def ssim(pred: np.ndarray, target: np.ndarray) -> float:
     """SSIM of [H, W, 3] images in [0, 1]: 11x11 Gaussian window, sigma 1.5 (Wang et al. 2004),
-    the variant reported by NeRF papers; images smaller than 11 px (the 1/8 scale of a small
-    multiscale scene) use the largest odd window that fits, at least 3."""
+    the variant reported by NeRF papers: the mean of the SSIM map over pixels at least 5 px from the
+    border, then over channels. Images smaller than 11 px (the 1/8 scale of a small multiscale scene)
+    average over pixels at least w // 2 from the border, w the largest odd size that fits (at least 3)."""
     side = min(np.shape(pred)[:2])
     if side < 3:
         raise ValueError(f"SSIM needs images of at least 3x3 pixels (got {np.shape(pred)[:2]})")

@@ -100,15 +100,6 @@ def cell_coords(cell_idx: jax.Array, cfg: OccupancyConfig) -> jax.Array:
     return jnp.stack([c // (r * r), (c // r) % r, c % r], axis=-1)
 
 
-def cell_centers(cfg: OccupancyConfig) -> jax.Array:
-    """World-space centres of all cells, -B + (ijk + 1/2) h.
-
-    Returns:
-      float32 [R^3, 3], row c is the centre of flat cell c.
-    """
-    ijk = cell_coords(jnp.arange(cfg.n_cells, dtype=jnp.int32), cfg)
-    return (-cfg.bound + (ijk.astype(jnp.float32) + 0.5) * cfg.cell_size).astype(jnp.float32)
-
 
 def world_to_cell(x: jax.Array, cfg: OccupancyConfig):
     """Cell containing each point.

@@ -126,6 +126,8 @@ def describe(batch: int, mesh: Mesh | None, split: str = "rays", samples: int | 
     """One line for the log: the devices and the global batch (of rays, or of packed samples)."""
     if mesh is None:
         d = jax.local_devices()[0]
+        if split == "samples":
+            return f"1 device ({d.platform}), up to {batch} rays per step (as many as fit {samples} samples)"
         return f"1 device ({d.platform}), batch {batch} rays"
     n = mesh.devices.size
     hosts = jax.process_count()

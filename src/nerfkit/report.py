@@ -16,6 +16,9 @@ import os
 from pathlib import Path
 from urllib.parse import quote
 
+from nerfkit.config import Config
+from nerfkit.errors import NerfkitError
+from nerfkit.flags import describe_model
 from nerfkit.viz import read_jsonl
 
 DEPTH_NOTE = (
@@ -196,19 +199,19 @@ def _summary_html(run: Path, cfg: dict | None, scene: dict | None, rows: list[di
         items.append(["images", _e(f"{scene.get('width')}x{scene.get('height')}, {scene.get('n_train')} train / "
                                    f"{scene.get('n_val')} val views")])
     if cfg:
-        f, s = cfg.get("field", {}), cfg.get("sampler", {})
-        enc = (f"PE L_xyz={f.get('l_xyz')}, L_dir={f.get('l_dir')}" if f.get("pe", True) else "no PE (raw x, d)")
-        if f.get("kind") == "mip":
-            enc = f"integrated PE of cones, L_xyz={f.get('l_xyz')}, L_dir={f.get('l_dir')}"
-        items.append(["model", _e(f"{f.get('kind', 'mlp')} D={f.get('depth')} W={f.get('width')}, {enc}; "
-                                  f"{s.get('n_samples')} samples"
-                                  + (f" + {s.get('n_importance')} fine" if s.get("n_importance") else "")
-                                  + f", near {s.get('near')}, far {s.get('far')}")])
+        try:
+            items.append(["model", _e(describe_model(Config.from_dict(cfg)))])
+        except NerfkitError as e:
+            items.append(["model", _e(f"config.json not readable: {e}")])
         d = cfg.get("data", {})
         items.append(["splits", _e(f"train {d.get('train_split')}; val {d.get('val_split')}")])
+    if vrows and scene:
+        views = vrows[-1].get("views", [])
+        items.append(["validation views", _e(f"{len(views)} of {scene.get('n_val')} (views {', '.join(map(str, views))}"
+                                             f", evenly spaced); nerfkit eval scores them all")])
     if rows:
         last = rows[-1]
-        items.append(["steps", _e(f"{last['step']} in {_minutes(last.get('elapsed'))}")])
+        items.append(["steps", _e(f"{last['step']} in {_minutes(last.get('elapsed'))} (the last step taken)")])
         items.append(["last train batch", _e(f"loss {last['loss']:.5f}, PSNR {last['psnr']:.2f} dB")])
     if vrows:
         best = max(vrows, key=lambda r: r["psnr"])
@@ -271,7 +274,10 @@ def _eval_html(run: Path, max_gallery: int = 6) -> str:
             evals.append((path, res))
     if not evals:
         return ""
-    rows = [[_e(r.get("split")), _e(r.get("step")), _e(f"{r.get('width')}x{r.get('height')}"), _e(r.get("n_views")),
+    def title_of(r):  # the field, or the baked scene (nerfkit eval --baked): two results of one split
+        return f"{r.get('split')} ({'baked scene' if r.get('baked') else 'field'})"
+
+    rows = [[_e(title_of(r)), _e(r.get("step")), _e(f"{r.get('width')}x{r.get('height')}"), _e(r.get("n_views")),
              _fmt(r.get("psnr")), _fmt(r.get("ssim"), 4), _fmt(r.get("seconds_per_view")), _link(p, run)]
             for p, r in evals]
     parts = [_table(["split", "step", "size", "views", "PSNR (dB)", "SSIM", "s / view", "file"], rows,
@@ -279,13 +285,21 @@ def _eval_html(run: Path, max_gallery: int = 6) -> str:
     for path, res in evals:
         rdir = run / path.stem
         views = res.get("per_view", [])
+        worst = res.get("worst") or []
+        if len(views) > 1 and worst:
+            parts.append(f"<p>{_e(title_of(res))}, worst views: " + ", ".join(
+                _e(f"{w['view']} ({Path(w['name']).name}) {w['psnr']:.2f} dB") + (" <b>outlier</b>" if w["outlier"]
+                                                                                  else "") for w in worst)
+                + (f" (an outlier is more than {res.get('outlier_db', 3):g} dB below the median view: look at that "
+                   f"photo)"
+                   if any(w["outlier"] for w in worst) else "") + "</p>")
         prow = []
         for v in views:
             k = v["view"]
             links = [_link(rdir / f"view_{k:03d}_{s}", run, s) for s in ("rgb.png", "depth.png", "depth.npy")
                      if (rdir / f"view_{k:03d}_{s}").is_file()]
             prow.append([_e(k), _e(v.get("name", "")), _fmt(v.get("psnr")), _fmt(v.get("ssim"), 4), " ".join(links)])
-        parts.append(f"<details><summary>{_e(res.get('split'))}: per-view scores ({len(views)} views)</summary>"
+        parts.append(f"<details><summary>{_e(title_of(res))}: per-view scores ({len(views)} views)</summary>"
                      + _table(["view", "name", "PSNR (dB)", "SSIM", "files"], prow, numeric={0, 2, 3}) + "</details>")
         figs = []
         for v in views[:max_gallery]:
@@ -297,7 +311,7 @@ def _eval_html(run: Path, max_gallery: int = 6) -> str:
                                      _e(f"view {k} {what}" + (f", PSNR {v['psnr']:.2f} dB" if s == "rgb" else ""))))
         if figs:
             shown = f"the first {min(len(views), max_gallery)} views" if len(views) > max_gallery else "all views"
-            parts.append(f"<h3>{_e(res.get('split'))}: renders and depth ({shown})</h3>"
+            parts.append(f"<h3>{_e(title_of(res))}: renders and depth ({shown})</h3>"
                          f'<div class="gallery">{"".join(figs)}</div>')
     return "".join(parts)
 

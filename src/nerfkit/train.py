@@ -37,12 +37,12 @@ from nerfkit.config import Config, validate
 from nerfkit.data.capture import SceneData
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.flags import refuse_unused
+from nerfkit.flags import describe_budget, describe_model, refuse_unused
 from nerfkit.inference import make_renderer
 from nerfkit.metrics import mse_to_psnr, psnr as psnr_np
 from nerfkit.model import build_model
 from nerfkit.resolve import default_splits, resolve_config
-from nerfkit.viz import background_rgb, colorize_renders, plot_curves, read_jsonl, save_png, side_by_side
+from nerfkit.viz import background_rgb, colorize_renders, comparison, plot_curves, read_jsonl, save_png
 
 
 def make_optimizer(cfg: Config):
@@ -161,6 +161,27 @@ def load_run_config(run_dir: Path) -> Config:
         raise ConfigError(f"{path}: {e}") from None
 
 
+SCENE_KEYS = ("data_dir", "format", "height", "width", "camera", "transform", "scale", "train_poses")
+
+
+def load_run_scene(run_dir: Path) -> dict:
+    """A run folder's scene.json (what the run was trained on: data folder, image size, camera, capture
+    transform, training poses); NerfkitError naming the file when it is missing, unreadable or incomplete."""
+    path = Path(run_dir) / "scene.json"
+    try:
+        scene = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise NerfkitError(f"{path}: missing; is {run_dir} a complete nerfkit run folder? (train it again, or "
+                           f"copy the file back)") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as e:
+        raise NerfkitError(f"{path}: unreadable ({type(e).__name__}); restore it from a copy or train again") from None
+    missing = [k for k in SCENE_KEYS if not isinstance(scene, dict) or k not in scene]
+    if missing:
+        raise NerfkitError(f"{path}: not a nerfkit scene record (missing {', '.join(missing)}); restore it from a "
+                           f"copy or train again")
+    return scene
+
+
 def init_state(model, optimizer, seed: int):
     params, aux = model.init(jax.random.PRNGKey(seed))
     return {"params": params, "opt_state": optimizer.init(params), "aux": aux}
@@ -186,6 +207,13 @@ def load_trained(run_dir: Path, checkpoint: Path | None = None):
 def evenly_spaced(n: int, k: int) -> list[int]:
     k = min(k, n)
     return sorted({int(round(x)) for x in np.linspace(0, n - 1, k)})
+
+
+def validation_views(ids: list[int], n: int, spec: str) -> str:
+    """Which views periodic validation renders, in words: "4 of 9 views of test (0, 3, 5, 8), evenly spaced"."""
+    shown = ", ".join(map(str, ids[:12])) + (", ..." if len(ids) > 12 else "")
+    return (f"all {n} views of {spec}" if len(ids) == n else
+            f"{len(ids)} of {n} views of {spec} ({shown}), evenly spaced")
 
 
 # What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
@@ -262,10 +290,18 @@ class Trainer:
             parallel.check_batch(cfg.train.batch_rays, self.mesh)
         else:
             parallel.check_batch(cfg.sampler.max_samples, self.mesh, "--max-samples")
+        say(f"model: {describe_model(cfg)}")
         say(parallel.describe(cfg.train.batch_rays, self.mesh, split, cfg.sampler.max_samples))
         self.optimizer, self.schedule = make_optimizer(cfg)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
+        whole = "" if len(self.val_ids) == len(self.val_data) else (
+            f"; nerfkit eval {shlex.quote(str(self.run_dir))} --split {shlex.quote(spec_val)} scores all "
+            f"{len(self.val_data)}")
+        say(f"validation: {validation_views(self.val_ids, len(self.val_data), spec_val)}{whole}")
+        default = "" if given.keys() & {"train.max_minutes", "train.max_steps"} or resume else \
+            f" (the {preset or 'preset'} default; --max-minutes M or --max-steps N changes it)"
+        say(f"budget: {describe_budget(cfg)}{default}")
         self.viewer = None  # a nerfkit.viewer.server.Viewer, served between steps (nerfkit train --viewer)
 
     # -- run folder -------------------------------------------------------------------
@@ -305,9 +341,9 @@ class Trainer:
         plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", "loss (MSE)",
                     "Training loss", logy=True)
         plot_curves({"train": (steps, [r["psnr"] for r in rows])}, plots / "train_psnr.png", "step", "PSNR (dB)",
-                    "Training PSNR")
+                    "Training PSNR", min_span=1.0)
         plot_curves({"val": ([r["step"] for r in vrows], [r["psnr"] for r in vrows])}, plots / "val_psnr.png", "step",
-                    "PSNR (dB)", "Validation PSNR")
+                    "PSNR (dB)", f"Validation PSNR ({len(vrows[-1]['views']) if vrows else 0} views)", min_span=1.0)
 
     def validate(self, state, step: int, elapsed: float) -> float:
         """Render the validation views, save them beside ground truth, log mean PSNR (process 0 only)."""
@@ -319,9 +355,11 @@ class Trainer:
             r = self.renderer.render_camera(state["params"], state["aux"], vd.poses[k], vd.cameras[k])
             scores.append(psnr_np(r["rgb"], vd.image(k)))
             renders.append(r)
-        depth_imgs, _ = colorize_renders(renders, background_rgb(self.cfg.data.background))
-        for k, r, depth_img in zip(self.val_ids, renders, depth_imgs):
-            save_png(out_dir / f"view_{k:03d}.png", side_by_side([vd.image(k), r["rgb"], depth_img]))
+        bg = background_rgb(self.cfg.data.background)
+        depth_imgs, (lo, hi) = colorize_renders(renders, bg)
+        for k, r, depth_img, score in zip(self.val_ids, renders, depth_imgs, scores):
+            save_png(out_dir / f"view_{k:03d}.png", comparison(vd.image(k), r["rgb"], depth_img, lo / vd.scale,
+                                                               hi / vd.scale, score, background=bg))
             np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
         mean = float(np.mean(scores))
         self._append("val_metrics.jsonl", {"step": step, "psnr": mean, "elapsed": round(elapsed, 2),
@@ -336,23 +374,48 @@ class Trainer:
         ckpt_lib.save_checkpoint(self.ckpt_dir, step, full, self.cfg.to_dict()["field"], self.cfg.train.keep_ckpts)
 
     # -- the loop ---------------------------------------------------------------------
+    def _restore(self, state):
+        """(step, elapsed, state) from the newest checkpoint when resuming (before anything in the run folder is
+        written: a bad checkpoint changes nothing), else (0, 0.0, state)."""
+        path = ckpt_lib.latest_checkpoint(self.ckpt_dir) if self.resume else None
+        if path is None:
+            return 0, 0.0, state, None
+        target = dict(state, elapsed=np.float64(0))
+        step, restored = ckpt_lib.restore_checkpoint(path, target, self.cfg.to_dict()["field"])
+        elapsed = float(restored.pop("elapsed"))
+        return step, elapsed, jax.tree_util.tree_map(jnp.asarray, restored), path
+
+    def _log(self, pending: list, elapsed: float) -> dict:
+        """Check the pending steps' metrics for non-finite ones (NerfkitError after max_bad_steps in a row) and
+        append the last one's row to metrics.jsonl; returns that row."""
+        t = self.cfg.train
+        for s, mm in pending:
+            if bool(mm["finite"]):
+                self._bad_streak = 0
+                continue
+            self._bad_streak += 1
+            tqdm.write(f"step {s}: non-finite loss or gradient ({float(mm['loss'])}); update skipped")
+            if self._bad_streak >= t.max_bad_steps:
+                raise NerfkitError(f"stopping: {self._bad_streak} non-finite steps in a row (last at step {s}); the "
+                                   f"last good checkpoint in {self.ckpt_dir} is intact. Try a lower --lr.")
+        s, mm = pending[-1]
+        row = {"step": s, "loss": float(mm["loss"]), "psnr": float(mse_to_psnr(float(mm["mse"]))),
+               "lr": float(self.schedule(s)), "elapsed": round(elapsed, 3)}
+        row.update({k: float(v) for k, v in mm.items() if k not in ("loss", "mse", "finite")})
+        self._append("metrics.jsonl", row)
+        pending.clear()
+        return row
+
     def run(self) -> TrainResult:
         cfg, t = self.cfg, self.cfg.train
+        step, elapsed0, state, path = self._restore(init_state(self.model, self.optimizer, t.seed))
         self._write_run_files()
-        state = init_state(self.model, self.optimizer, t.seed)
-        step, elapsed0 = 0, 0.0
-        if self.resume:
-            path = ckpt_lib.latest_checkpoint(self.ckpt_dir)
-            if path is not None:
-                target = dict(state, elapsed=np.float64(0))
-                step, restored = ckpt_lib.restore_checkpoint(path, target, cfg.to_dict()["field"])
-                elapsed0 = float(restored.pop("elapsed"))
-                state = jax.tree_util.tree_map(jnp.asarray, restored)
-                self._truncate_logs(step)
-                tqdm.write(f"resumed from {path} at step {step}")
-            else:
-                self._truncate_logs(0)  # rows of a run that died before its first checkpoint
-                tqdm.write(f"no checkpoint in {self.ckpt_dir}: starting from step 0")
+        if path is not None:
+            self._truncate_logs(step)
+            tqdm.write(f"resumed from {path} at step {step}")
+        elif self.resume:
+            self._truncate_logs(0)  # rows of a run that died before its first checkpoint
+            tqdm.write(f"no checkpoint in {self.ckpt_dir}: starting from step 0")
         images, poses, state = parallel.replicate(
             (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)
         step_fn = make_train_step(self.model, self.optimizer, self.train_data, cfg, self.mesh)
@@ -361,53 +424,40 @@ class Trainer:
 
         start = time.perf_counter()
         deadline = start + 60 * t.max_minutes if t.max_minutes else math.inf
-        bad_streak, last_val, last_val_step = 0, None, -1
+        self._bad_streak, last_val, last_val_step, rays = 0, None, -1, []
         val_gate = 0.0  # no periodic validation before this clock time (keeps validation <= val_max_fraction)
         pending = []  # device metrics not yet logged
-        first_step = step
-        bar = tqdm(total=t.max_steps, initial=step, disable=not self.progress, dynamic_ncols=True,
-                   desc="train", unit="step", file=sys.stderr, mininterval=1.0)
-        interrupted = False
+        first_step, compiled_at = step, None
+        bar = None  # made after the first step: its rate and ETA leave the compilation out
+        if step < t.max_steps and self.progress:
+            tqdm.write("compiling the training step (a one-off; the next run of this model starts faster)...")
+        interrupted, reason = False, f"--max-steps {t.max_steps} reached"
         with StopFlag() as stop:
             while step < t.max_steps:
                 if parallel.agree(time.perf_counter() >= deadline):
-                    tqdm.write(f"--max-minutes {t.max_minutes} reached at step {step}")
+                    reason = f"--max-minutes {t.max_minutes:g} reached"
                     break
                 state, m = step_fn(state, jnp.int32(step), images, poses)
                 jax.block_until_ready(m)  # keeps the bar's rate and ETA honest (steps are compute-bound)
                 step += 1
                 pending.append((step, m))
-                bar.update(1)
+                if bar is None:
+                    compiled_at = time.perf_counter()
+                    bar = tqdm(total=t.max_steps, initial=step, disable=not self.progress, dynamic_ncols=True,
+                               desc="train", unit="step", file=sys.stderr, mininterval=1.0)
+                else:
+                    bar.update(1)
                 if self.viewer is not None:  # renders only when its duty-cycle gate is open
                     self.viewer.set_params(state["params"], state["aux"], step)
                     self.viewer.render_pending()
                 if step % t.log_every == 0 or step == t.max_steps or stop.signal_name:
-                    elapsed = elapsed0 + time.perf_counter() - start
-                    for s, mm in pending:
-                        finite = bool(mm["finite"])
-                        if not finite:
-                            bad_streak += 1
-                            tqdm.write(f"step {s}: non-finite loss or gradient ({float(mm['loss'])}); update skipped")
-                            if bad_streak >= t.max_bad_steps:
-                                raise NerfkitError(
-                                    f"stopping: {bad_streak} non-finite steps in a row (last at step {s}); "
-                                    f"the last good checkpoint in {self.ckpt_dir} is intact. Try a lower --lr.")
-                        else:
-                            bad_streak = 0
-                    s, mm = pending[-1]
-                    loss, mse = float(mm["loss"]), float(mm["mse"])
-                    row = {"step": s, "loss": loss, "psnr": float(mse_to_psnr(mse)),
-                           "lr": float(self.schedule(s)), "elapsed": round(elapsed, 3)}
-                    for k, v in mm.items():
-                        if k not in ("loss", "mse", "finite"):
-                            row[k] = float(v)
-                    self._append("metrics.jsonl", row)
-                    pending.clear()
-                    if math.isfinite(deadline):  # time-bound run: the bar's end is where time runs out
-                        now = time.perf_counter()
-                        rate = (step - first_step) / max(now - start, 1e-9)
+                    row = self._log(pending, elapsed0 + time.perf_counter() - start)
+                    rays += [row["rays"]] if "rays" in row else []
+                    now = time.perf_counter()
+                    if math.isfinite(deadline) and step > first_step + 1:  # the bar ends where time runs out
+                        rate = (step - first_step - 1) / max(now - compiled_at, 1e-9)
                         bar.total = min(t.max_steps, step + int(rate * max(deadline - now, 0.0)))
-                    bar.set_postfix(loss=f"{loss:.4f}", psnr=f"{row['psnr']:.2f}",
+                    bar.set_postfix(loss=f"{row['loss']:.4f}", psnr=f"{row['psnr']:.2f}",
                                     val=f"{last_val:.2f}" if last_val is not None else "-")
                 if parallel.agree(bool(stop.signal_name)):
                     interrupted = True
@@ -421,8 +471,14 @@ class Trainer:
                     tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB ({took:.1f} s)")
                 if step % t.ckpt_every == 0:
                     self.save(state, step, elapsed0 + time.perf_counter() - start)
-            bar.close()
+            if bar is not None:
+                bar.close()
             elapsed = elapsed0 + time.perf_counter() - start
+            if pending:  # the last step is always in metrics.jsonl (summaries quote it)
+                row = self._log(pending, elapsed)
+                rays += [row["rays"]] if "rays" in row else []
+            if not interrupted:
+                tqdm.write(f"{reason} at step {step}")
             if not interrupted and last_val_step != step and step > 0 and self.primary:
                 last_val = self.validate(state, step, elapsed)
                 tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB")
@@ -431,6 +487,9 @@ class Trainer:
             self.plot()
         run_time = time.perf_counter() - start
         sps = (step - first_step) / run_time if run_time > 0 else 0.0
+        if rays:
+            tqdm.write(f"rays per step: {np.mean(rays):.0f} on average (the ngp batch takes as many of the "
+                       f"{t.batch_rays} drawn as fit {cfg.sampler.max_samples} samples)")
         if interrupted:
             tqdm.write(f"stopped at step {step}; checkpoint saved in {self.ckpt_dir}. Resume with:\n"
                        f"  nerfkit train {shlex.quote(str(self.data_dir))} --out {shlex.quote(str(self.run_dir))} --resume")

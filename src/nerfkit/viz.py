@@ -69,6 +69,61 @@ def side_by_side(images: list[np.ndarray], gap: int = 4) -> np.ndarray:
     return np.concatenate(parts, axis=1)
 
 
+LABEL_PX = 13  # height of the label strip above each image of a labelled row
+MIN_PANEL_PX = 112  # narrower images are enlarged (nearest neighbour) in comparison pictures, so labels fit
+
+
+def _text_image(width: int, height: int, lines: list[tuple[int, str]], background=255) -> np.ndarray:
+    """A [height, width, 3] float image with text drawn at the given rows (Pillow's built-in font)."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    im = Image.new("RGB", (max(width, 1), max(height, 1)), (background,) * 3)
+    draw = ImageDraw.Draw(im)
+    font = ImageFont.load_default()
+    ink = 0 if background > 127 else 255
+    for y, text in lines:
+        draw.text((2, y), text, fill=(ink,) * 3, font=font)
+    return np.asarray(im, np.float32) / 255.0
+
+
+def depth_bar(height: int, lo: float, hi: float, units: str = "", background=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """A depth scale for colorize_depth's map: a vertical turbo bar (near at the top, red; far at the bottom,
+    blue) with the near and far values beside it. [height, 56, 3] in [0, 1]."""
+    bar_w, text_w = 8, 48
+    x = np.linspace(0.0, 1.0, height)[:, None]
+    bar = np.repeat(matplotlib.colormaps["turbo"](1.0 - x)[..., :3], bar_w, axis=1).astype(np.float32)
+    bg = int(round(255 * float(np.mean(background))))
+    text = _text_image(text_w, height, [(0, f"{lo:.3g}"), (max(height - 11, 11), f"{hi:.3g}")] +
+                       ([(max(height // 2 - 5, 11), units)] if units and height >= 40 else []), bg)
+    return np.concatenate([bar, text], axis=1)
+
+
+def labelled_row(images: list[np.ndarray], labels: list[str], gap: int = 4, background=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """Images [H, W_k, 3] side by side (side_by_side), each under a strip with its label."""
+    row = side_by_side(images, gap)
+    bg = int(round(255 * float(np.mean(background))))
+    strip = _text_image(row.shape[1], LABEL_PX, [], bg)
+    x = 0
+    for im, label in zip(images, labels):
+        w = im.shape[1]
+        strip[:, x:x + w] = _text_image(w, LABEL_PX, [(0, label)], bg)
+        x += w + gap
+    return np.concatenate([strip, row], axis=0)
+
+
+def comparison(gt: np.ndarray, render: np.ndarray, depth_img: np.ndarray, lo: float, hi: float,
+               psnr: float | None = None, units: str = "depth", background=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """ground truth | render (with its PSNR) | depth and its scale bar, labelled: the picture of one view that
+    validation and evaluation write."""
+    k = -(-MIN_PANEL_PX // gt.shape[1]) if gt.shape[1] < MIN_PANEL_PX else 1  # small images: enlarged, pixels kept
+    gt, render, depth_img = (np.repeat(np.repeat(np.asarray(x, np.float32), k, 0), k, 1)
+                             for x in (gt, render, depth_img))
+    bar = depth_bar(depth_img.shape[0], lo, hi, units, background)
+    title = "render" if psnr is None else f"render {psnr:.2f} dB"
+    return labelled_row([gt, render, np.concatenate([depth_img, bar], axis=1)], ["ground truth", title, "depth"],
+                        background=background)
+
+
 def write_video(path: Path, frames: list[np.ndarray], fps: int = 24) -> None:
     """H.264 MP4 (yuv420p, plays in browsers) of float or uint8 [H, W, 3] frames."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -104,14 +159,26 @@ def read_jsonl(path: Path) -> list[dict]:
 
 
 def plot_curves(series: dict[str, tuple[list, list]], path: Path, xlabel: str, ylabel: str, title: str,
-                logy: bool = False) -> None:
-    """One line per named (x, y) series, written atomically as PNG."""
+                logy: bool = False, min_span: float | None = None) -> None:
+    """One line per named (x, y) series, written atomically as PNG. Series of few points get markers (and
+    their values, when there are at most 5); min_span: the y axis spans at least this much (a PSNR curve that
+    moved 0.06 dB is drawn on a 1 dB axis, not as a cliff)."""
     import matplotlib.pyplot as plt  # here, not at the top: pyplot costs 0.2 s of every command's start-up
 
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    ys = []
     for name, (x, y) in series.items():
         if len(x):
-            ax.plot(x, y, label=name, marker="o" if len(x) < 30 else None, markersize=3)
+            ax.plot(x, y, label=name, marker="o" if len(x) < 30 else None, markersize=3 if len(x) > 5 else 5)
+            ys += list(y)
+            if len(x) <= 5 and not logy:
+                for xi, yi in zip(x, y):
+                    ax.annotate(f"{yi:.2f}", (xi, yi), textcoords="offset points", xytext=(0, 6), ha="center",
+                                fontsize=8)
+    finite = [v for v in ys if np.isfinite(v)]
+    if min_span and finite and not logy and max(finite) - min(finite) < min_span:
+        mid = 0.5 * (max(finite) + min(finite))
+        ax.set_ylim(mid - 0.5 * min_span, mid + 0.5 * min_span)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)

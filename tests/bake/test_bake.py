@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 
 import jax.numpy as jnp
 import numpy as np
@@ -74,6 +75,22 @@ def baked(procedural_run, tmp_path_factory):
     out = tmp_path_factory.mktemp("baked") / "scene"
     info = bake_run(run, out, resolution=128, progress=False)
     return run, out, info
+
+
+def test_a_baked_scene_is_replaced_only_with_overwrite(baked, capsys):
+    run, out, _ = baked
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    capsys.readouterr()
+    assert main(["bake", str(run), "--out", str(out), "--resolution", "64", "--finetune-minutes", "0"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--overwrite" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    copy = out.parent / "copy"
+    shutil.copytree(out, copy)
+    assert main(["bake", str(run), "--out", str(copy), "--resolution", "64", "--finetune-minutes", "0",
+                 "--overwrite", "--no-progress"]) == 0
+    meta = load_baked(copy).meta
+    assert meta["resolution"] == 64 and "finetune" not in meta  # --finetune-minutes 0: not fine-tuned
 
 
 def test_baked_scene_renders_like_the_field(baked):

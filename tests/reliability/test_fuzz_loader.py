@@ -21,7 +21,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nerfkit.data.blender import load_blender, read_split_poses
+from reference import load_blender, read_split_poses
 from nerfkit.data.scene import make_scene
 from nerfkit.errors import DataError
 

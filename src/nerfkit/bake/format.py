@@ -87,20 +87,22 @@ def quantise(coeff: np.ndarray) -> tuple[np.ndarray, list]:
     return q, np.stack([lo, hi], 1).astype(float).tolist()
 
 
-def check_out(out: Path) -> None:
-    """`out` must be a new or empty folder, or hold a baked scene (which a new bake replaces)."""
+def check_out(out: Path, overwrite: bool = False) -> None:
+    """`out` must be a new or empty folder, or (with `overwrite`) hold a baked scene, which is replaced."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out}: is a file; give a folder for the baked scene")
-    if out.is_dir() and any(out.iterdir()) and not (out / "baked.json").exists():
-        raise ConfigError(f"--out {out}: folder is not empty and holds no baked scene; pick a new or empty folder")
+    if out.is_dir() and any(out.iterdir()):
+        if not (out / "baked.json").exists():
+            raise ConfigError(f"--out {out}: folder is not empty and holds no baked scene; pick a new or empty folder")
+        if not overwrite:
+            raise ConfigError(f"--out {out}: holds a baked scene; pass --overwrite to replace it, or pick a new folder")
 
 
 def save_baked(out: Path, baked: Baked) -> None:
     """Write the arrays, then baked.json last (a folder without it is not a baked scene, so an
     interrupted write is never mistaken for a complete one)."""
     out = Path(out)
-    check_out(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "baked.json").unlink(missing_ok=True)
     for name in ("index", "density", "sh"):

@@ -97,6 +97,12 @@ def _image_path(root: Path, file_path: str, where: str) -> Path:
     return p
 
 
+def every_split(root: str | Path) -> str:
+    """A spec naming every split a Blender scene has ("test,train,val"), from its transforms_{split}.json."""
+    names = sorted(p.name[len("transforms_"):-len(".json")] for p in Path(root).glob("transforms_*.json"))
+    return ",".join(names) or "train"
+
+
 def read_blender(root: str | Path, spec: str) -> Capture:
     """The frames of the splits named in `spec`, as a Capture (only those JSON files are read)."""
     root = Path(root)
@@ -107,16 +113,8 @@ def read_blender(root: str | Path, spec: str) -> Capture:
         cam = Camera.pinhole(w, h, 0.5 * w / math.tan(0.5 * fov))
         splits.setdefault(split, []).append(Frame(path, pose, cam, None, where))
         source[split] = str(root / f"transforms_{split}.json")
-    return Capture(root, "blender", splits, normalize=False, alpha=True, source=source)
+    return Capture(root, "blender", splits, normalize=False, alpha=True, own_splits=True, source=source)
 
-
-def load_blender(root: str | Path, spec: str, *, downscale: int | None = None, target_width: int | None = None,
-                 background: str = "white"):
-    """Load the frames named by `spec` (e.g. "train,val[0:50]") from a Blender-format folder."""
-    from nerfkit.data.loader import load_scene
-
-    return load_scene(root, spec, format="blender", downscale=downscale, target_width=target_width,
-                      background=background)
 
 
 def iter_frames(root: Path, spec: str):
@@ -137,13 +135,3 @@ def iter_frames(root: Path, spec: str):
         for k in select(str(jpath), item, len(frames)):
             where = f"{jpath} frame {k}"
             yield where, frames[k], check_pose(frames[k]["transform_matrix"], where), fov, item.split
-
-
-def read_split_poses(root: str | Path, spec: str) -> tuple[np.ndarray, float]:
-    """Poses [N, 4, 4] and camera_angle_x of a split spec, without reading images."""
-    poses, fov = [], None
-    for _, _, pose, fov, _ in iter_frames(root, spec):
-        poses.append(pose)
-    if not poses:
-        raise DataError(f"{root}: split spec {spec!r} selects no frames")
-    return np.stack(poses), fov

@@ -102,6 +102,9 @@ class Capture:
     """"bounded" when the files say the scene fits a box (instant-ngp's aabb_scale 1)."""
     levels: dict[str, int] = field(default_factory=dict)
     """Splits holding L > 1 levels of the same views, level-major (multiscale.py): a slice selects views."""
+    own_splits: bool = False
+    """The splits come from the files (Blender's transforms_{split}.json, nerfstudio's *_filenames), not
+    from holding out every N-th frame."""
     masks_dropped: bool = False
     """The capture has object masks that --no-masks told the reader to ignore."""
 

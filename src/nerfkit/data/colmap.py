@@ -37,12 +37,30 @@ def c2w_from_cam_from_world(matrix_3x4: np.ndarray) -> np.ndarray:
     return np.linalg.inv(w2c) @ OPENCV_TO_OPENGL
 
 
+MIN_RECORD_BYTES = 8  # every record of a binary model file (camera, image, point, ...) is at least this long
+
+
+def check_binary_counts(model: Path) -> None:
+    """DataError for a binary model file whose leading record count (uint64) cannot fit in the file: pycolmap
+    would try to allocate that many records (a garbage count means minutes of swapping, then bad_alloc)."""
+    for path in sorted(model.glob("*.bin")):
+        size = path.stat().st_size
+        if size < 8:
+            raise DataError(f"{path}: truncated COLMAP model file ({size} bytes); re-export the model")
+        with open(path, "rb") as f:
+            count = int(np.frombuffer(f.read(8), "<u8")[0])
+        if count > (size - 8) // MIN_RECORD_BYTES:
+            raise DataError(f"{path}: not a COLMAP model file (it claims {count} records in {size} bytes); "
+                            f"re-export the model")
+
+
 def read_colmap(root: Path, holdout_every: int = 8, masks: bool = True) -> Capture:
     from nerfkit._colmap import pycolmap
 
     model = find_model(root)
     if model is None:
         raise DataError(f"{root}: no COLMAP model (sparse/0/cameras.bin or .txt)")
+    check_binary_counts(model)
     try:
         rec = pycolmap.Reconstruction(str(model))
     except Exception as e:  # noqa: BLE001 - pycolmap raises plain exceptions on bad files

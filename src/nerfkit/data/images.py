@@ -12,6 +12,7 @@ Every problem is a `DataError` naming the file and the fix.
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -48,6 +49,18 @@ def image_size(path: Path) -> tuple[int, int]:
                         f"re-export it as PNG") from None
 
 
+def check_one_size(sizes: list[tuple[Path, tuple[int, int]]], what: str = "images", fix: str = "resize or remove it"
+                   ) -> None:
+    """DataError naming the first file whose (width, height) differs from most files' (all must share one)."""
+    counts = Counter(size for _, size in sizes)
+    if len(counts) < 2:
+        return
+    (w, h), n = counts.most_common(1)[0]
+    path, (ow, oh) = next((p, s) for p, s in sizes if s != (w, h))
+    raise DataError(f"{path}: {what[:-1]} is {ow}x{oh} but {n} of the {len(sizes)} {what} are {w}x{h}; all {what} "
+                    f"must have one size ({fix})")
+
+
 def read_rgba(path: Path, expect_size: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """RGB [H, W, 3] and alpha [H, W] float64 in [0, 1] of an image file.
 
@@ -60,8 +73,9 @@ def read_rgba(path: Path, expect_size: tuple[int, int] | None = None) -> tuple[n
     try:
         with Image.open(path) as im:
             if expect_size is not None and im.size != tuple(expect_size):
-                raise DataError(f"{path}: image is {im.size[0]}x{im.size[1]} but earlier frames are "
-                                f"{expect_size[0]}x{expect_size[1]}; all images must have one size")
+                raise DataError(f"{path}: image is {im.size[0]}x{im.size[1]} but its camera is "
+                                f"{expect_size[0]}x{expect_size[1]} (the file changed since the capture was read?); "
+                                f"all images must have one size")
             mode = im.mode
             if mode not in _COLOR_MODES + _GRAY16_MODES:
                 raise DataError(f"{path}: unsupported image mode {mode!r}; "
@@ -98,11 +112,6 @@ def read_masked(path: Path, mask: Path | None, size: tuple[int, int]) -> tuple[n
         a = a * load_mask(mask, size, path)
     return rgb, a
 
-
-def load_image(path: Path, background: np.ndarray, expect_size: tuple[int, int] | None = None) -> np.ndarray:
-    """An image as float32 RGB in [0, 1], its alpha composited on `background` (see read_rgba)."""
-    rgb, a = read_rgba(path, expect_size)
-    return composite(rgb, a, background)
 
 
 def composite(rgb: np.ndarray, alpha: np.ndarray, background) -> np.ndarray:

@@ -24,7 +24,7 @@ from tqdm.auto import tqdm
 
 from nerfkit.data import blender, colmap, llff, multiscale, nerfstudio
 from nerfkit.data.capture import Capture, SceneData
-from nerfkit.data.images import area_downscale, composite, read_masked, resolve_downscale
+from nerfkit.data.images import area_downscale, check_one_size, composite, read_masked, resolve_downscale
 from nerfkit.data.normalize import apply_transform, normalizing_transform
 from nerfkit.errors import DataError
 
@@ -94,11 +94,8 @@ def scene_cameras(cap: Capture, spec: str, downscale: int | None = None, target_
     """Poses (normalised) and cameras (at the loaded size) of the frames `spec` selects, without reading pixels."""
     frames = cap.frames(spec)
     first = frames[0].camera
-    mixed = bool(cap.levels)  # multiscale data: every level keeps its own size (data/multiscale.py)
-    for f in frames[1:]:
-        if not mixed and (f.camera.width, f.camera.height) != (first.width, first.height):
-            raise DataError(f"{f.image}: image is {f.camera.width}x{f.camera.height} but earlier frames are "
-                            f"{first.width}x{first.height}; all images must have one size")
+    if not cap.levels:  # multiscale data: every level keeps its own size (data/multiscale.py)
+        check_one_size([(f.image, (f.camera.width, f.camera.height)) for f in frames])
     exact = cap.format == "blender"
     factor = resolve_downscale(first.width, first.height, downscale, target_width, str(frames[0].image), exact=exact,
                                max_side=None if exact else MAX_SIDE)

@@ -79,7 +79,8 @@ def read_multiscale(root: str | Path) -> Capture:
             splits[f"{split}_d{lvl}"] = frames
         for name in [split] + [f"{split}_d{lvl}" for lvl in by_level]:
             source[name] = str(path)
-    return Capture(root, "blender", splits, normalize=False, alpha=True, source=source, levels=levels)
+    return Capture(root, "blender", splits, normalize=False, alpha=True, own_splits=True, source=source,
+                   levels=levels)
 
 
 def level_specs(cap: Capture, spec: str) -> list[tuple[int, str]] | None:

@@ -11,7 +11,8 @@ fl_x = w / (2 tan(camera_angle_x / 2)); fl_y defaults to fl_x, cx, cy to the ima
 camera_model: PINHOLE, SIMPLE_PINHOLE, OPENCV (k1, k2, p1, p2, and k3), OPENCV_FISHEYE
 (k1..k4). `transform_matrix` is camera-to-world in the OpenGL convention, as in the
 Blender scenes. `aabb_scale` (instant-ngp) is kept as a hint: 1 means the scene fits the
-unit box (bounded).
+unit box (bounded). Splits: "train_filenames", "val_filenames", "test_filenames" (nerfstudio's, image
+paths as in file_path) where the file has them, else every N-th frame held out (--holdout-every).
 """
 
 from __future__ import annotations
@@ -126,8 +127,34 @@ def read_nerfstudio(root: Path, holdout_every: int = 8, masks: bool = True) -> C
         cam = frame_camera(meta, fr, image_size(img), where)
         mask = resolve_path(root, fr["mask_path"], where, "mask_path") if masks and "mask_path" in fr else None
         frames.append(Frame(img, check_pose(fr["transform_matrix"], where).astype(float), cam, mask, where))
-    return Capture(root, "nerfstudio", holdout_splits(frames, holdout_every), source={"all": str(path)},
-                   hint="bounded" if meta.get("aabb_scale") == 1 else None)
+    named = named_splits(root, meta, frames, path)
+    return Capture(root, "nerfstudio", named or holdout_splits(frames, holdout_every), source={"all": str(path)},
+                   hint="bounded" if meta.get("aabb_scale") == 1 else None, own_splits=named is not None)
+
+
+SPLIT_KEYS = ("train", "val", "test")
+
+
+def named_splits(root: Path, meta: dict, frames: list[Frame], path: Path) -> dict[str, list[Frame]] | None:
+    """The splits that transforms.json names itself (nerfstudio's "train_filenames", "val_filenames",
+    "test_filenames": image paths as in file_path), with "all" = every frame; None when it names none."""
+    if not any(f"{k}_filenames" in meta for k in SPLIT_KEYS):
+        return None
+    by_path = {f.image.resolve(): f for f in frames}
+    splits = {}
+    for k in SPLIT_KEYS:
+        names = meta.get(f"{k}_filenames", [])
+        if not isinstance(names, list):
+            raise DataError(f"{path}: '{k}_filenames' must be a list of image paths")
+        chosen = []
+        for name in names:
+            f = by_path.get(resolve_path(root, name, f"{path} {k}_filenames", f"{k}_filenames").resolve())
+            if f is None:
+                raise DataError(f"{path}: {k}_filenames lists {name!r}, which is no frame's file_path; fix the list")
+            chosen.append(f)
+        if chosen:
+            splits[k] = chosen
+    return {**splits, "all": frames}
 
 
 def camera_to_json(cam: Camera) -> dict:

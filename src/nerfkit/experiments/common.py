@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nerfkit.config import set_budget
 from nerfkit.viz import plot_curves, read_jsonl
 
 
@@ -35,10 +36,7 @@ def check_budget(budget_minutes: float | None, max_steps: int | None) -> None:
 def apply_settings(cfg, budget_minutes: float | None, max_steps: int | None, seed: int | None,
                    val_every: int | None, train_split: str | None, val_split: str | None):
     """cfg with the experiment's shared settings: budget, seed, validation period and splits (None: keep)."""
-    if budget_minutes is not None:
-        cfg.train.max_minutes = float(budget_minutes)
-    if max_steps is not None:
-        cfg.train.max_steps = int(max_steps)
+    set_budget(cfg, budget_minutes, max_steps)
     if seed is not None:
         cfg.train.seed = int(seed)
     if val_every is not None:

@@ -27,6 +27,7 @@ from typing import Callable
 from imageio.v3 import imread
 
 from nerfkit import checkpoint as ckpt_lib
+from nerfkit.config import PRESETS
 from nerfkit.config import preset as make_preset
 from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.experiments.common import (
@@ -111,8 +112,9 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
         raise NerfkitError(f"{out}: already holds model runs ({', '.join(taken)}); pick a new --out")
 
     if make_preset(preset).field.kind != "mlp":
+        mlp = [p for p in PRESETS if make_preset(p).field.kind == "mlp"]
         raise ConfigError(f"pe-ablation compares positional encodings of the MLP field; preset {preset!r} uses the "
-                          f"{make_preset(preset).field.kind!r} field. Pick an MLP preset (seed, nerf, demo, tiny).")
+                          f"{make_preset(preset).field.kind!r} field. Pick an MLP preset ({', '.join(mlp)}).")
     cfgs = []
     for v in PE_ABLATION:
         cfg = make_preset(preset)
@@ -166,7 +168,7 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     bg = (1.0, 1.0, 1.0) if d.background == "white" else (0.0, 0.0, 0.0)
     ids = [v["view"] for v in ev0["per_view"]]
     grids = []
-    for j in evenly_spaced(len(ids), max(grid_views, 2)):
+    for j in evenly_spaced(len(ids), grid_views):
         k = ids[j]
         renders, depths, titles = [], [], []
         for m in models:

@@ -1,7 +1,8 @@
 """A run's cameras as nerfstudio's transforms.json: OpenGL camera-to-world matrices in the capture's
-own coordinates, the lens of each photo at its size on disk (data/nerfstudio.camera_to_json), and
-`file_path` / `mask_path` relative to the written file's folder when the photos lie inside it
-(write it into the capture folder to get a capture nerfstudio opens), else absolute."""
+own coordinates, the lens of each photo at its size on disk (data/nerfstudio.camera_to_json),
+`file_path` / `mask_path` relative to the written file's folder when the photos lie inside it, else
+absolute, and every frame's split in the run as nerfstudio's train_filenames / val_filenames /
+test_filenames (nerfkit's nerfstudio reader and nerfstudio's both keep those splits)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nerfkit.data.blender import every_split
 from nerfkit.data.loader import read_capture
 from nerfkit.data.nerfstudio import write_nerfstudio
 from nerfkit.errors import ConfigError
@@ -23,10 +25,25 @@ def relative_path(path: Path, start: Path) -> str:
     return path.relative_to(start).as_posix() if path.is_relative_to(start) else path.as_posix()
 
 
+def frame_splits(cap, train_spec: str, val_spec: str) -> list[tuple[object, str]]:
+    """Every frame of the capture once, with its split in the run: "train" (trained on), "val" (validated
+    on), else the capture's own split name ("test" for the held-out frames)."""
+    role = {id(f): "train" for f in cap.frames(train_spec)}
+    role.update({id(f): "val" for f in cap.frames(val_spec) if id(f) not in role})
+    out, seen = [], set()
+    for name, frames in cap.splits.items():
+        for f in frames:
+            if id(f) not in seen:
+                seen.add(id(f))
+                out.append((f, role.get(id(f), "test" if name == "all" else name)))
+    return out
+
+
 def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = None, data: Path | None = None,
-                   log=print) -> dict:
-    """`nerfkit export cameras`: the frames of `split` (default: the run's training split) as
-    transforms.json at `out` (default RUN/exports/cameras.json), with a picture in RUN/exports/."""
+                   log=print, overwrite: bool = False) -> dict:
+    """`nerfkit export cameras`: every frame of the capture (or only those of `split`) as transforms.json at
+    `out` (default RUN/exports/cameras.json), each listed in nerfstudio's train_filenames / val_filenames /
+    test_filenames by its split in the run (frame_splits), with a picture in RUN/exports/."""
     from nerfkit.evaluate import run_data_dir
     from nerfkit.process.plot import plot_cameras
     from nerfkit.train import load_run_config
@@ -34,23 +51,34 @@ def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = N
     run_dir = Path(run_dir)
     if not (run_dir / "config.json").is_file():
         raise ConfigError(f"{run_dir}: not a run folder (no config.json); pass a folder written by nerfkit train")
-    out = check_out(Path(out) if out is not None else run_dir / "exports" / "cameras.json", (".json",))
+    out = check_out(Path(out) if out is not None else run_dir / "exports" / "cameras.json", (".json",), overwrite)
     t0 = time.perf_counter()
     cfg = load_run_config(run_dir)
     d = cfg.data
-    split = split or d.train_split
-    cap = read_capture(run_data_dir(run_dir, data), split, d.format, d.masks, d.holdout_every)
-    frames = cap.frames(split)
+    root = run_data_dir(run_dir, data)
+    spec = f"{d.train_split},{d.val_split},{every_split(root)}" + (f",{split}" if split else "")
+    cap = read_capture(root, spec, d.format, d.masks, d.holdout_every)
+    tagged = frame_splits(cap, d.train_split, d.val_split)
+    if split is not None:
+        chosen = {id(f) for f in cap.frames(split)}
+        tagged = [(f, s) for f, s in tagged if id(f) in chosen]
+    frames = [f for f, _ in tagged]
     rows = [{"file_path": relative_path(f.image, out.parent), "transform_matrix": f.c2w,
              "mask_path": relative_path(f.mask, out.parent) if f.mask is not None else None} for f in frames]
-    write_atomic(out, lambda tmp: write_nerfstudio(tmp, rows, [f.camera for f in frames],
-                                                   extra={"nerfkit": {"run": str(run_dir.resolve()), "split": split}}))
+    lists = {f"{s}_filenames": [r["file_path"] for r, (_, t) in zip(rows, tagged) if t == s]
+             for s in ("train", "val", "test")}
+    counts = {s: len(v) for s, v in ((k[:-10], v) for k, v in lists.items()) if v}
+    extra = {**{k: v for k, v in lists.items() if v},
+             "nerfkit": {"run": str(run_dir.resolve()), "train_split": d.train_split, "val_split": d.val_split}}
+    write_atomic(out, lambda tmp: write_nerfstudio(tmp, rows, [f.camera for f in frames], extra=extra))
     c2ws = np.stack([f.c2w for f in frames]).astype(np.float64)
+    what = split or ", ".join(f"{n} {s}" for s, n in counts.items())
     picture = plot_cameras(exports_dir(run_dir) / "cameras.png", c2ws, [f.camera for f in frames],
-                           title=f"{out.name}: {len(frames)} cameras of {split}")
-    log(f"cameras: {len(frames)} frames of {split} ({cap.format} capture) in nerfstudio's transforms.json layout")
-    record = {"kind": "cameras", "file": str(out.resolve()), "split": split, "frames": len(frames),
-              "format": "nerfstudio transforms.json", "seconds": round(time.perf_counter() - t0, 2),
-              "picture": picture.name, "coordinates": "the capture's own (OpenGL camera-to-world)"}
+                           title=f"{out.name}: {len(frames)} cameras ({what})")
+    log(f"cameras: {len(frames)} frames ({what}; {cap.format} capture) in nerfstudio's transforms.json layout")
+    record = {"kind": "cameras", "file": str(out.resolve()), "split": split or "all", "splits": counts,
+              "frames": len(frames), "format": "nerfstudio transforms.json",
+              "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
+              "coordinates": "the capture's own (OpenGL camera-to-world)"}
     write_record(run_dir, "cameras", record)
     return record

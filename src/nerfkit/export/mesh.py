@@ -250,7 +250,8 @@ def carve_mesh(run: TrainedRun, verts: np.ndarray, faces: np.ndarray, h: float, 
 
 def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, threshold: float | None = None,
                 max_faces: int | None = None, visible_only: bool = True, snap: bool = True, every: int | None = None,
-                data: Path | None = None, progress: bool = True, log=print, carve: bool = True) -> dict:
+                data: Path | None = None, progress: bool = True, log=print, carve: bool = True,
+                overwrite: bool = False) -> dict:
     """`nerfkit export mesh`: write the run's mesh to `out` (default RUN/exports/mesh.ply) in the
     capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
     visible_only: keep only faces that some training view (every `every`-th) sees; snap: move the
@@ -262,7 +263,8 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
         raise ConfigError(f"--threshold must be a positive density (got {threshold})")
     if max_faces is not None and max_faces < 4:
         raise ConfigError(f"--max-faces must be at least 4 (got {max_faces})")
-    out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "mesh.ply", MESH_SUFFIXES)
+    out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "mesh.ply", MESH_SUFFIXES,
+                    overwrite)
     t0 = time.perf_counter()
     run = load_run(run_dir)
     bound = run.bound

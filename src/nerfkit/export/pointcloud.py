@@ -49,10 +49,11 @@ def write_pointcloud(out: Path, points: np.ndarray, colors_u8: np.ndarray) -> No
 
 def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None = None, every: int | None = None,
                       min_opacity: float = 0.9, voxel_size: float | None = None, data: Path | None = None,
-                      chunk: int | None = None, progress: bool = True, log=print) -> dict:
+                      chunk: int | None = None, progress: bool = True, log=print,
+                      overwrite: bool = False) -> dict:
     """`nerfkit export pointcloud`: fuse the depth of every `every`-th view of `split` (default:
     the run's training split) into RUN/exports/pointcloud.ply (or `out`), in the capture's units."""
-    from nerfkit.evaluate import check_chunk
+    from nerfkit.inference import check_chunk
 
     if every is not None and every < 1:
         raise ConfigError(f"--every must be >= 1 (got {every})")
@@ -61,7 +62,7 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
     if voxel_size is not None and voxel_size < 0:
         raise ConfigError(f"--voxel-size must be >= 0 (0: no downsampling; got {voxel_size})")
     check_chunk(chunk)
-    out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "pointcloud.ply", (".ply",))
+    out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "pointcloud.ply", (".ply",), overwrite)
     t0 = time.perf_counter()
     run = load_run(run_dir)
     scale = float(np.cbrt(np.linalg.det(run.transform[:3, :3])))  # capture -> normalised lengths

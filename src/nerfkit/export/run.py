@@ -12,8 +12,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.train import load_trained
+from nerfkit.errors import ConfigError
+from nerfkit.outputs import check_new_file
+from nerfkit.train import load_run_scene, load_trained
 
 KINDS = ("mesh", "pointcloud", "cameras")
 
@@ -47,10 +48,7 @@ def load_run(run_dir: Path) -> TrainedRun:
     cfg, model, params, aux, step = load_trained(run_dir)
     # Device arrays: export functions close over them in jit (numpy arrays cannot be indexed by tracers).
     params, aux = jax.tree_util.tree_map(jnp.asarray, (params, aux))
-    try:
-        scene = json.loads((run_dir / "scene.json").read_text())
-    except (OSError, ValueError):
-        raise NerfkitError(f"{run_dir / 'scene.json'}: missing or unreadable; the run folder is incomplete") from None
+    scene = load_run_scene(run_dir)
     return TrainedRun(run_dir, cfg, model, params, aux, step, scene)
 
 
@@ -60,25 +58,23 @@ def to_capture(points: np.ndarray, transform: np.ndarray) -> np.ndarray:
     return (np.asarray(points, np.float64) @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32)
 
 
-def check_out(out: Path, suffixes: tuple[str, ...], flag: str = "--out") -> Path:
-    """The output path, checked before any work: a known extension and a writable folder."""
+def check_out(out: Path, suffixes: tuple[str, ...], overwrite: bool = False, flag: str = "--out") -> Path:
+    """The output path, checked before any work: a known extension, nothing replaced unless `overwrite`,
+    a folder that exists or can be made (made only when the file is written: write_atomic)."""
     out = Path(out)
     if out.suffix.lower() not in suffixes:
         raise ConfigError(f"{flag} {out}: unsupported extension {out.suffix or '(none)'!r}; use "
                           + ", ".join(suffixes))
     if out.is_dir():
         raise ConfigError(f"{flag} {out}: is a folder; name a file such as {out / ('export' + suffixes[0])}")
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise ConfigError(f"{flag} {out}: cannot create its folder ({e.strerror})") from None
-    return out
+    return check_new_file(out, overwrite, flag)
 
 
 def write_atomic(out: Path, write) -> None:
     """Call write(tmp_path) on a temporary file beside `out` (same extension), then rename it over
     `out`, so an interrupted export never leaves a truncated file."""
     tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
+    out.parent.mkdir(parents=True, exist_ok=True)
     try:
         write(tmp)
         os.replace(tmp, out)

@@ -31,7 +31,7 @@ from tqdm.auto import tqdm
 
 from nerfkit.cameras import _from_pycolmap
 from nerfkit.data.colmap import c2w_from_cam_from_world
-from nerfkit.data.images import load_mask, one_line
+from nerfkit.data.images import check_one_size, image_size, load_mask, one_line
 from nerfkit.data.llff import find_mask, list_images
 from nerfkit.data.nerfstudio import write_nerfstudio
 from nerfkit.errors import DataError
@@ -83,18 +83,32 @@ def _copy_photos(photos: list[Path], tmp: Path, progress: bool) -> tuple[int, in
     return size
 
 
-def _copy_masks(photos: list[Path], masks: Path, tmp: Path, size) -> Path:
-    """DATA/masks/NAME.png (white = object) and COLMAP feature masks (DATA/colmap/masks/NAME.EXT.png, 0 = ignore)."""
+def find_masks(photos: list[Path], masks: Path) -> list[Path]:
+    """The mask of each photo (data/images.find_mask), checked from the files' headers before any work:
+    DataError naming the first photo without a mask, or whose mask has another size."""
     if not masks.is_dir():
         raise DataError(f"{masks}: no such folder (--masks)")
-    (tmp / "masks").mkdir()
-    colmap_masks = tmp / "colmap" / "masks"
-    colmap_masks.mkdir(parents=True)
+    found = []
     for p in photos:
         m = find_mask(masks, p)
         if m is None:
             raise DataError(f"{masks}: no mask for {p.name} (looked for {p.stem}.*, {p.stem}_mask.*, {p.name}.png); "
                             f"masks are named like their photos, white = object")
+        (w, h), (mw, mh) = image_size(p), image_size(m)
+        if (w, h) != (mw, mh):
+            raise DataError(f"{m}: mask is {mw}x{mh} but its image {p.name} is {w}x{h}; masks must have their "
+                            f"image's size")
+        found.append(m)
+    return found
+
+
+def _copy_masks(photos: list[Path], masks: Path, tmp: Path, size) -> Path:
+    """DATA/masks/NAME.png (white = object) and COLMAP feature masks (DATA/colmap/masks/NAME.EXT.png, 0 = ignore)."""
+    found = find_masks(photos, masks)
+    (tmp / "masks").mkdir()
+    colmap_masks = tmp / "colmap" / "masks"
+    colmap_masks.mkdir(parents=True)
+    for p, m in zip(photos, found):
         alpha = load_mask(m, size, p)
         Image.fromarray(np.round(alpha * 255).astype(np.uint8)).save(tmp / "masks" / f"{p.stem}.png")
         Image.fromarray(np.where(alpha > 0.5, 255, 0).astype(np.uint8)).save(colmap_masks / f"{p.name}.png")
@@ -141,6 +155,10 @@ def process_images(src: Path, out: Path, masks: Path | None = None, opts: SfmOpt
     if len(photos) < 3:
         raise DataError(f"{src}: {len(photos)} photos found (.jpg, .png, .tif, ...); SfM needs at least 3, "
                         f"ideally 30-150 with plenty of overlap")
+    check_one_size([(p, image_size(p)) for p in photos], "photos", "one shared camera needs one size: rotate or "
+                   "crop them alike")  # from the headers, before any photo is copied
+    if masks is not None:
+        find_masks(photos, Path(masks))
     if matching == "auto":
         matching = "exhaustive" if len(photos) <= EXHAUSTIVE_UP_TO else "sequential"
     opts.matching = matching

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import ipaddress
-import json
 from pathlib import Path
 
 import numpy as np
@@ -26,9 +25,13 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-def check_address(host: str, port: int) -> None:
+def check_port(port: int) -> None:
     if not 0 <= port <= 65535:
         raise ConfigError(f"--port must be in 0..65535 (got {port})")
+
+
+def check_address(host: str, port: int) -> None:
+    check_port(port)
     if not is_loopback(host):
         print(f"warning: the viewer listens on {host}:{port}, reachable from other machines on this network; "
               f"anyone who can reach it sees the scene (default --host 127.0.0.1)", flush=True)
@@ -64,7 +67,9 @@ def scene_view_of_run(run_dir: Path, cfg) -> SceneView:
     from nerfkit.data.loader import read_capture, scene_cameras
     from nerfkit.errors import DataError
 
-    scene = json.loads((run_dir / "scene.json").read_text())
+    from nerfkit.train import load_run_scene
+
+    scene = load_run_scene(run_dir)
     poses = np.asarray(scene["train_poses"], np.float64)
     cams = [Camera.from_json(scene["camera"])] * len(poses)
     thumbs = None
@@ -89,30 +94,32 @@ def scene_view(poses: np.ndarray, cameras: list, thumbs: list | None, cfg) -> Sc
 
 def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: int | None = None) -> None:
     """`nerfkit view RUN`: serve the newest checkpoint of a run until Ctrl-C."""
-    from nerfkit.inference import make_renderer
+    from nerfkit.inference import check_chunk, make_renderer
     from nerfkit.train import load_trained
 
     run_dir = Path(run_dir)
     check_address(host, port)
+    check_chunk(chunk)
     cfg, model, params, aux, step = load_trained(run_dir)
     viewer = Viewer(make_renderer(model, cfg.train.chunk if chunk is None else chunk), scene_view_of_run(run_dir, cfg),
                     run_dir, host=host, port=port)
     viewer.set_params(params, aux, step)
-    print(f"viewer for {run_dir} (step {step}) at {viewer.url}  (Ctrl-C to stop)", flush=True)
     try:
-        serve_until_interrupted(viewer)
+        serve_until_interrupted(viewer, f"viewer for {run_dir} (step {step}) at {viewer.url}  (Ctrl-C to stop)")
     finally:
         viewer.close()
 
 
-def serve_until_interrupted(viewer: Viewer) -> None:
-    """Render frames until Ctrl-C (SIGINT), then say so (the caller closes the viewer). SIGINT raises
-    KeyboardInterrupt here even when the process started with it ignored (a background job of a
-    script), as `nerfkit train` stops on it (stopping.StopFlag)."""
+def serve_until_interrupted(viewer: Viewer, message: str) -> None:
+    """Print `message` (the address, "Ctrl-C to stop"), then render frames until Ctrl-C (SIGINT), then say so
+    (the caller closes the viewer). The handler is in place before the message appears, so a Ctrl-C right
+    after it stops cleanly. SIGINT raises KeyboardInterrupt here even when the process started with it
+    ignored (a background job of a script), as `nerfkit train` stops on it (stopping.StopFlag)."""
     import signal
 
     old = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
+        print(message, flush=True)
         viewer.serve_forever()
     except KeyboardInterrupt:
         print("\nviewer stopped", flush=True)
@@ -140,5 +147,4 @@ def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
 def linger(viewer: Viewer) -> None:
     """After training: keep the viewer open on the final parameters until Ctrl-C."""
     viewer.max_fraction = 1.0
-    print(f"training finished; the viewer stays open at {viewer.url} (Ctrl-C to stop)", flush=True)
-    serve_until_interrupted(viewer)
+    serve_until_interrupted(viewer, f"training finished; the viewer stays open at {viewer.url} (Ctrl-C to stop)")

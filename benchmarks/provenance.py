@@ -1,0 +1,30 @@
+"""What a benchmark result was measured on: the commit, a clean or dirty tree, the date, the machine and
+the command. Every benchmark script puts this into the JSON it writes, so a figure quoted from that JSON
+says which code produced it."""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _git(*args: str) -> str:
+    try:
+        r = subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True, timeout=10)
+        return r.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+
+
+def provenance() -> dict:
+    """{commit, dirty, date, command, python, cpus, machine}."""
+    dirty = bool(_git("status", "--porcelain", "--untracked-files=no"))
+    return {"commit": _git("rev-parse", "HEAD"), "dirty": dirty, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+            "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "python": platform.python_version(),
+            "cpus": os.cpu_count(), "machine": platform.machine()}

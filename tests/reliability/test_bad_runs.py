@@ -1,0 +1,198 @@
+"""Damaged run folders and broken inputs, through every verb that reads them: one line naming the file or
+flag (and what to do), exit 1, no traceback, and nothing in the run folder or the inputs changed.
+
+Damage classes (each a copy of one small trained run):
+    truncated checkpoints   every checkpoint cut short (a single damaged one is skipped: test_safe_loading)
+    no checkpoint           the checkpoints folder emptied
+    broken config.json      not JSON; JSON that is not a nerfkit config
+    broken scene.json       not JSON; missing
+    missing images          the data folder the run was trained on has gone
+Inputs: a baked folder that is not one (eval --baked, view --baked), a camera path that is not one
+(render --camera-path), a COLMAP model of garbage (train)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from nerfkit import checkpoint as ckpt_lib
+from nerfkit.cli import main
+from nerfkit.data.scene import make_scene
+
+# A small fast-field run (every verb accepts it, bake included).
+SMALL = ["--preset", "demo", "--hash-levels", "4", "--hash-log2-size", "12", "--hash-max-res", "64", "--occ-res", "16",
+         "--march-steps", "64", "--max-samples", "4096", "--batch-rays", "256", "--no-progress", "--max-steps", "4",
+         "--val-every", "4", "--ckpt-every", "2", "--log-every", "2"]
+
+VERBS = {
+    "eval": ["eval", "{run}", "--split", "test"],
+    "render": ["render", "{run}", "--orbit", "2"],
+    "export-mesh": ["export", "mesh", "{run}", "--resolution", "16", "--threshold", "0.01", "--no-progress"],
+    "export-pointcloud": ["export", "pointcloud", "{run}", "--no-progress"],
+    "export-cameras": ["export", "cameras", "{run}"],
+    "bake": ["bake", "{run}", "--out", "{tmp}/baked", "--resolution", "32", "--finetune-minutes", "0.05"],
+    "resume": ["train", "{data}", "--out", "{run}", "--resume", "--no-progress", "--max-steps", "6"],
+    "view": ["view", "{run}", "--port", "0"],
+}
+
+
+def _truncate_checkpoints(run, data):
+    for p in ckpt_lib.list_checkpoints(run / "checkpoints"):
+        p.write_bytes(p.read_bytes()[: p.stat().st_size // 3])
+    return "ckpt_"
+
+
+def _no_checkpoint(run, data):
+    for p in (run / "checkpoints").iterdir():
+        p.unlink()
+    return "checkpoint"
+
+
+def _config_not_json(run, data):
+    (run / "config.json").write_text('{"data": {"train_split": ')
+    return "config.json"
+
+
+def _config_not_a_config(run, data):
+    (run / "config.json").write_text(json.dumps({"field": 3}))
+    return "config.json"
+
+
+def _scene_not_json(run, data):
+    (run / "scene.json").write_text("[[[")
+    return "scene.json"
+
+
+def _scene_missing(run, data):
+    (run / "scene.json").unlink()
+    return "scene.json"
+
+
+def _images_gone(run, data):
+    shutil.rmtree(data)
+    return str(data)
+
+
+DAMAGE = {f.__name__[1:]: f for f in (_truncate_checkpoints, _no_checkpoint, _config_not_json, _config_not_a_config,
+                                      _scene_not_json, _scene_missing, _images_gone)}
+# Verbs that can do their job without the damaged part (they may succeed; if they fail, it is in one line).
+MAY_SUCCEED = {"truncate_checkpoints": {"export-cameras"}, "no_checkpoint": {"export-cameras", "resume"},
+               "scene_missing": {"resume"}, "scene_not_json": {"resume"},
+               "images_gone": {"view"}}  # the viewer shows the training cameras without their photos
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    root = tmp_path_factory.mktemp("badruns")
+    data = make_scene(root / "scene", size=16, n_train=4, n_val=1, n_test=1)
+    assert main(["train", str(data), "--out", str(root / "run"), *SMALL]) == 0
+    return root / "run", data
+
+
+def _snapshot(folder: Path) -> dict:
+    if not folder.exists():
+        return {}
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
+            for p in sorted(folder.rglob("*"))}
+
+
+def _serve(argv: list[str]) -> tuple[int, str]:
+    """A server verb in its own process: (0, "") once it prints its address (then Ctrl-C), else its exit."""
+    proc = subprocess.Popen([sys.executable, "-m", "nerfkit", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        for line in proc.stdout:
+            if line.startswith(("viewer for", "serving the baked scene")):  # nerfkit's line, after viser's banner
+                proc.send_signal(signal.SIGINT)
+                proc.wait(timeout=60)
+                return 0, ""
+        return proc.wait(timeout=60), proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str]:
+    if argv[0] == "view":  # a server: in its own process, so a damaged run that got served cannot hang the suite
+        return _serve(argv)
+    capsys.readouterr()
+    code = main(argv)
+    return code, capsys.readouterr().err
+
+
+def _damaged_copy(trained, where: Path, damage: str) -> tuple[Path, Path, str]:
+    """A copy of the trained run and its data in `where` (the run pointing at the copy), damaged."""
+    run0, data0 = trained
+    run, data = where / "run", where / "scene"
+    shutil.copytree(run0, run)
+    shutil.copytree(data0, data)
+    scene = json.loads((run / "scene.json").read_text())
+    (run / "scene.json").write_text(json.dumps(dict(scene, data_dir=str(data))))
+    return run, data, DAMAGE[damage](run, data)
+
+
+@pytest.mark.parametrize("damage", DAMAGE)
+def test_damaged_run_folders(trained, tmp_path, capsys, damage):
+    failed = []
+    for verb, template in VERBS.items():
+        where = tmp_path / verb
+        run, data, named = _damaged_copy(trained, where, damage)
+        before_run, before_data = _snapshot(run), _snapshot(data)
+        code, err = _run([a.format(run=run, data=data, tmp=where) for a in template], capsys)
+        if code == 0:
+            assert verb in MAY_SUCCEED.get(damage, ()), f"{verb} succeeded on a run with {damage}"
+            continue
+        line = err.strip().splitlines()
+        assert code == 1, (verb, code, err[-2000:])
+        assert len(line) == 1 and "Traceback" not in err, (verb, err[-2000:])
+        assert named in line[0] or (damage == "images_gone" and "--data" in line[0]), (verb, line[0])
+        assert _snapshot(run) == before_run and _snapshot(data) == before_data, f"{verb} changed the user's files"
+        assert not (where / "baked").exists()
+        failed.append(verb)
+    assert len(failed) >= len(VERBS) - len(MAY_SUCCEED.get(damage, ()))
+
+
+def test_a_baked_folder_that_is_not_one(trained, tmp_path, capsys):
+    run, _ = trained
+    fake = tmp_path / "baked"
+    fake.mkdir()
+    (fake / "baked.json").write_text("{not json")
+    before = _snapshot(run)
+    for argv in (["eval", str(run), "--baked", str(fake)], ["view", "--baked", str(fake), "--port", "0"],
+                 ["eval", str(run), "--baked", str(tmp_path / "nothing")]):
+        code, err = _run(argv, capsys)
+        assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, (argv, err)
+        assert "baked" in err
+    assert _snapshot(run) == before
+    code, err = _run(["view", "--baked", str(fake), "--port", "-1"], capsys)
+    assert code == 1 and "--port must be in 0..65535" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("text", ["", "{", json.dumps({"camera_path": [{"camera_to_world": [1, 2]}]})])
+def test_a_camera_path_that_is_not_one(trained, tmp_path, capsys, text):
+    run, _ = trained
+    path = tmp_path / "path.json"
+    path.write_text(text)
+    before = _snapshot(run)
+    code, err = _run(["render", str(run), "--camera-path", str(path)], capsys)
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert str(path) in err
+    assert _snapshot(run) == before
+
+
+@pytest.mark.parametrize("content", [b"", b"\x01\x00\x00\x00\x00\x00\x00\x00", bytes(range(256)) * 3])
+def test_a_colmap_model_of_garbage(tmp_path, capsys, content):
+    model = tmp_path / "cap" / "sparse" / "0"
+    model.mkdir(parents=True)
+    for name in ("cameras.bin", "images.bin", "points3D.bin"):
+        (model / name).write_bytes(content)
+    code, err = _run(["train", str(tmp_path / "cap"), "--out", str(tmp_path / "run"), "--preset", "tiny"], capsys)
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert str(model) in err and not (tmp_path / "run").exists()
