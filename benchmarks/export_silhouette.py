@@ -2,7 +2,7 @@
 
     python benchmarks/export_silhouette.py RUN_DIR [--mesh FILE] [--split "val[50:100]"] [--data DIR]
 
-Exports the run's mesh (`nerfkit export mesh RUN_DIR`, defaults: carved into the training
+Exports the run's level-set mesh (`nerfkit export mesh RUN_DIR --method levelset`: carved into the training
 silhouettes; pass --mesh a `--no-carve` export to compare) unless --mesh names one, then
 projects every vertex (the mesh is in the capture's coordinates) into every view of the split at
 the photos' own size (or --width: the photo's alpha averaged over each bigger pixel), and counts,
@@ -94,7 +94,7 @@ def main():
         mesh_path = args.run / "exports" / "mesh.ply"
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-m", "nerfkit", "export", "mesh", str(args.run), "--out", str(mesh_path),
-                        "--no-progress"], check=True)
+                        "--method", "levelset", "--no-progress"], check=True)
         print(f"export mesh: {time.perf_counter() - t0:.1f} s (whole CLI)")
     verts = np.asarray(trimesh.load(mesh_path, process=False).vertices, np.float64)
     cfg = load_run_config(args.run)

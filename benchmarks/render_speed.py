@@ -68,6 +68,7 @@ def main():
     ap.add_argument("--data", type=Path, default=None)
     ap.add_argument("--split", default="val[50:100]")
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--results", type=Path, default=Path(__file__).resolve().parent / "results" / "render_speed.json")
     a = ap.parse_args()
 
     cfg, model, params, aux, step = load_trained(a.run)
@@ -81,6 +82,9 @@ def main():
         camera = Camera.pinhole(side, side, cam.fx * side / cam.width)
         results[side] = timed(renderer, params, aux, c2w, camera, repeats)
         print(f"{side}x{side}: {results[side]:.3f} s (median of {repeats}, compiled)", flush=True)
+    record = {"run": str(a.run), "step": step, "renderer": type(renderer).__name__, "chunk": renderer.chunk,
+              "seconds_per_frame": {f"{k}x{k}": round(v, 4) for k, v in results.items()},
+              "what": "one compiled frame of the run's field (view 0 of the split), median of repeats"}
     if hasattr(renderer, "_shade"):
         rounds, shaded = 0, 0
         shade = dict(renderer._shade)
@@ -100,11 +104,20 @@ def main():
         renderer._shade = shade
         print(f"800x800: {rounds} shading rounds, {shaded / 1e6:.2f} M samples shaded "
               f"({shaded / 800**2:.1f} per pixel)")
+        record.update({"rounds_800": rounds, "samples_shaded_800": shaded})
     if a.profile:
         camera = Camera.pinhole(800, 800, cam.fx * 800 / cam.width)
         print("\nprofile of one 800x800 render (ms summed over the render, count):")
-        for name, ms, n in profile(renderer, params, aux, c2w, camera):
+        rows = profile(renderer, params, aux, c2w, camera)
+        for name, ms, n in rows:
             print(f"  {ms:9.1f} ms {n:7d}x  {name[:80]}")
+        record["profile_800_ms"] = [[name[:80], round(ms, 1), n] for name, ms, n in rows]
+    from provenance import provenance
+
+    record["provenance"] = provenance()
+    a.results.parent.mkdir(parents=True, exist_ok=True)
+    a.results.write_text(json.dumps(record, indent=1))
+    print(f"wrote {a.results}")
     if not all(np.isfinite(v) for v in results.values()):
         raise SystemExit(1)
 

@@ -37,6 +37,7 @@ def train_scene(root):
     cfg = preset("demo")
     cfg.field.hash_log2_size = 14
     cfg.train.max_steps, cfg.train.val_every, cfg.train.val_views, cfg.train.ckpt_every = STEPS, 10_000, 1, 10_000
+    cfg.train.max_minutes = None  # the steps alone: a loaded machine must not cut the run short
     cfg.train.batch_rays = 2048
     Trainer(scene, root / "run", cfg, progress=False).run()
     moved = root / "moved"

@@ -95,9 +95,19 @@ def test_render_split_at_other_resolution(scene, run, tmp_path):
         assert frames.shape[0] == 3 and frames.shape[1:3] == (40, 40)
 
 
-def test_render_orbit(scene, run):
+def test_render_orbit(scene, run, monkeypatch, capsys):
     assert main(["render", str(run), "--data", str(scene), "--orbit", "4"]) == 0
     assert len(list((run / "renders" / "orbit4_16x16").glob("rgb_*.png"))) == 4
+    # Orbits are capped at ORBIT_MAX_WIDTH unless a size is given (as if the cap were below 16 px).
+    import nerfkit.evaluate
+
+    monkeypatch.setattr(nerfkit.evaluate, "ORBIT_MAX_WIDTH", 8)
+    capsys.readouterr()
+    assert main(["render", str(run), "--data", str(scene), "--orbit", "2"]) == 0
+    assert "--width 16 renders the training size" in capsys.readouterr().out
+    assert iio.imread(run / "renders" / "orbit2_8x8" / "rgb_0000.png").shape == (8, 8, 3)
+    assert main(["render", str(run), "--data", str(scene), "--orbit", "2", "--width", "16"]) == 0
+    assert "training size" not in capsys.readouterr().out and (run / "renders" / "orbit2_16x16").is_dir()
 
 
 def test_render_camera_path(run, tmp_path, capsys):

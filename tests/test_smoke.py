@@ -96,7 +96,7 @@ def test_render_orbit(run, tmp_path):
 def test_exports_and_report(run, tmp_path):
     # A low threshold so the 20-step field has a surface; --max-faces runs the simplification.
     assert main(["export", "mesh", str(run), "--out", str(tmp_path / "mesh.ply"), "--resolution", "32",
-                 "--threshold", "0.01", "--max-faces", "50", "--no-carve", "--no-progress"]) == 0
+                 "--method", "levelset", "--threshold", "0.01", "--max-faces", "50", "--no-carve", "--no-progress"]) == 0
     assert main(["export", "pointcloud", str(run), "--out", str(tmp_path / "points.ply"), "--min-opacity", "0.01",
                  "--no-progress"]) == 0
     assert main(["export", "cameras", str(run), "--out", str(tmp_path / "cameras.json")]) == 0

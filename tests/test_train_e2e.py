@@ -25,6 +25,7 @@ def trained(tmp_path_factory):
     cfg.field.depth, cfg.field.width, cfg.field.l_xyz = 4, 64, 6
     cfg.sampler.n_samples = 32
     cfg.train.max_steps = STEPS
+    cfg.train.max_minutes = None  # the steps alone: a loaded machine must not cut the run short
     cfg.train.batch_rays = 512
     cfg.train.lr = 2e-3
     cfg.train.val_every = STEPS

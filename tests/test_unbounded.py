@@ -29,6 +29,7 @@ def small(scene_type: str):
     cfg.field.hash_log2_size, cfg.field.hash_max_res = 14, 256
     cfg.sampler.max_samples, cfg.sampler.march_steps, cfg.sampler.occ_res = 1 << 14, 256, 32
     cfg.train.max_steps, cfg.train.batch_rays = STEPS, 1024
+    cfg.train.max_minutes = None  # the steps alone: a loaded machine must not cut the run short
     cfg.train.val_every = cfg.train.ckpt_every = STEPS
     return cfg
 

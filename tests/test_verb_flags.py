@@ -52,7 +52,13 @@ PROOFS = {
         "max_faces": ["export/test_export.py::test_simplified_mesh_keeps_the_shape"],
         "visible_only": [f"{T}::test_mesh_switches_change_the_mesh"], "snap": [f"{T}::test_mesh_switches_change_the_mesh"],
         "carve": ["export/test_export.py::test_no_carve_through_the_cli"],
-        "every": [f"{T}::test_mesh_switches_change_the_mesh"],
+        "every": [f"{T}::test_mesh_switches_change_the_mesh", f"{T}::test_mesh_texture_box_and_every"],
+        "method": ["export/test_export.py::test_levelset_mesh_lies_on_the_true_surfaces_in_capture_coordinates",
+                   "export/test_export.py::test_bad_export_arguments_are_one_line_errors"],
+        "box": [f"{T}::test_mesh_texture_box_and_every"],
+        "watertight": ["export/test_export.py::test_watertight_tsdf_mesh_is_closed_and_still_on_the_surfaces"],
+        "texture": [f"{T}::test_mesh_texture_box_and_every"],
+        "texture_size": [f"{T}::test_mesh_texture_box_and_every"],
         "data": ["reliability/test_bad_runs.py::test_damaged_run_folders"],
         "progress": [f"{T}::test_no_progress_hides_the_bars"],
         "overwrite": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"]},
@@ -203,7 +209,7 @@ def test_eval_and_render_replace_only_with_overwrite(run, tmp_path, capsys):
 
 def test_mesh_switches_change_the_mesh(procedural_run, tmp_path, capsys):
     run = procedural_run[0]  # a field with surfaces (the tiny run has none to snap to)
-    common = ["export", "mesh", str(run), "--resolution", "32", "--no-carve", "--no-progress"]
+    common = ["export", "mesh", str(run), "--method", "levelset", "--resolution", "32", "--no-carve", "--no-progress"]
     meshes, records = {}, {}
     for name, extra in (("default", ["--every", "4"]), ("no_visible", ["--no-visible-only"]),
                         ("no_snap", ["--no-snap", "--every", "4"])):
@@ -218,6 +224,26 @@ def test_mesh_switches_change_the_mesh(procedural_run, tmp_path, capsys):
     capsys.readouterr()
     assert main([*common, "--out", str(tmp_path / "x.ply"), "--no-visible-only", "--every", "2"]) == 1
     assert "--every" in capsys.readouterr().err and not (tmp_path / "x.ply").exists()
+
+
+def test_mesh_texture_box_and_every(procedural_run, tmp_path, capsys):
+    """--texture writes a GLB whose image has about --texture-size texels a side; --box bounds the mesh
+    (normalised units; the run's frame is the scene's); --every thins the fused views."""
+    run = procedural_run[0]
+    common = ["export", "mesh", str(run), "--resolution", "48", "--no-progress"]
+    assert main([*common, "--out", str(tmp_path / "t.glb"), "--texture", "--texture-size", "256"]) == 0
+    rec = json.loads((run / "exports" / "export_mesh.json").read_text())
+    glb = trimesh.load(tmp_path / "t.glb", force="mesh")
+    w, h = glb.visual.material.baseColorTexture.size
+    # xatlas scales its charts to fill about that many texels; padding between many small charts makes the
+    # atlas of a small mesh larger (measured 463 px here, 2361 for 2048 on a sphere)
+    assert 128 <= w <= 512 and 128 <= h <= 512 and rec["texture"]["size"] == [w, h]
+    assert len(glb.faces) == rec["faces"] and rec["views"] == 24
+    assert main([*common, "--out", str(tmp_path / "b.ply"), "--box", "0.5", "--every", "3"]) == 0
+    rec = json.loads((run / "exports" / "export_mesh.json").read_text())
+    small = trimesh.load(tmp_path / "b.ply", process=False)
+    assert rec["bound"] == 0.5 and rec["views"] == 8 and np.abs(small.vertices).max() <= 0.5 + 1e-5
+    assert np.abs(glb.vertices).max() > 0.8  # the default box (the field's, 1.5) holds more of the scene
 
 
 def test_pointcloud_split_every_and_voxel_size(run, tmp_path):
@@ -244,7 +270,8 @@ def test_no_progress_hides_the_bars(run, tmp_path):
 
     assert "%|" in stderr() and "%|" not in stderr("--no-progress")
     r = subprocess.run([sys.executable, "-m", "nerfkit", "export", "mesh", str(run), "--out", str(tmp_path / "m.ply"),
-                        "--resolution", "24", "--threshold", "0.05", "--no-carve", "--no-progress"],
+                        "--resolution", "24", "--method", "levelset", "--threshold", "0.05", "--no-carve",
+                        "--no-progress"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and "%|" not in r.stderr
     scene = json.loads((run / "scene.json").read_text())["data_dir"]

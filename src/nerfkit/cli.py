@@ -171,6 +171,9 @@ def cmd_render(argv: list[str]) -> int:
                       camera_path=a.camera_path, overwrite=a.overwrite)
     print(f"rendered {info['frames']} frames at {info['width']}x{info['height']} "
           f"({info['seconds_per_frame']:.2f} s/frame) into {info['out']} (rgb.mp4, depth.mp4)")
+    if info.get("width_capped_from"):
+        print(f"note: orbits are rendered at most {info['width']} px wide unless you say otherwise; "
+              f"--width {info['width_capped_from']} renders the training size")
     return 0
 
 
@@ -189,6 +192,7 @@ def cmd_view(argv: list[str]) -> int:
 
 
 EXPORT_KINDS = ("mesh", "pointcloud", "cameras")
+MESH_LEVELSET_FLAGS = ("--threshold", "--no-visible-only", "--visible-only", "--no-snap", "--snap", "--no-carve", "--carve")
 
 
 def cmd_export(argv: list[str]) -> int:
@@ -205,12 +209,23 @@ def cmd_export(argv: list[str]) -> int:
         from nerfkit.export.mesh import export_mesh
 
         a = parse(ExportMeshArgs, rest, prog)
-        if not a.visible_only and _flag_value(rest, "--every") is not None:
+        if a.method != "levelset":
+            given = [f for f in MESH_LEVELSET_FLAGS if any(x == f or x.startswith(f + "=") for x in rest)]
+            if given:
+                raise ConfigError(f"{given[0]} belongs to --method levelset (this export uses --method {a.method}); "
+                                  f"drop it or pass --method levelset")
+        if a.method == "levelset" and not a.visible_only and _flag_value(rest, "--every") is not None:
             raise ConfigError("--every thins the training views of the visibility pass, which --no-visible-only "
                               "turns off; drop one of them")
+        if not a.texture and "--texture-size" in " ".join(rest):
+            raise ConfigError("--texture-size sets the texture of --texture; pass --texture too, or drop it")
         rec = export_mesh(a.run_dir, a.out, a.resolution, a.threshold, a.max_faces, a.visible_only, a.snap, a.every,
-                          a.data, progress=a.progress, carve=a.carve, overwrite=a.overwrite)
-        print(f"wrote {rec['file']}: {rec['vertices']} vertices, {rec['faces']} faces ({rec['seconds']:.1f} s)")
+                          a.data, progress=a.progress, carve=a.carve, overwrite=a.overwrite, method=a.method,
+                          box=a.box, watertight=a.watertight, texture=a.texture, texture_size=a.texture_size)
+        closed = "closed manifold" if rec["closed_manifold"] else "open where no view saw the surface"
+        files = rec["texture"]["files"] if "texture" in rec else [rec["file"]]
+        print(f"wrote {', '.join(files)}: {rec['vertices']} vertices, {rec['faces']} faces, {closed} "
+              f"({rec['method']}, {rec['seconds']:.1f} s)")
     elif kind == "pointcloud":
         from nerfkit.export.pointcloud import export_pointcloud
 

@@ -75,7 +75,7 @@ class RenderArgs:
     """Render an orbit of N frames: a circle at the cameras' typical radius and elevation (Blender scenes),
     or an ellipse fitted to the camera centres (photo captures), looking at the scene centre."""
     width: int | None = None
-    """Output width in pixels (default: training width; height follows the aspect ratio)."""
+    """Output width in pixels (default: training width, for --orbit at most 512; height follows the aspect ratio)."""
     height: int | None = None
     """Output height in pixels."""
     out: Path | None = None
@@ -93,29 +93,48 @@ class RenderArgs:
 
 @dataclasses.dataclass
 class ExportMeshArgs:
-    """Export the run's geometry as a vertex-coloured triangle mesh (marching cubes of the density on a grid
-    over the scene box), in the capture's own coordinates; a picture goes into RUN_DIR/exports/mesh.png."""
+    """Export the run's surface as a coloured triangle mesh, in the capture's own coordinates; a picture from two
+    sides goes into RUN_DIR/exports/mesh.png. The default fuses the field's rendered depth from about 64
+    training views (TSDF) and closes nothing it did not see; --watertight closes it, --texture bakes a UV
+    texture."""
 
     run_dir: tyro.conf.Positional[Path]
     """A run folder written by `nerfkit train`."""
     out: Path | None = None
-    """Mesh file: .ply, .obj or .glb (default: RUN_DIR/exports/mesh.ply)."""
+    """Mesh file: .ply, .obj or .glb (default: RUN_DIR/exports/mesh.ply; with --texture .glb or .obj, default
+    RUN_DIR/exports/mesh.glb)."""
+    method: str = "tsdf"
+    """tsdf: fuse rendered depth into a signed distance (whole surfaces, closable); levelset: marching cubes of the
+    density at one level (the last round's export; holes where the field is soft)."""
     resolution: int = 256
-    """Grid points per axis of the scene box."""
-    threshold: float | None = None
-    """Density level of the surface (default: ln 2 / grid spacing, where one grid cell is half opaque; printed)."""
+    """Grid points per axis of the box."""
+    box: float | None = None
+    """Half-size of the exported box in the run's normalised units (default: the field's box; for an unbounded
+    scene its inner ball, where the cameras look)."""
+    watertight: bool = False
+    """tsdf: a closed manifold mesh (for 3D printing): what no view saw behind a surface is filled, the box closes
+    what it cuts."""
+    texture: bool = False
+    """Bake the colour into a UV texture (xatlas atlas; .glb with the image inside, or .obj + .mtl + .png),
+    decimated to 100,000 faces unless --max-faces says otherwise."""
+    texture_size: int = 2048
+    """Texels per side of the texture atlas, roughly: xatlas scales the charts to it, and the padding between
+    many small charts can make the atlas up to about twice as wide (the record gives the size)."""
     max_faces: int | None = None
     """Simplify the mesh to at most this many faces (quadric decimation)."""
-    visible_only: bool = True
-    """Keep only faces some training view sees (drops the arbitrary surfaces inside objects and under them)."""
-    snap: bool = True
-    """Move each vertex along its normal (within one grid cell) to where a ray from outside turns half opaque."""
-    carve: bool = True
-    """Where the capture has masks or an alpha channel: move vertices that fall outside the training silhouettes
-    into them (up to two grid cells or two pixels), half a pixel from their edge; drop faces the photos show
-    background through."""
     every: int | None = None
-    """Visibility from every K-th training view (default: about 32 views)."""
+    """Render every K-th training view (default: about 64 views for tsdf, 32 for the levelset's visibility)."""
+    threshold: float | None = None
+    """levelset: density level of the surface (default: ln 2 / grid spacing, where one grid cell is half opaque)."""
+    visible_only: bool = True
+    """levelset: keep only faces some training view sees (drops the arbitrary surfaces inside objects and under
+    them)."""
+    snap: bool = True
+    """levelset: move each vertex along its normal (within one grid cell) to where a ray from outside turns half
+    opaque."""
+    carve: bool = True
+    """levelset: where the capture has masks or an alpha channel, move vertices that fall outside the training
+    silhouettes into them (up to two grid cells or two pixels); drop faces the photos show background through."""
     data: Path | None = None
     """The data folder (for the training cameras); default: the one the run was trained on."""
     progress: bool = True

@@ -180,6 +180,9 @@ def format_eval_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+ORBIT_MAX_WIDTH = 512  # orbits without --width/--height are rendered at most this wide
+
+
 def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, orbit: int | None = None,
                width: int | None = None, height: int | None = None, out: Path | None = None,
                fps: int | None = None, chunk: int | None = None, progress: bool = True,
@@ -220,8 +223,11 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
         name = f"orbit{orbit}"
     cam0 = sel.cameras[0]
     aspect = cam0.height / cam0.width if path is None else path["height"] / path["width"]
+    capped = False
     if width is None and height is None:
         width, height = scene["width"], scene["height"]
+        if orbit is not None and width > ORBIT_MAX_WIDTH:  # a preview video: minutes, not an hour, on a CPU
+            width, height, capped = ORBIT_MAX_WIDTH, max(1, round(ORBIT_MAX_WIDTH * aspect)), True
     elif width is None:
         width = max(1, round(height / aspect))
     elif height is None:
@@ -256,6 +262,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     info = {"out": str(out), "frames": len(poses), "width": width, "height": height, "step": step,
             "seconds_per_frame": seconds / len(poses), "depth_range": [lo / sel.scale, hi / sel.scale],
             "depth_units": "z-depth in the capture's own units", "camera": cams[0].to_json(),
+            "width_capped_from": scene["width"] if capped else None,
             "camera_to_world": capture_poses}
     (out / "render.json").write_text(json.dumps(info, indent=2))
     return info

@@ -344,7 +344,9 @@ def _exports_html(run: Path) -> str:
     figs = []
     for kind, rec in read_records(run).items():
         pic = run / "exports" / str(rec.get("picture", ""))
-        facts = {"mesh": "{vertices} vertices, {faces} faces, threshold {threshold:.4g}",
+        facts = {"mesh": "{vertices} vertices, {faces} faces, " + (
+                     "threshold {threshold:.4g}" if rec.get("method", "levelset") == "levelset" else
+                     "{method} of {views} views" + (", closed" if rec.get("closed_manifold") else "")),
                  "pointcloud": "{points} points from {views} views",
                  "cameras": "{frames} cameras"}[kind]
         try:

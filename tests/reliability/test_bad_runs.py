@@ -34,7 +34,8 @@ SMALL = ["--preset", "demo", "--hash-levels", "4", "--hash-log2-size", "12", "--
 VERBS = {
     "eval": ["eval", "{run}", "--split", "test"],
     "render": ["render", "{run}", "--orbit", "2"],
-    "export-mesh": ["export", "mesh", "{run}", "--resolution", "16", "--threshold", "0.01", "--no-progress"],
+    "export-mesh": ["export", "mesh", "{run}", "--method", "levelset", "--resolution", "16", "--threshold", "0.01",
+                    "--no-progress"],
     "export-pointcloud": ["export", "pointcloud", "{run}", "--no-progress"],
     "export-cameras": ["export", "cameras", "{run}"],
     "bake": ["bake", "{run}", "--out", "{tmp}/baked", "--resolution", "32", "--finetune-minutes", "0.05"],

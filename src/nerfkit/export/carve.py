@@ -132,18 +132,19 @@ def pixel_footprint(poses: np.ndarray, cameras: list[Camera]) -> float:
     return float(np.median([np.linalg.norm(p[:3, 3]) / c.fx for p, c in zip(poses, cameras)]))
 
 
-def training_silhouettes(run, data=None):
+def training_silhouettes(run, data=None, split: str | None = None):
     """(poses [V, 4, 4] normalised, cameras, silhouettes: bool [H, W], alpha > 1/2) of the run's training
-    views at the photos' own size (shrunk as the loader shrinks large photos), or None when the capture
-    has neither masks nor an alpha channel."""
+    views (or those of `split`) at the photos' own size (shrunk as the loader shrinks large photos), or
+    None when the capture has neither masks nor an alpha channel."""
     from nerfkit.evaluate import run_data_dir
 
     d = run.cfg.data
-    cap = read_capture(run_data_dir(run.run_dir, data), d.train_split, d.format, d.masks, d.holdout_every)
-    frames = cap.frames(d.train_split)
+    split = split or d.train_split
+    cap = read_capture(run_data_dir(run.run_dir, data), split, d.format, d.masks, d.holdout_every)
+    frames = cap.frames(split)
     if not (cap.alpha or any(f.mask is not None for f in frames)):
         return None
-    sel = scene_cameras(cap, d.train_split)
+    sel = scene_cameras(cap, split)
     silhouettes = []
     for f in frames:
         _, a = read_masked(f.image, f.mask, (f.camera.width, f.camera.height))

@@ -1,319 +1,149 @@
-"""A trained field as a coloured triangle mesh: density on a grid, marching cubes, colours from the field.
+"""`nerfkit export mesh`: a trained field as a coloured triangle mesh in the capture's coordinates.
 
-The density sigma is sampled at the N^3 points x_ijk = -B + (i, j, k) h of the scene box
-[-B, B]^3 (h = 2B / (N - 1)), only where the occupancy grid says a cell is occupied (the other
-points are empty by construction: their density was below the grid's threshold, far below any
-surface level), slab by slab and in fixed-size chunks so memory stays bounded. The surface
-is the level set sigma = T (scikit-image's marching cubes). The default level is
+Two ways to find the surface (`--method`):
 
-    T = ln 2 / h,
+    tsdf      (default) fuse the field's rendered depth and opacity from about 64 training views into a
+              truncated signed distance on a grid over the box, marching cubes of its zero (tsdf.py). Every
+              surface some view renders opaque is there, whatever the field's density level there.
+    levelset  marching cubes of the density at one level, the faces the views see, moved onto the
+              half-opaque surface and into the training silhouettes (levelset.py; the exports of the last
+              round): exact where the field's density is high, holes where it is soft.
 
-the density at which a ray crossing one grid cell gathers opacity 1 - exp(-T h) = 1/2: the
-surface sits where one cell of the export grid would look half opaque. Faces no training view
-sees are dropped (visibility.py), each vertex is then moved along its normal, within one cell,
-to where a ray coming in from outside turns half opaque (half_opacity_snapper: the surface the
-renders show). Where the capture has masks or an alpha channel, vertices that still fall on the
-background of training photos move into the training silhouettes (carve.py: the level set
-rounds and fattens contours by about a pixel), and faces the photos show background through are
-dropped. Each vertex then takes the colour the field gives there seen along the inverse normal.
+Then: connected pieces of the fused surface under SPECK_CELLS grid cells across are dropped (specks),
+`--watertight` closes the surface (points every view sees hidden behind a surface are inside; the box
+closes what it cuts) and checks it is a closed manifold, `--max-faces` decimates, and the colour is the
+field's, seen straight at the surface (surface.py): per vertex, or with `--texture` in a UV atlas image
+(texture.py: a .glb, or .obj + .mtl + .png).
 """
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
-import jax
-import jax.numpy as jnp
 import numpy as np
-from scipy import ndimage
-from tqdm.auto import tqdm
 
-from nerfkit import occupancy
 from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.export.run import TrainedRun, check_out, load_run, to_capture, write_atomic, write_record
+from nerfkit.export.grid import chunked, field_functions
+from nerfkit.export.run import check_out, load_run, to_capture, write_record
+from nerfkit.export.surface import (
+    closed_and_manifold,
+    drop_specks,
+    rgba8,
+    simplify,
+    surface_color_fn,
+    vertex_normals,
+    write_mesh,
+)
 
+METHODS = ("tsdf", "levelset")
 MESH_SUFFIXES = (".ply", ".obj", ".glb")
-CHUNK = 65536
-SNAP_CELLS = 1.0  # how far (in grid cells) a vertex may move onto the half-opaque surface
-CARVE_CELLS, CARVE_PIXELS = 2.0, 2.0  # how far a vertex may move into the training silhouettes: cells or pixels
+TEXTURE_SUFFIXES = (".glb", ".obj")
+SPECK_CELLS = 4.0  # pieces smaller than this many grid cells across (bounding-box diagonal) are dropped
+TEXTURE_FACES = 100_000  # --texture decimates to this many faces unless --max-faces says otherwise
+COLOR_CELLS = 2.0  # the colour ray crosses the surface from this many grid cells out to as many in
 
 
-def default_threshold(bound: float, resolution: int) -> float:
-    """T = ln 2 / h with h = 2B / (N - 1): the density where one grid cell is half opaque."""
-    return math.log(2.0) * (resolution - 1) / (2.0 * bound)
-
-
-def grid_axis(bound: float, resolution: int) -> np.ndarray:
-    """The N sample coordinates -B + i h, i = 0..N-1, of each axis (float32 [N])."""
-    return np.linspace(-bound, bound, resolution, dtype=np.float32)
-
-
-def chunked(fn, *arrays: np.ndarray, chunk: int = CHUNK) -> np.ndarray:
-    """fn applied to rows of arrays [M, ...] in fixed-size chunks (the last one padded, so fn
-    compiles once); returns the concatenated numpy result [M, ...]."""
-    m = len(arrays[0])
-    outs = []
-    for s in range(0, m, chunk):
-        part = [a[s:s + chunk] for a in arrays]
-        n = len(part[0])
-        if n < chunk:
-            part = [np.concatenate([p, np.zeros((chunk - n, *p.shape[1:]), p.dtype)]) for p in part]
-        outs.append(np.asarray(fn(*part))[:n])
-    return np.concatenate(outs) if outs else np.zeros((0,), np.float32)
-
-
-def slab_points(axis: np.ndarray, i0: int, i1: int) -> np.ndarray:
-    """Grid points [(i1 - i0) N^2, 3] of x-slices i0..i1-1, in C order (i, j, k)."""
-    gx, gy, gz = np.meshgrid(axis[i0:i1], axis, axis, indexing="ij")
-    return np.stack([gx, gy, gz], axis=-1).reshape(-1, 3)
-
-
-def occupied_mask(occupied_fn, axis: np.ndarray, cell: float, slab: int = 8) -> np.ndarray:
-    """bool [N, N, N]: grid points in (or within one cell of) an occupied occupancy cell.
-
-    occupied_fn: points [M, 3] -> bool [M]; cell: the occupancy cell's size in world units (the
-    mask is dilated by that much, in case the grid's running maximum missed a thin part)."""
-    n = len(axis)
-    mask = np.zeros((n, n, n), bool)
-    for i0 in range(0, n, slab):
-        i1 = min(n, i0 + slab)
-        mask[i0:i1] = chunked(occupied_fn, slab_points(axis, i0, i1)).reshape(i1 - i0, n, n)
-    h = float(axis[1] - axis[0])
-    k = max(1, math.ceil(cell / h))
-    return ndimage.maximum_filter(mask, size=2 * k + 1)
-
-
-def density_volume(density_fn, axis: np.ndarray, mask: np.ndarray | None, slab: int = 8,
-                   progress: bool = False) -> np.ndarray:
-    """float32 [N, N, N]: sigma at the grid points where `mask` (all when None), 0 elsewhere."""
-    n = len(axis)
-    vol = np.zeros((n, n, n), np.float32)
-    for i0 in tqdm(range(0, n, slab), desc="density", unit="slab", disable=not progress, leave=False):
-        i1 = min(n, i0 + slab)
-        pts = slab_points(axis, i0, i1)
-        sub = np.ones(len(pts), bool) if mask is None else mask[i0:i1].reshape(-1)
-        if sub.any():
-            part = vol[i0:i1].reshape(-1)
-            part[sub] = chunked(density_fn, pts[sub])
-            vol[i0:i1] = part.reshape(i1 - i0, n, n)
-    return vol
-
-
-def extract_surface(volume: np.ndarray, threshold: float, bound: float):
-    """Marching cubes of the level set volume = threshold on the grid of `grid_axis(bound, N)`.
-
-    The volume is padded with one layer of zeros, so a surface cut by the box is closed there
-    (a watertight mesh). Faces wind so their normals point out of the dense region.
-    Returns vertices float32 [V, 3] (normalised frame), faces int64 [F, 3]."""
-    from skimage.measure import marching_cubes
-
-    n = volume.shape[0]
-    h = 2.0 * bound / (n - 1)
-    padded = np.pad(volume, 1)
-    verts, faces, _, _ = marching_cubes(padded, level=threshold, spacing=(h, h, h), gradient_direction="ascent",
-                                        allow_degenerate=False)
-    verts = np.clip(verts - (bound + h), -bound, bound)  # the closing layer lies on the box
-    return verts.astype(np.float32), faces.astype(np.int64)
-
-
-def half_opacity_snapper(density_fn, delta: float, k: int = 16):
-    """A jitted function (x [M, 3], n [M, 3]) -> x' [M, 3] that moves each vertex x along its unit
-    outward normal n onto the point where a ray coming in from outside becomes half opaque:
-
-        t_j = delta - 2 delta j / (k - 1),  j = 0..k-1       (from x + delta n inwards to x - delta n)
-        tau_j = sum_{i < j} (sigma_i + sigma_{i+1}) dt / 2,  sigma_i = sigma(x + t_i n),  dt = 2 delta / (k - 1)
-        x' = x + t* n,  t* where 1 - exp(-tau) crosses 1/2 (linear between samples)
-
-    The level set sigma = T is where the field is dense, not where it looks opaque; this moves
-    the surface to where a pixel looking straight at it is half covered (the silhouette, for
-    alpha > 0.5). Vertices whose short ray never reaches opacity 1/2 stay where they are."""
-    t = jnp.asarray(np.linspace(delta, -delta, k), jnp.float32)
-    dt = 2.0 * delta / (k - 1)
-
-    @jax.jit
-    def snap(x, n):
-        sigma = density_fn((x[:, None, :] + t[None, :, None] * n[:, None, :]).reshape(-1, 3)).reshape(-1, k)
-        trapezoids = 0.5 * (sigma[:, 1:] + sigma[:, :-1]) * dt
-        tau = jnp.concatenate([jnp.zeros_like(sigma[:, :1]), jnp.cumsum(trapezoids, axis=1)], axis=1)
-        opacity = 1.0 - jnp.exp(-tau)
-        hit = opacity >= 0.5
-        j = jnp.argmax(hit, axis=1)
-        prev_j = jnp.maximum(j - 1, 0)
-        prev = jnp.where(j > 0, jnp.take_along_axis(opacity, prev_j[:, None], 1)[:, 0], 0.0)
-        cur = jnp.take_along_axis(opacity, j[:, None], 1)[:, 0]
-        frac = jnp.clip((0.5 - prev) / jnp.maximum(cur - prev, 1e-6), 0.0, 1.0)
-        t_star = jnp.where(j > 0, t[prev_j] + frac * (t[j] - t[prev_j]), t[0])
-        return jnp.where(jnp.any(hit, axis=1)[:, None], x + t_star[:, None] * n, x)
-
-    return snap
-
-
-def field_functions(run: TrainedRun):
-    """(density_fn, color_fn, occupied_fn or None, occupancy cell size) of a trained model,
-    jitted, in the normalised frame. color_fn(x, d) is the field's colour at x seen along unit d
-    (held-out appearance: the mean embedding)."""
-    model, params, aux = run.model, run.params, run.aux
-    if run.cfg.field.kind == "ngp":
-        field, p = model.field, params["field"]
-        cell = model.occ.cell_size * (field.radius if field.unbounded else 1.0)
-
-        def occupied(x):
-            return occupancy.query_occupancy(aux, field.to_grid(x), model.occ)
-
-        occupied_fn = jax.jit(occupied)
-    elif run.cfg.field.kind == "mip":  # mip-NeRF's one MLP at points (a Gaussian of zero variance: IPE = PE)
-        field, p = model.field, params["field"]
-        occupied_fn, cell = None, 0.0
-    else:  # the MLP NeRF: the fine field when there is one; no occupancy grid, every point is sampled
-        key = "fine" if model.fine is not None else "coarse"
-        field, p = getattr(model, key), params[key]
-        occupied_fn, cell = None, 0.0
-    emb = field.embedding(p, None)
-    density_fn = jax.jit(lambda x: field.density(p, x))
-    color_fn = jax.jit(lambda x, d: field(p, x, d, emb)[0])
-    return density_fn, color_fn, occupied_fn, cell
-
-
-def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Unit outward normals [V, 3]: area-weighted means of the incident faces' normals."""
-    import trimesh
-
-    return np.asarray(trimesh.Trimesh(verts, faces, process=False).vertex_normals, np.float32)
-
-
-def mesh_colors(color_fn, verts: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """uint8 [V, 4] RGBA: the field's colour at each vertex seen along -normal."""
-    rgb = chunked(color_fn, verts.astype(np.float32), -normals.astype(np.float32))
-    rgba = np.concatenate([np.clip(rgb, 0, 1) * 255 + 0.5, np.full((len(rgb), 1), 255.0)], axis=1)
-    return rgba.astype(np.uint8)
-
-
-def simplify(verts: np.ndarray, faces: np.ndarray, max_faces: int):
-    """Quadric-error decimation to at most max_faces faces (trimesh with fast-simplification)."""
-    import trimesh
-
-    if len(faces) <= max_faces:
-        return verts, faces
-    m = trimesh.Trimesh(verts, faces, process=False).simplify_quadric_decimation(face_count=max_faces)
-    return np.asarray(m.vertices, np.float32), np.asarray(m.faces, np.int64)
-
-
-def write_mesh(out: Path, verts: np.ndarray, faces: np.ndarray, colors: np.ndarray) -> None:
-    """Write a vertex-coloured mesh (.ply binary, .obj or .glb, by extension) with trimesh."""
-    import trimesh
-
-    mesh = trimesh.Trimesh(verts, faces, vertex_colors=colors, process=False)
-    write_atomic(Path(out), lambda tmp: mesh.export(tmp))
-
-
-def seen_faces(verts: np.ndarray, faces: np.ndarray, seen_fn):
-    """The faces some view sees (visibility.make_visibility: the centroid is the first surface
-    there and the face turns towards the camera), and only the vertices they use:
-    (verts [V', 3], faces [F', 3])."""
-    tri = verts[faces]
-    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    keep = chunked(seen_fn, tri.mean(axis=1).astype(np.float32), normals.astype(np.float32))
-    from nerfkit.export.carve import used_vertices
-
-    return used_vertices(verts, faces[keep])
-
-
-def carve_mesh(run: TrainedRun, verts: np.ndarray, faces: np.ndarray, h: float, data, log):
-    """(verts, faces, stats) carved into the training silhouettes (carve.py: moves of up to CARVE_CELLS
-    grid cells of size h or CARVE_PIXELS pixels, whichever is longer), or None when the capture has no
-    masks or alpha channel."""
-    from nerfkit.export.carve import carve, pixel_footprint, training_silhouettes
-
-    sil = training_silhouettes(run, data)
-    if sil is None:
-        log("mesh: the capture has neither masks nor an alpha channel; not carved to silhouettes")
-        return None
-    poses, cams, silhouettes = sil
-    px = pixel_footprint(poses, cams)
-    reach = max(CARVE_CELLS * h, CARVE_PIXELS * px)
-    delta = min(h, px) / 8
-    verts, faces, stats = carve(verts, vertex_normals(verts, faces), faces, poses, cams, silhouettes, delta,
-                                math.ceil(reach / delta))
-    stats["views"] = len(poses)
-    moved = stats["moved_along_normal"] + stats["moved_otherwise"]
-    log(f"mesh: {stats['outside']} vertices fell outside the silhouettes of {len(poses)} training views "
-        f"(margin {stats['margin_px']:g} px, {stats['tolerance_views']} may disagree); {moved} moved in "
-        f"(at most {reach:.3g}), {stats['absent']} could not and the {stats['dropped_faces']} faces using them were "
-        f"dropped (--no-carve keeps them)")
-    if not len(faces):
-        raise NerfkitError("no face of the mesh lies inside the training silhouettes; check the masks, or pass "
-                           "--no-carve")
-    return verts, faces, stats
-
-
-def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, threshold: float | None = None,
-                max_faces: int | None = None, visible_only: bool = True, snap: bool = True, every: int | None = None,
-                data: Path | None = None, progress: bool = True, log=print, carve: bool = True,
-                overwrite: bool = False) -> dict:
-    """`nerfkit export mesh`: write the run's mesh to `out` (default RUN/exports/mesh.ply) in the
-    capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
-    visible_only: keep only faces that some training view (every `every`-th) sees; snap: move the
-    vertices onto the half-opaque surface (half_opacity_snapper); carve: keep the vertices inside the
-    training silhouettes where the capture has masks or alpha (carve.py)."""
+def check_options(resolution: int, method: str, box: float | None, max_faces: int | None, texture_size: int,
+                  threshold: float | None) -> None:
+    """One line per bad value, before any work."""
+    if method not in METHODS:
+        raise ConfigError(f"--method must be one of {', '.join(METHODS)} (got {method!r})")
     if not 16 <= resolution <= 1024:
         raise ConfigError(f"--resolution must be between 16 and 1024 grid points per axis (got {resolution})")
     if threshold is not None and not threshold > 0:
         raise ConfigError(f"--threshold must be a positive density (got {threshold})")
     if max_faces is not None and max_faces < 4:
         raise ConfigError(f"--max-faces must be at least 4 (got {max_faces})")
-    out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "mesh.ply", MESH_SUFFIXES,
-                    overwrite)
+    if box is not None and not box > 0:
+        raise ConfigError(f"--box must be a positive half-size in the run's normalised units (got {box})")
+    if not 64 <= texture_size <= 8192:
+        raise ConfigError(f"--texture-size must be between 64 and 8192 texels (got {texture_size})")
+
+
+def default_out(run_dir: Path, texture: bool) -> Path:
+    return Path(run_dir) / "exports" / ("mesh.glb" if texture else "mesh.ply")
+
+
+def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, threshold: float | None = None,
+                max_faces: int | None = None, visible_only: bool = True, snap: bool = True, every: int | None = None,
+                data: Path | None = None, progress: bool = True, log=print, carve: bool = True,
+                overwrite: bool = False, method: str = "tsdf", box: float | None = None, watertight: bool = False,
+                texture: bool = False, texture_size: int = 2048) -> dict:
+    """Write the run's mesh to `out` (default RUN/exports/mesh.ply, or mesh.glb with `texture`) in the
+    capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
+
+    method: "tsdf" or "levelset" (module docstring); threshold, visible_only, snap and carve belong to
+    the level set (levelset.levelset_surface). box: half-size of the exported box in normalised units
+    (default: the field's box, or the inner ball of an unbounded scene). watertight: a closed manifold
+    (tsdf only). texture: a UV atlas of texture_size^2 texels instead of vertex colours."""
+    check_options(resolution, method, box, max_faces, texture_size, threshold)
+    if method == "tsdf" and threshold is not None:
+        raise ConfigError("--threshold is the density level of --method levelset; the tsdf surface is where "
+                          "the rendered depth puts it")
+    if method == "levelset" and watertight:
+        raise ConfigError("--watertight closes the fused surface of --method tsdf; the level set drops unseen "
+                          "faces, so it is open: use --method tsdf --watertight")
+    out = Path(out) if out is not None else default_out(run_dir, texture)
+    suffixes = TEXTURE_SUFFIXES if texture else MESH_SUFFIXES
+    if texture and out.suffix.lower() == ".ply":
+        raise ConfigError(f"--out {out}: a textured mesh is written as .glb (texture inside) or .obj (+ .mtl + .png)")
+    out = check_out(out, suffixes, overwrite)
+    if texture and out.suffix.lower() == ".obj":
+        from nerfkit.export.texture import textured_files
+        from nerfkit.outputs import check_new_file
+
+        for side in textured_files(out)[1:]:
+            check_new_file(side, overwrite, "--out")
     t0 = time.perf_counter()
     run = load_run(run_dir)
-    bound = run.bound
-    level = default_threshold(bound, resolution) if threshold is None else float(threshold)
-    rule = "ln 2 / h (one grid cell half opaque)" if threshold is None else "--threshold"
-    log(f"mesh: {resolution}^3 grid over the box [-{bound:g}, {bound:g}]^3 (h = {2 * bound / (resolution - 1):.4g}), "
-        f"density threshold {level:.4g} ({rule})")
-    density_fn, color_fn, occupied_fn, cell = field_functions(run)
-    axis = grid_axis(bound, resolution)
-    mask = None if occupied_fn is None else occupied_mask(occupied_fn, axis, cell)
-    vol = density_volume(density_fn, axis, mask, progress=progress)
-    peak = float(vol.max())
-    if not peak >= level:
-        raise NerfkitError(f"nothing above the threshold {level:.4g} (the density peaks at {peak:.4g} in the box); "
-                           f"try a lower --threshold")
-    verts, faces = extract_surface(vol, level, bound)
-    n_level_set = len(faces)
-    if visible_only:
-        from nerfkit.export.visibility import make_visibility, render_views
+    bound = run.bound if box is None else float(box)
+    h = 2.0 * bound / (resolution - 1)
+    if method == "tsdf":
+        from nerfkit.export.tsdf import tsdf_surface
 
-        views = render_views(run, every=every, data=data, pinhole=True, progress=progress)
-        verts, faces = seen_faces(verts, faces, make_visibility(views, 2.0 * bound / (resolution - 1)))
-        log(f"mesh: {len(faces)} of the level set's {n_level_set} faces are seen by {len(views.c2w)} training views "
-            f"(the others lie inside objects or under them: --no-visible-only keeps them)")
-        if not len(faces):
-            raise NerfkitError(f"no face of the level set at {level:.4g} is seen by the training views; try a lower "
-                               f"--threshold or --no-visible-only")
-    if snap:  # onto the half-opaque surface, searched within SNAP_CELLS grid cells
-        snapper = half_opacity_snapper(density_fn, SNAP_CELLS * 2.0 * bound / (resolution - 1))
-        verts = chunked(snapper, verts, vertex_normals(verts, faces), chunk=16384)
-    carved = carve_mesh(run, verts, faces, 2.0 * bound / (resolution - 1), data, log) if carve else None
-    if carved is not None:
-        verts, faces, carved = carved
+        verts, faces, info = tsdf_surface(run, bound, resolution, every, data, watertight, progress, log)
+    else:
+        from nerfkit.export.levelset import levelset_surface
+
+        verts, faces, info = levelset_surface(run, bound, resolution, threshold, visible_only, snap, every, data,
+                                              carve, progress, log)
+    n_surface, dropped = len(faces), 0
+    if method == "tsdf":  # the level set keeps its pieces, as in the exports of the last round
+        verts, faces, dropped = drop_specks(verts, faces, SPECK_CELLS * h)
+        log(f"mesh: {len(faces)} faces; {dropped} specks under {SPECK_CELLS:g} grid cells across dropped "
+            f"({n_surface - len(faces)} faces)")
     n_faces = len(faces)
-    if max_faces is not None:
-        verts, faces = simplify(verts, faces, max_faces)
-    colors = mesh_colors(color_fn, verts, vertex_normals(verts, faces))
-    write_mesh(out, to_capture(verts, run.transform), faces, colors)
+    limit = max_faces if max_faces is not None else (TEXTURE_FACES if texture else None)
+    if limit is not None:
+        verts, faces = simplify(verts, faces, limit)
+    closed = closed_and_manifold(verts, faces)
+    if watertight and not closed:
+        raise NerfkitError("the closed surface came out with open or non-manifold edges after clean-up; try "
+                           "without --max-faces or at another --resolution")
+    density_fn, color_fn, _, _ = field_functions(run)
+    colors_of = surface_color_fn(density_fn, color_fn, COLOR_CELLS * h)
+    normals = vertex_normals(verts, faces)
+    colors = rgba8(chunked(colors_of, verts.astype(np.float32), normals, chunk=16384))
+    record = {"kind": "mesh", "file": str(out.resolve()), "method": method, "step": run.step,
+              "resolution": resolution, "bound": bound, "box_rule": "--box" if box is not None else "the field's box",
+              "faces_of_surface": n_surface, "pieces_dropped": dropped, "faces_before_simplification": n_faces,
+              "closed_manifold": closed, "watertight_requested": watertight, **info}
+    if texture:
+        from nerfkit.export.texture import bake, write_textured
+
+        log(f"mesh: texture atlas (xatlas, about {texture_size}^2 texels) for {len(faces)} faces...")
+        uv, tex_faces, tex_verts, image = bake(verts, normals, faces, texture_size,
+                                               lambda p, n: chunked(colors_of, p, n, chunk=16384))
+        files = write_textured(out, to_capture(tex_verts, run.transform), tex_faces, uv, image)
+        record["texture"] = {"files": [str(f.resolve()) for f in files], "size": list(image.shape[1::-1])}
+    else:
+        write_mesh(out, to_capture(verts, run.transform), faces, colors)
     from nerfkit.export.pictures import mesh_picture
 
     picture = mesh_picture(run.run_dir / "exports" / "mesh.png", verts, faces, colors,
-                           f"{out.name}: {len(verts)} vertices, {len(faces)} faces (step {run.step})")
-    record = {"kind": "mesh", "file": str(out.resolve()), "step": run.step, "resolution": resolution,
-              "threshold": level, "threshold_rule": rule, "bound": bound, "vertices": len(verts), "faces": len(faces),
-              "faces_before_simplification": n_faces, "faces_of_level_set": n_level_set,
-              "visible_only": visible_only, "snapped_to_half_opacity": snap,
-              "carved_to_silhouettes": carved,
-              "occupied_fraction": None if mask is None else float(mask.mean()),
-              "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
-              "coordinates": "the capture's own (pose normalisation undone)"}
+                           f"{out.name}: {len(verts)} vertices, {len(faces)} faces ({method}, step {run.step})")
+    record.update({"vertices": len(verts), "faces": len(faces), "seconds": round(time.perf_counter() - t0, 2),
+                   "picture": picture.name, "coordinates": "the capture's own (pose normalisation undone)"})
     write_record(run.run_dir, "mesh", record)
     return record

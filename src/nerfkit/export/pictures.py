@@ -50,7 +50,7 @@ def shaded_face_colors(verts: np.ndarray, faces: np.ndarray, colors: np.ndarray)
 def mesh_picture(path: Path, verts: np.ndarray, faces: np.ndarray, colors: np.ndarray, title: str) -> Path:
     """PNG of a vertex-coloured mesh from two sides (a decimated copy when it has more than
     MAX_PICTURE_FACES faces; matplotlib sorts polygons by depth, so this is a preview)."""
-    from nerfkit.export.mesh import simplify
+    from nerfkit.export.surface import simplify
 
     if len(faces) > MAX_PICTURE_FACES:
         from scipy.spatial import cKDTree

@@ -46,20 +46,23 @@ class Views:
 
 
 def render_views(run, split: str | None = None, every: int | None = None, data=None, chunk: int | None = None,
-                 pinhole: bool = False, progress: bool = False) -> Views:
+                 pinhole: bool = False, progress: bool = False, target: int = DEFAULT_VIEWS,
+                 width: int | None = None) -> Views:
     """Render every `every`-th view of `split` (default: the run's training split; about
-    DEFAULT_VIEWS views) at the training resolution. pinhole: drop the lens model (for
-    projecting points with K alone)."""
+    `target` views) at the training resolution, or `width` pixels wide (the same field of view).
+    pinhole: drop the lens model (for projecting points with K alone)."""
     from nerfkit.evaluate import run_data_dir
 
     d = run.cfg.data
     split = split or d.train_split
     cap = read_capture(run_data_dir(run.run_dir, data), split, d.format, d.masks, d.holdout_every)
     sel = scene_cameras(cap, split, d.downscale, d.target_width)
-    every = every or max(1, math.ceil(len(sel.poses) / DEFAULT_VIEWS))
+    every = every or max(1, math.ceil(len(sel.poses) / target))
     ids = list(range(0, len(sel.poses), every))
     cams = [sel.cameras[k].with_size(sel.cameras[k].width, sel.cameras[k].height) if pinhole else sel.cameras[k]
             for k in ids]
+    if width is not None and cams and cams[0].width != width:
+        cams = [c.scaled(width / c.width, width, round(c.height * width / c.width)) for c in cams]
     renderer = make_renderer(run.model, run.cfg.train.chunk if chunk is None else chunk)
     outs = [renderer.render_camera(run.params, run.aux, sel.poses[k], cam)
             for k, cam in zip(tqdm(ids, desc="render views", unit="view", disable=not progress), cams)]
