@@ -26,6 +26,7 @@ from nerfkit.cli_args import (
     ExportCamerasArgs,
     ExportMeshArgs,
     ExportPointcloudArgs,
+    ExportSplatArgs,
     ExperimentArgs,
     MakeMultiscaleArgs,
     MakeSceneArgs,
@@ -188,17 +189,17 @@ def cmd_view(argv: list[str]) -> int:
     return 0
 
 
-EXPORT_KINDS = ("mesh", "pointcloud", "cameras")
+EXPORT_KINDS = ("mesh", "pointcloud", "cameras", "splat")
 
 
 def cmd_export(argv: list[str]) -> int:
     if not argv or argv[0] not in EXPORT_KINDS:
         if argv and argv[0] in ("-h", "--help"):
-            print("usage: nerfkit export {mesh,pointcloud,cameras} RUN_DIR [--out FILE] ...  "
+            print("usage: nerfkit export {mesh,pointcloud,cameras,splat} RUN_DIR [--out FILE] ...  "
                   "(nerfkit export KIND --help for its options)")
             return 0
         got = f" (got {argv[0]!r})" if argv else ""
-        raise ConfigError(f"export needs a kind: nerfkit export mesh|pointcloud|cameras RUN_DIR{got}")
+        raise ConfigError(f"export needs a kind: nerfkit export mesh|pointcloud|cameras|splat RUN_DIR{got}")
     kind, rest = argv[0], argv[1:]
     prog = f"nerfkit export {kind}"
     if kind == "mesh":
@@ -218,6 +219,12 @@ def cmd_export(argv: list[str]) -> int:
         rec = export_pointcloud(a.run_dir, a.out, a.split, a.every, a.min_opacity, a.voxel_size, a.data, a.chunk,
                                 progress=a.progress, overwrite=a.overwrite)
         print(f"wrote {rec['file']}: {rec['points']} points ({rec['seconds']:.1f} s)")
+    elif kind == "splat":
+        from nerfkit.export.splat import export_splat
+
+        a = parse(ExportSplatArgs, rest, prog)
+        rec = export_splat(a.run_dir, a.out, overwrite=a.overwrite)
+        print(f"wrote {rec['file']}: {rec['gaussians']} Gaussians, SH degree {rec['sh_degree']} ({rec['seconds']:.1f} s)")
     else:
         from nerfkit.export.cameras import export_cameras
 
@@ -394,13 +401,13 @@ COMMANDS = {
                                              "layout): nerfkit make-multiscale DATA --out DATA_MS"),
     "process-data": (cmd_process_data, "poses from photos or a video (pycolmap SfM): nerfkit process-data images DIR "
                                        "--out DATA [--masks DIR]"),
-    "train": (cmd_train, "train a radiance field: nerfkit train DATA_DIR --out RUN_DIR [--preset ngp|seed|nerf|demo]"),
+    "train": (cmd_train, "train a radiance field or Gaussian splats: nerfkit train DATA_DIR --out RUN_DIR [--preset ngp|seed|nerf|splat|demo]"),
     "eval": (cmd_eval, "PSNR/SSIM of a run on a split: nerfkit eval RUN_DIR --split SPLIT [--data DATA_DIR]"),
     "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --orbit N"),
     "view": (cmd_view, "interactive viewer in the browser (viser): nerfkit view RUN_DIR [--port 7007]; "
                        "or nerfkit train ... --viewer; a baked scene's WebGL page: nerfkit view --baked DIR"),
-    "export": (cmd_export, "mesh, point cloud or cameras in standard formats: nerfkit export mesh|pointcloud|cameras "
-                           "RUN_DIR [--out FILE]"),
+    "export": (cmd_export, "mesh, point cloud, cameras or Gaussian splats in standard formats: nerfkit export "
+                           "mesh|pointcloud|cameras|splat RUN_DIR [--out FILE]"),
     "bake": (cmd_bake, "a web page that renders a trained scene in real time in any browser (WebGL2): "
                        "nerfkit bake RUN_DIR --out DIR"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation|antialias "

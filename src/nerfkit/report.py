@@ -346,7 +346,8 @@ def _exports_html(run: Path) -> str:
         pic = run / "exports" / str(rec.get("picture", ""))
         facts = {"mesh": "{vertices} vertices, {faces} faces, threshold {threshold:.4g}",
                  "pointcloud": "{points} points from {views} views",
-                 "cameras": "{frames} cameras"}[kind]
+                 "cameras": "{frames} cameras",
+                 "splat": "{gaussians} Gaussians, SH degree {sh_degree}, read back and rendered"}[kind]
         try:
             facts = facts.format(**rec)
         except (KeyError, ValueError, TypeError):

@@ -267,6 +267,9 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
                     overwrite)
     t0 = time.perf_counter()
     run = load_run(run_dir)
+    if run.cfg.field.kind == "splat":
+        raise ConfigError(f"{run_dir}: Gaussian splats have no density field to mesh; export them with nerfkit "
+                          f"export splat (or export pointcloud for points)")
     bound = run.bound
     level = default_threshold(bound, resolution) if threshold is None else float(threshold)
     rule = "ln 2 / h (one grid cell half opaque)" if threshold is None else "--threshold"

@@ -52,11 +52,11 @@ def means_lr(progress: float, extent: float, lrs: LearningRates = LearningRates(
     return float(extent * np.exp((1 - t) * np.log(lrs.means_init) + t * np.log(lrs.means_final)))
 
 
-def make_optimizers(lrs: LearningRates, extent: float) -> dict:
-    """{group: optax transformation}: Adam (eps 1e-15) with an injectable learning rate per group."""
+def make_optimizers(lrs: LearningRates, extent: float, eps: float = ADAM_EPS) -> dict:
+    """{group: optax transformation}: Adam (epsilon `eps`, 3DGS: 1e-15) with an injectable learning rate per group."""
     rates = {"means": lrs.means_init * extent, "log_scales": lrs.log_scales, "quats": lrs.quats,
              "opacity": lrs.opacity, "sh_dc": lrs.sh_dc, "sh_rest": lrs.sh_rest}
-    return {k: optax.inject_hyperparams(optax.adam)(learning_rate=v, eps=ADAM_EPS) for k, v in rates.items()}
+    return {k: optax.inject_hyperparams(optax.adam)(learning_rate=v, eps=eps) for k, v in rates.items()}
 
 
 def init_state(opts: dict, params: dict) -> dict:

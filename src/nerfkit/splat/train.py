@@ -115,31 +115,40 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, *, cfg, widt
     loss = photo
     if cfg.strategy == "mcmc":
         loss = loss + mcmc.regularizer(params, cfg.opacity_reg, cfg.scale_reg, active)
-    return loss, (photo, radii)
+    return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
 
 
-def make_step(cfg: SplatConfig, opts: dict, width: int, height: int):
+def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False):
     """The jitted training step
 
         step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree)
-          -> params, opt_state, stats, photometric loss
+          -> params, opt_state, stats, photometric loss [, mse, finite]
 
-    images [V, H, W, 3], poses [V, 4, 4], intrinsics [V, 4] stay on the device; idx picks the view."""
+    images [V, H, W, 3], poses [V, 4, 4], intrinsics [V, 4] stay on the device; idx picks the view.
+    A step whose loss or gradients are not finite changes nothing (finite: False). with_health also
+    returns the view's MSE and that flag (what nerfkit's run loop logs)."""
     loss_grad = jax.value_and_grad(partial(_loss_fn, cfg=cfg, width=width, height=height), argnums=(0, 1),
                                    has_aux=True)
 
     @jax.jit
     def step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree):
         offset = jnp.zeros((params["means"].shape[0], 2), jnp.float32)
-        (_, (photo, radii)), (grads, g_m2d) = loss_grad(params, offset, images[idx], poses[idx], intrinsics[idx],
-                                                        background, band_mask(sh_degree), active)
-        params, opt_state = adam_step(opts, opt_state, grads, params, lr_means)
+        (loss, (photo, radii, mse)), (grads, g_m2d) = loss_grad(params, offset, images[idx], poses[idx],
+                                                                intrinsics[idx], background, band_mask(sh_degree),
+                                                                active)
+        finite = jnp.isfinite(loss)
+        for g in jax.tree_util.tree_leaves(grads):
+            finite = finite & jnp.all(jnp.isfinite(g))
+        new_params, new_opt = adam_step(opts, opt_state, grads, params, lr_means)
+        new_stats = stats
         if cfg.strategy == "mcmc":
-            noise = mcmc.position_noise(key, params, lr_means, cfg.noise_lr)
-            params = dict(params, means=params["means"] + jnp.where(active[:, None], noise, 0.0))
+            noise = mcmc.position_noise(key, new_params, lr_means, cfg.noise_lr)
+            new_params = dict(new_params, means=new_params["means"] + jnp.where(active[:, None], noise, 0.0))
         elif cfg.strategy == "classic":
-            stats = classic.accumulate(stats, g_m2d, radii, width, height)
-        return params, opt_state, stats, photo
+            new_stats = classic.accumulate(stats, g_m2d, radii, width, height)
+        keep = partial(jax.tree_util.tree_map, lambda new, old: jnp.where(finite, new, old))
+        out = (keep(new_params, params), keep(new_opt, opt_state), keep(new_stats, stats), photo)
+        return (*out, mse, finite) if with_health else out
 
     return step
 
@@ -162,6 +171,27 @@ def _control(cfg, step, params, opt_state, stats, active, rng, extent, width, op
         stats = classic.zero_stats(n)
     opt_state = reset_rows(opt_state, touched, n) if len(touched) else opt_state
     return {k: jnp.asarray(v) for k, v in p.items()}, opt_state, stats, active
+
+
+def host_control(cfg: SplatConfig, step: int, progress: float, params, opt_state, stats, active, rng, extent: float,
+                 width: int):
+    """What the host does after step `step` (1-based count of steps done) at progress in [0, 1]: a
+    density-control round every cfg.control_every steps from cfg.control_from while progress <
+    cfg.control_until, and (classic) the opacity reset every classic.reset_every steps in that window.
+    Returns (params, opt_state, stats, active, what: list of "control" / "reset")."""
+    what = []
+    window = progress < cfg.control_until
+    resets = step // cfg.classic.reset_every if cfg.strategy == "classic" else 0  # resets done before this step
+    if cfg.strategy != "none" and step >= cfg.control_from and step % cfg.control_every == 0 and window:
+        params, opt_state, stats, active = _control(cfg, step, params, opt_state, stats, active, rng, extent, width,
+                                                    resets - (step % cfg.classic.reset_every == 0))
+        what.append("control")
+    if cfg.strategy == "classic" and step % cfg.classic.reset_every == 0 and window:
+        params = dict(params, opacity=jnp.asarray(classic.reset_opacity(_host(params), cfg.classic.reset_opacity)
+                                                  ["opacity"]))
+        opt_state = dict(opt_state, opacity=reset_rows(opt_state["opacity"], np.arange(cfg.capacity), cfg.capacity))
+        what.append("reset")
+    return params, opt_state, stats, active, what
 
 
 def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: SplatConfig = SplatConfig(), *,
@@ -201,7 +231,7 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
             jnp.asarray([intrinsics_of(c) for c in cameras], jnp.float32), jnp.asarray(background, jnp.float32))
     base_key = jax.random.PRNGKey(cfg.seed)
     order, records, losses = np.zeros(0, int), [], []
-    paused, t0, step, next_cb, next_log, resets, last_cb = 0.0, time.perf_counter(), 0, callback_every_s, 10.0, 0, -1
+    paused, t0, step, next_cb, next_log, last_cb = 0.0, time.perf_counter(), 0, callback_every_s, 10.0, -1
     while True:
         elapsed = time.perf_counter() - t0 - paused
         progress = max(step / steps if steps else 0.0, elapsed / budget if budget else 0.0)
@@ -225,16 +255,8 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
         if step % cfg.log_every == 0:
             records.append((step, time.perf_counter() - t0 - paused, float(np.mean([float(x) for x in losses]))))
             losses = []
-        if cfg.strategy != "none" and step >= cfg.control_from and step % cfg.control_every == 0 \
-                and progress < cfg.control_until:
-            params, opt_state, stats, active = _control(cfg, step, params, opt_state, stats, active, rng, extent,
-                                                        width, resets)
-        if cfg.strategy == "classic" and step % cfg.classic.reset_every == 0 and progress < cfg.control_until:
-            params = dict(params, opacity=jnp.asarray(classic.reset_opacity(_host(params), cfg.classic.reset_opacity)
-                                                      ["opacity"]))
-            opt_state = dict(opt_state, opacity=reset_rows(opt_state["opacity"], np.arange(cfg.capacity),
-                                                            cfg.capacity))
-            resets += 1
+        params, opt_state, stats, active, _ = host_control(cfg, step, progress, params, opt_state, stats, active, rng,
+                                                          extent, width)
         if log and elapsed >= next_log:
             log(f"step {step}  {elapsed:.0f} s  loss {records[-1][2] if records else float(photo):.4f}  "
                 f"active {int(active.sum())}")
