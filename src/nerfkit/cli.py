@@ -241,10 +241,27 @@ def cmd_export(argv: list[str]) -> int:
     return 0
 
 
+# bake's flags that only the radiance-field bake reads (a splat run's page holds the Gaussians as they are).
+FIELD_BAKE_ONLY = ("--resolution", "--sh-bands", "--finetune-minutes", "--max-mb")
+
+
 def cmd_bake(argv: list[str]) -> int:
     from nerfkit.bake.bake import bake_run
 
     a = parse(BakeArgs, argv, "nerfkit bake")
+    if (a.run_dir / "config.json").is_file():
+        from nerfkit.train import load_run_config
+
+        if load_run_config(a.run_dir).field.kind == "splat":
+            from nerfkit.splat.web import write_splat_page
+
+            for flag in FIELD_BAKE_ONLY:
+                if _flag_value(argv, flag) is not None:
+                    raise ConfigError(f"{flag} has no effect on a splat run (its page draws the Gaussians "
+                                      f"themselves, no grid or fine-tuning); drop it")
+            write_splat_page(a.run_dir, a.out, overwrite=a.overwrite)
+            print(f"next: nerfkit view --baked {shlex.quote(str(a.out))}")
+            return 0
     bake_run(a.run_dir, a.out, a.resolution, a.sh_bands, a.finetune_minutes, a.max_mb, progress=a.progress,
              overwrite=a.overwrite)
     print(f"next: nerfkit view --baked {shlex.quote(str(a.out))}")
