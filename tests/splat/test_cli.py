@@ -16,16 +16,17 @@ from nerfkit.splat.model import render
 from nerfkit.splat.ply import import_ply
 from nerfkit.train import load_trained
 
-TRAIN = ["--preset", "splat", "--no-progress", "--capacity", "2000", "--max-steps", "40", "--val-every", "20",
-         "--ckpt-every", "20", "--log-every", "10"]
+TRAIN = ["--preset", "splat", "--no-progress", "--capacity", "2000", "--max-steps", "40"]
 
 
-@pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    root = tmp_path_factory.mktemp("splatcli")
-    scene = make_scene(root / "scene", size=32, n_train=8, n_val=2, n_test=2)
-    assert main(["train", str(scene), "--out", str(root / "run"), *TRAIN]) == 0
-    return scene, root / "run"
+@pytest.fixture
+def run(splat_run, tmp_path):
+    """A copy of the shared run (tests here write evaluations and exports into it)."""
+    import shutil
+
+    scene, out = splat_run
+    shutil.copytree(out, tmp_path / "run")
+    return scene, tmp_path / "run"
 
 
 def test_run_folder_like_the_other_presets(run):
@@ -47,11 +48,7 @@ def test_run_folder_like_the_other_presets(run):
 
 
 def test_resume_continues_to_the_total_steps(run, tmp_path):
-    scene, out = run
-    import shutil
-
-    copy = tmp_path / "run"
-    shutil.copytree(out, copy)
+    scene, copy = run
     assert main(["train", str(scene), "--out", str(copy), "--resume", "--no-progress", "--max-steps", "50",
                  "--log-every", "10"]) == 0
     rows = [json.loads(x) for x in (copy / "metrics.jsonl").read_text().splitlines()]

@@ -23,7 +23,6 @@ from nerfkit.bake import web
 from nerfkit.cameras import Camera
 from nerfkit.cli import main
 from nerfkit.data.loader import load_scene
-from nerfkit.data.scene import make_scene
 from nerfkit.metrics import psnr
 from nerfkit.train import load_trained
 from nerfkit.inference import make_renderer
@@ -32,13 +31,11 @@ SIZE = 64
 
 
 @pytest.fixture(scope="module")
-def baked(tmp_path_factory):
-    root = tmp_path_factory.mktemp("splatweb")
-    scene = make_scene(root / "scene", size=32, n_train=8, n_val=2, n_test=2)
-    assert main(["train", str(scene), "--out", str(root / "run"), "--preset", "splat", "--no-progress",
-                 "--capacity", "1500", "--max-steps", "30", "--val-every", "30", "--ckpt-every", "30"]) == 0
-    assert main(["bake", str(root / "run"), "--out", str(root / "page"), "--no-progress"]) == 0
-    return scene, root / "run", root / "page"
+def baked(splat_run, tmp_path_factory):
+    scene, run = splat_run
+    page = tmp_path_factory.mktemp("splatweb") / "page"
+    assert main(["bake", str(run), "--out", str(page), "--no-progress"]) == 0
+    return scene, run, page
 
 
 def test_bake_refuses_the_field_flags_and_replaces_only_with_overwrite(baked, tmp_path, capsys):
