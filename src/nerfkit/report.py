@@ -348,6 +348,8 @@ def _exports_html(run: Path) -> str:
                  "pointcloud": "{points} points from {views} views",
                  "cameras": "{frames} cameras",
                  "splat": "{gaussians} Gaussians, SH degree {sh_degree}, read back and rendered"}[kind]
+        if kind == "pointcloud" and "source" in rec:  # a splat run's centres
+            facts = "{points} points ({source})"
         try:
             facts = facts.format(**rec)
         except (KeyError, ValueError, TypeError):

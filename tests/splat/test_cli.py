@@ -100,6 +100,25 @@ def test_export_splat_reads_back_and_renders_the_same_image(run, tmp_path, capsy
     assert main(["export", "cameras", str(out), "--out", str(tmp_path / "c.json")]) == 0
 
 
+def test_pointcloud_is_the_centres(run, tmp_path, capsys):
+    import trimesh
+
+    scene, out = run
+    cfg, model, params, aux, _ = load_trained(out)
+    active = np.asarray(aux["active"], bool)
+    opacity = 1 / (1 + np.exp(-np.asarray(params["opacity"])[active]))
+    assert main(["export", "pointcloud", str(out), "--out", str(tmp_path / "p.ply"), "--min-opacity", "0.05",
+                 "--voxel-size", "0"]) == 0
+    pts = np.asarray(trimesh.load(tmp_path / "p.ply").vertices)
+    assert len(pts) == (opacity >= 0.05).sum() > 0
+    sc = json.loads((out / "scene.json").read_text())
+    m = np.asarray(sc["transform"])
+    want = np.asarray(params["means"])[active][opacity >= 0.05]
+    np.testing.assert_allclose(pts @ m[:3, :3].T + m[:3, 3], want, atol=1e-4)  # capture coordinates
+    assert main(["export", "pointcloud", str(out), "--out", str(tmp_path / "q.ply"), "--split", "test"]) == 1
+    assert "--split" in capsys.readouterr().err and not (tmp_path / "q.ply").exists()
+
+
 def test_init_from_sfm_points(tmp_path):
     """A nerfstudio capture with sparse_pc.ply: the Gaussians start at its points, in the normalised frame."""
     import trimesh

@@ -74,6 +74,7 @@ class SplatConfig:
     classic: classic.ClassicSchedule = field(default_factory=classic.ClassicSchedule)
     init_box: float = 1.5  # random init in [-box, box]^3 when no points are given
     init_opacity: float = 0.1
+    init_scale: float = 1.0  # initial scales = this x the nearest-neighbour distance (gsplat's init_scale)
     seed: int = 0
     backend: str = "auto"
     log_every: int = 10
@@ -99,6 +100,7 @@ def initial_params(cfg: SplatConfig, init: dict | None = None) -> tuple[dict, np
         pad = init_random(cfg.capacity - len(keep), cfg.init_box, cfg.seed, cfg.init_opacity)
         params = {k: np.concatenate([np.asarray(init[k], np.float32)[keep], pad[k]]) for k in PARAM_NAMES}
         n_active = min(n_active, len(keep))
+    params["log_scales"] = params["log_scales"] + np.float32(np.log(cfg.init_scale))
     active = np.zeros(cfg.capacity, bool)
     active[:n_active] = True
     return params, active
