@@ -153,3 +153,30 @@ def test_sfm_init_refused_without_points(run, tmp_path, capsys):
     assert main(["train", str(scene), "--out", str(tmp_path / "x"), *TRAIN, "--init-points", "sfm"]) == 1
     err = capsys.readouterr().err.strip()
     assert "init-points" in err and err.count("\n") == 0 and not (tmp_path / "x").exists()
+
+
+def test_init_from_colmap_points(tmp_path):
+    """A COLMAP capture's points3D (with colours) seed the Gaussians, moved into the normalised frame."""
+    from nerfkit.config import preset
+    from nerfkit.data.colmap import read_colmap, write_colmap
+    from nerfkit.data.synthetic import make_capture
+
+    root = make_capture(tmp_path / "cap", "colmap", n_views=6, size=16)
+    cap = read_colmap(root, 8, True)
+    frames = cap.frames("all")
+    pts = np.random.default_rng(1).uniform(-1, 1, (50, 3))
+    cols = np.tile(np.uint8([[10, 200, 30]]), (50, 1))
+    write_colmap(root / "sparse" / "0", [f.image.name for f in frames], np.stack([f.c2w for f in frames]),
+                 [f.camera for f in frames], pts, cols)
+    cap = read_colmap(root, 8, True)
+    data = load_scene(root, "train", format="colmap")
+    assert not np.allclose(data.transform, np.eye(4))  # photo captures are normalised
+    model = SplatModel(preset("splat"))
+    model.bind_data(cap, data, log=lambda *_: None)
+    params, aux = model.init()
+    m = np.asarray(data.transform)
+    got = params["means"][:50][np.lexsort(params["means"][:50].T)]
+    want = (pts @ m[:3, :3].T + m[:3, 3])
+    np.testing.assert_allclose(got, want[np.lexsort(want.T)], atol=1e-4)
+    np.testing.assert_allclose(0.28209479 * params["sh_dc"][:50, 0] + 0.5, np.tile([10, 200, 30], (50, 1)) / 255,
+                               atol=1e-5)
