@@ -349,7 +349,9 @@ class Trainer:
         vrows = read_jsonl(self.run_dir / "val_metrics.jsonl")
         plots = self.run_dir / "plots"
         steps = [r["step"] for r in rows]
-        plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", "loss (MSE)",
+        g = self.cfg.splat
+        what = f"{1 - g.ssim_lambda:g} L1 + {g.ssim_lambda:g} D-SSIM" if self.cfg.field.kind == "splat" else "MSE"
+        plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", f"loss ({what})",
                     "Training loss", logy=True)
         plot_curves({"train": (steps, [r["psnr"] for r in rows])}, plots / "train_psnr.png", "step", "PSNR (dB)",
                     "Training PSNR", min_span=1.0)
