@@ -400,7 +400,8 @@ class Trainer:
 
     def _log(self, pending: list, elapsed: float) -> dict:
         """Check the pending steps' metrics for non-finite ones (NerfkitError after max_bad_steps in a row) and
-        append the last one's row to metrics.jsonl; returns that row."""
+        append the last one's row to metrics.jsonl (loss and PSNR: of its batch; a model that trains on one
+        view per step: the mean over the pending steps); returns that row."""
         t = self.cfg.train
         for s, mm in pending:
             if bool(mm["finite"]):
@@ -412,7 +413,11 @@ class Trainer:
                 raise NerfkitError(f"stopping: {self._bad_streak} non-finite steps in a row (last at step {s}); the "
                                    f"last good checkpoint in {self.ckpt_dir} is intact. Try a lower --lr.")
         s, mm = pending[-1]
-        row = {"step": s, "loss": float(mm["loss"]), "psnr": float(mse_to_psnr(float(mm["mse"]))),
+        loss, mse = float(mm["loss"]), float(mm["mse"])
+        if getattr(self.model, "PARALLEL", "rays") == "views":  # one view per step: the mean over the logged steps
+            good = [m for _, m in pending if bool(m["finite"])] or [mm]
+            loss, mse = (float(np.mean([float(m[k]) for m in good])) for k in ("loss", "mse"))
+        row = {"step": s, "loss": loss, "psnr": float(mse_to_psnr(mse)),
                "lr": float(self.schedule(s)), "elapsed": round(elapsed, 3)}
         row.update({k: float(v) for k, v in mm.items() if k not in ("loss", "mse", "finite")})
         self._append("metrics.jsonl", row)
