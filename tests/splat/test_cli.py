@@ -34,33 +34,33 @@ def test_run_folder_like_the_other_presets(run):
     cfg = json.loads((out / "config.json").read_text())
     assert cfg["field"]["kind"] == "splat" and cfg["splat"]["capacity"] == 2000
     rows = [json.loads(x) for x in (out / "metrics.jsonl").read_text().splitlines()]
-    assert [r["step"] for r in rows] == [10, 20, 30, 40]
+    assert [r["step"] for r in rows] == [50, 100, 150, 200]
     assert all({"loss", "psnr", "lr", "elapsed", "gaussians"} <= set(r) for r in rows)
     assert rows[-1]["loss"] < rows[0]["loss"]  # the photometric loss falls
     vals = [json.loads(x) for x in (out / "val_metrics.jsonl").read_text().splitlines()]
-    assert [v["step"] for v in vals] == [20, 40]
-    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["ckpt_00000020.msgpack",
-                                                                       "ckpt_00000040.msgpack"]
+    assert [v["step"] for v in vals] == [100, 200]
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["ckpt_00000100.msgpack",
+                                                                       "ckpt_00000200.msgpack"]
     assert (out / "report.html").is_file() and (out / "scene.json").is_file()
     cfg2, model, params, aux, step = load_trained(out)
-    assert step == 40 and params["means"].shape == (2000, 3) and aux["active"].dtype == bool
+    assert step == 200 and params["means"].shape == (2000, 3) and aux["active"].dtype == bool
     assert 0 < float(aux["clock"]) < 600
 
 
 def test_resume_continues_to_the_total_steps(run, tmp_path):
     scene, copy = run
-    assert main(["train", str(scene), "--out", str(copy), "--resume", "--no-progress", "--max-steps", "50",
-                 "--log-every", "10"]) == 0
+    assert main(["train", str(scene), "--out", str(copy), "--resume", "--no-progress", "--max-steps", "250",
+                 "--log-every", "50"]) == 0
     rows = [json.loads(x) for x in (copy / "metrics.jsonl").read_text().splitlines()]
-    assert [r["step"] for r in rows] == [10, 20, 30, 40, 50]
-    assert load_trained(copy)[4] == 50
+    assert [r["step"] for r in rows] == [50, 100, 150, 200, 250]
+    assert load_trained(copy)[4] == 250
 
 
 def test_eval_and_render(run, tmp_path):
     scene, out = run
     assert main(["eval", str(out), "--split", "test"]) == 0
     ev = json.loads((out / "eval_test.json").read_text())
-    assert ev["step"] == 40 and len(ev["per_view"]) == 2 and 8 < ev["psnr"] < 40
+    assert ev["step"] == 200 and len(ev["per_view"]) == 2 and 8 < ev["psnr"] < 40
     assert (out / "eval_test" / "view_000.png").is_file()
     assert main(["render", str(out), "--split", "test", "--width", "48", "--out", str(tmp_path / "r")]) == 0
     depth = np.load(tmp_path / "r" / "depth_0000.npy")
