@@ -114,7 +114,7 @@ def host_candidate(name, module, frames, size):
 
 
 def xla_candidate(frames, size):
-    from nerfkit.splat.alt_xla import rasterize_xla, tile_rects
+    from splat_alt_xla import rasterize_xla, tile_rects
 
     budgets = []
     for m, q, col, op, dep, rad, bg in frames:  # exact budgets: longest list and overlap count (radius squares)
@@ -271,7 +271,7 @@ def main():
         import warp
 
         result["versions"]["warp"] = warp.__version__
-        from nerfkit.splat import alt_warp
+        import splat_alt_warp as alt_warp
     except Exception as e:  # noqa: BLE001 - a candidate that cannot load is a result too
         alt_warp = None
         result["warp_error"] = repr(e)

@@ -92,9 +92,12 @@ def test_help_fits_a_screen_and_shows_the_presets_own_values(preset, capsys):
     for name in unused(cfg):
         assert flag_of(name) not in listed and "--no-" + flag_of(name)[2:] not in listed, (preset, name)
     assert (f"--max-minutes {cfg.train.max_minutes:g}" if cfg.train.max_minutes else "--max-minutes -") in text
-    if cfg.field.kind != "ngp":
+    if cfg.field.kind in ("mlp", "mip"):
         assert f"--width {cfg.field.width}" in text
-    assert text.count("--lr ") == 1  # nothing printed twice
+    if cfg.field.kind == "splat":
+        assert f"--capacity {cfg.splat.capacity}" in text and "--lr " not in text
+    else:
+        assert text.count("--lr ") == 1  # nothing printed twice
 
 
 def test_help_all_explains_every_flag_the_preset_uses(capsys):

@@ -55,6 +55,7 @@ def alternative(name: str, cfg) -> list[str]:
         "field.hash_max_res": "64", "sampler.near": "1.0", "sampler.far": "5.5", "sampler.max_samples": "16384",
         "train.devices": "2", "train.precrop_frac": "0.3",
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
+        "splat.strategy": "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
     }
     if name == "field.kind" and v == "ngp":  # the MLP fields need a fixed [near, far]
         return [flag, "mlp", "--near", "2", "--far", "6"]
@@ -94,11 +95,40 @@ def _traced(fn, *args):
     return [str(closed.jaxpr), *[np.asarray(c) for c in closed.consts]]
 
 
+def observe_splat(trainer):
+    """observe() for a Gaussian-splatting run (one view per step, density control on the host): the data, the
+    host's schedule (SH degree, the means' rate, the density-control window, at a few steps and progresses),
+    the initial state (values) and the jitted view step (as a jaxpr)."""
+    from nerfkit.splat.method import schedule_at
+    from nerfkit.splat.train import make_step
+
+    model, cfg, td = trainer.model, trainer.cfg, trainer.train_data
+
+    def step():
+        fn = make_step(model.sc, trainer.optimizer.opts, td.width, td.height, with_health=True)
+        params, aux = model.init()
+        args = ({k: jnp.asarray(v) for k, v in params.items()}, trainer.optimizer.init(params),
+                {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}, jnp.asarray(aux["active"]),
+                jnp.asarray(td.images), jnp.asarray(td.poses), jnp.zeros((len(td), 4)), jnp.ones(3), 0,
+                jax.random.PRNGKey(0), 1e-3, 1)
+        return _traced(fn, *args)
+
+    return {
+        "data": lambda: [td.images, td.poses, trainer.val_data.images, np.asarray(trainer.val_ids)],
+        "schedule": lambda: [sorted(schedule_at(s, p, cfg).items()) for s in (0, 300, 500, 1000, 1500, 3000)
+                             for p in (0.0, 0.5, 0.9)],
+        "init": lambda: jax.tree_util.tree_leaves(init_state(model, trainer.optimizer, cfg.train.seed)),
+        "step": step,
+    }
+
+
 def observe(trainer):
     """What a run with this trainer would use, piece by piece, cheapest first; each entry is a thunk. The
     computations are compared as jaxprs (the program JAX compiles, with every shape and every constant
     baked in: two runs whose jaxprs and constants agree compute the same thing)."""
     model, cfg, td = trainer.model, trainer.cfg, trainer.train_data
+    if hasattr(model, "make_train_step"):
+        return observe_splat(trainer)
 
     def init():
         return _traced(lambda: init_state(model, trainer.optimizer, cfg.train.seed))

@@ -26,6 +26,7 @@ from nerfkit.cli_args import (
     ExportCamerasArgs,
     ExportMeshArgs,
     ExportPointcloudArgs,
+    ExportSplatArgs,
     ExperimentArgs,
     MakeMultiscaleArgs,
     MakeSceneArgs,
@@ -191,18 +192,18 @@ def cmd_view(argv: list[str]) -> int:
     return 0
 
 
-EXPORT_KINDS = ("mesh", "pointcloud", "cameras")
+EXPORT_KINDS = ("mesh", "pointcloud", "cameras", "splat")
 MESH_LEVELSET_FLAGS = ("--threshold", "--no-visible-only", "--visible-only", "--no-snap", "--snap", "--no-carve", "--carve")
 
 
 def cmd_export(argv: list[str]) -> int:
     if not argv or argv[0] not in EXPORT_KINDS:
         if argv and argv[0] in ("-h", "--help"):
-            print("usage: nerfkit export {mesh,pointcloud,cameras} RUN_DIR [--out FILE] ...  "
+            print("usage: nerfkit export {mesh,pointcloud,cameras,splat} RUN_DIR [--out FILE] ...  "
                   "(nerfkit export KIND --help for its options)")
             return 0
         got = f" (got {argv[0]!r})" if argv else ""
-        raise ConfigError(f"export needs a kind: nerfkit export mesh|pointcloud|cameras RUN_DIR{got}")
+        raise ConfigError(f"export needs a kind: nerfkit export mesh|pointcloud|cameras|splat RUN_DIR{got}")
     kind, rest = argv[0], argv[1:]
     prog = f"nerfkit export {kind}"
     if kind == "mesh":
@@ -233,6 +234,12 @@ def cmd_export(argv: list[str]) -> int:
         rec = export_pointcloud(a.run_dir, a.out, a.split, a.every, a.min_opacity, a.voxel_size, a.data, a.chunk,
                                 progress=a.progress, overwrite=a.overwrite)
         print(f"wrote {rec['file']}: {rec['points']} points ({rec['seconds']:.1f} s)")
+    elif kind == "splat":
+        from nerfkit.export.splat import export_splat
+
+        a = parse(ExportSplatArgs, rest, prog)
+        rec = export_splat(a.run_dir, a.out, overwrite=a.overwrite)
+        print(f"wrote {rec['file']}: {rec['gaussians']} Gaussians, SH degree {rec['sh_degree']} ({rec['seconds']:.1f} s)")
     else:
         from nerfkit.export.cameras import export_cameras
 
@@ -249,10 +256,27 @@ def cmd_export(argv: list[str]) -> int:
     return 0
 
 
+# bake's flags that only the radiance-field bake reads (a splat run's page holds the Gaussians as they are).
+FIELD_BAKE_ONLY = ("--resolution", "--sh-bands", "--finetune-minutes", "--max-mb")
+
+
 def cmd_bake(argv: list[str]) -> int:
     from nerfkit.bake.bake import bake_run
 
     a = parse(BakeArgs, argv, "nerfkit bake")
+    if (a.run_dir / "config.json").is_file():
+        from nerfkit.train import load_run_config
+
+        if load_run_config(a.run_dir).field.kind == "splat":
+            from nerfkit.splat.web import write_splat_page
+
+            for flag in FIELD_BAKE_ONLY:
+                if _flag_value(argv, flag) is not None:
+                    raise ConfigError(f"{flag} has no effect on a splat run (its page draws the Gaussians "
+                                      f"themselves, no grid or fine-tuning); drop it")
+            write_splat_page(a.run_dir, a.out, overwrite=a.overwrite)
+            print(f"next: nerfkit view --baked {shlex.quote(str(a.out))}")
+            return 0
     bake_run(a.run_dir, a.out, a.resolution, a.sh_bands, a.finetune_minutes, a.max_mb, progress=a.progress,
              overwrite=a.overwrite)
     print(f"next: nerfkit view --baked {shlex.quote(str(a.out))}")
@@ -409,13 +433,13 @@ COMMANDS = {
                                              "layout): nerfkit make-multiscale DATA --out DATA_MS"),
     "process-data": (cmd_process_data, "poses from photos or a video (pycolmap SfM): nerfkit process-data images DIR "
                                        "--out DATA [--masks DIR]"),
-    "train": (cmd_train, "train a radiance field: nerfkit train DATA_DIR --out RUN_DIR [--preset ngp|seed|nerf|demo]"),
+    "train": (cmd_train, "train a radiance field or Gaussian splats: nerfkit train DATA_DIR --out RUN_DIR [--preset ngp|seed|nerf|splat|demo]"),
     "eval": (cmd_eval, "PSNR/SSIM of a run on a split: nerfkit eval RUN_DIR --split SPLIT [--data DATA_DIR]"),
     "render": (cmd_render, "render poses or an orbit to PNGs + MP4: nerfkit render RUN_DIR --orbit N"),
     "view": (cmd_view, "interactive viewer in the browser (viser): nerfkit view RUN_DIR [--port 7007]; "
                        "or nerfkit train ... --viewer; a baked scene's WebGL page: nerfkit view --baked DIR"),
-    "export": (cmd_export, "mesh, point cloud or cameras in standard formats: nerfkit export mesh|pointcloud|cameras "
-                           "RUN_DIR [--out FILE]"),
+    "export": (cmd_export, "mesh, point cloud, cameras or Gaussian splats in standard formats: nerfkit export "
+                           "mesh|pointcloud|cameras|splat RUN_DIR [--out FILE]"),
     "bake": (cmd_bake, "a web page that renders a trained scene in real time in any browser (WebGL2): "
                        "nerfkit bake RUN_DIR --out DIR"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation|antialias "

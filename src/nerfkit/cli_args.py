@@ -171,6 +171,20 @@ class ExportPointcloudArgs:
 
 
 @dataclasses.dataclass
+class ExportSplatArgs:
+    """Export a splat run's Gaussians as a .ply in the Inria 3DGS layout (what SuperSplat, gsplat, nerfstudio and
+    other splat viewers open), in the capture's own coordinates; a picture of the file read back goes into
+    RUN_DIR/exports/splat.png."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train --preset splat`."""
+    out: Path | None = None
+    """PLY file (default: RUN_DIR/exports/splat.ply)."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
+
+
+@dataclasses.dataclass
 class ExportCamerasArgs:
     """Export the run's cameras as nerfstudio's transforms.json (OpenGL camera-to-world in the capture's own
     coordinates, intrinsics and lens at the photos' size, image paths relative to the written file)."""

@@ -26,6 +26,7 @@ GROUPS = {
     "Training": ("train.lr", "train.lr_decay_steps", "train.lr_decay_rate", "train.adam_b2", "train.adam_eps",
                  "train.batch_rays", "train.seed", "train.precrop_steps", "train.precrop_frac", "train.devices",
                  "train.max_bad_steps"),
+    "Splats": tuple(f"splat.{f.name}" for f in dataclasses.fields(Config().splat)),
     "Output": ("train.val_every", "train.val_views", "train.val_max_fraction", "train.ckpt_every",
                "train.keep_ckpts", "train.log_every", "train.chunk"),
 }

@@ -52,9 +52,10 @@ class DataConfig:
 class FieldConfig:
     """The radiance field F(x, d) -> (rgb, sigma)."""
 
-    kind: Literal["mlp", "ngp", "mip"] = "mlp"
+    kind: Literal["mlp", "ngp", "mip", "splat"] = "mlp"
     """mlp: positional-encoded MLP of the original NeRF. ngp: hash grid + tiny MLPs. mip: mip-NeRF (cones,
-    integrated positional encoding of conical frustums, one MLP queried coarse then fine)."""
+    integrated positional encoding of conical frustums, one MLP queried coarse then fine). splat: 3D Gaussian
+    splatting (--preset splat; its settings are the splat section)."""
     depth: int = 8
     """MLP trunk layers D; the encoded input is concatenated back in after layer D/2."""
     width: int = 256
@@ -186,6 +187,26 @@ class TrainConfig:
 
 
 @dataclass
+class SplatSettings:
+    """3D Gaussian splatting (--preset splat): Gaussians, colour, density control (read by that preset only)."""
+
+    capacity: int = 50_000
+    """Gaussians at most (fixed slots, so one compiled step serves the whole run); 3DGS-MCMC grows to it."""
+    strategy: Literal["mcmc", "classic"] = "mcmc"
+    """Density control: mcmc (3DGS-MCMC: a fixed budget, dead Gaussians relocated onto live ones, position
+    noise) or classic (3DGS: clone, split, prune, opacity reset)."""
+    sh_degree: int = 3
+    """Highest spherical-harmonic degree of the view-dependent colour (0: no view dependence)."""
+    sh_interval: int = 500
+    """Steps per SH degree: the degree rises by one every N steps up to --sh-degree (3DGS: 1000 of 30k)."""
+    ssim_lambda: float = 0.2
+    """Loss = (1 - lambda) L1 + lambda (1 - SSIM)."""
+    init_points: Literal["auto", "sfm", "random"] = "auto"
+    """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D), random (uniform in the
+    scene box) or auto (sfm where the capture has points, else random)."""
+
+
+@dataclass
 class Config:
     """A complete nerfkit run."""
 
@@ -193,6 +214,7 @@ class Config:
     field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     sampler: SamplerConfig = dataclasses.field(default_factory=SamplerConfig)
     train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+    splat: SplatSettings = dataclasses.field(default_factory=SplatSettings)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -212,6 +234,7 @@ class Config:
                 field=FieldConfig(**sections["field"]),
                 sampler=SamplerConfig(**sections["sampler"]),
                 train=TrainConfig(**sections["train"]),
+                splat=SplatSettings(**d.get("splat", {})),  # runs of earlier versions have no splat section
             )
         except (KeyError, TypeError) as e:
             raise ConfigError(f"config is not a nerfkit config ({e})") from None
@@ -245,7 +268,7 @@ def _type_name(tp: Any) -> str:
 
 
 def _check_types(cfg: "Config") -> None:
-    for section in ("data", "field", "sampler", "train"):
+    for section in ("data", "field", "sampler", "train", "splat"):
         obj = getattr(cfg, section)
         hints = typing.get_type_hints(type(obj))
         for f in dataclasses.fields(obj):
@@ -310,6 +333,11 @@ def validate(cfg: Config) -> Config:
         need(s.occ_res >= 2 and s.occ_update_every >= 1 and s.march_steps >= 2,
              "need --occ-res >= 2, --occ-update-every >= 1, --march-steps >= 2")
         need(s.max_samples >= s.march_steps, f"--max-samples must be >= --march-steps ({s.march_steps})")
+    g = cfg.splat
+    need(g.capacity >= 1, f"--capacity must be >= 1 (got {g.capacity})")
+    need(0 <= g.sh_degree <= 3, f"--sh-degree must be 0, 1, 2 or 3 (got {g.sh_degree})")
+    need(g.sh_interval >= 1, f"--sh-interval must be >= 1 (got {g.sh_interval})")
+    need(0 <= g.ssim_lambda <= 1, f"--ssim-lambda must be in [0, 1] (got {g.ssim_lambda})")
     need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
     need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")
     return cfg
@@ -385,8 +413,22 @@ def _ngp() -> Config:
     )
 
 
+def _splat() -> Config:
+    # 3D Gaussian splatting (Kerbl et al. 2023) with 3DGS-MCMC density control (Kheradmand et al. 2024):
+    # 50k Gaussians at most (the CPU's budget), one training view per step, Adam with the paper's
+    # per-parameter rates (splat/optim.py) and eps 1e-15. The step counters (validation, checkpoints,
+    # log) count views; 20k steps is more than 10 minutes of 200 px lego on 2 cores.
+    return Config(
+        field=FieldConfig(kind="splat"),
+        sampler=SamplerConfig(near=None, far=None),
+        train=TrainConfig(max_steps=30_000, max_minutes=10.0, adam_eps=1e-15, val_every=1000, ckpt_every=1000,
+                          val_views=4, log_every=50),
+    )
+
+
 DEFAULT_PRESET = "ngp"
-PRESETS = {"seed": _seed, "nerf": _nerf, "mipnerf": _mipnerf, "ngp": _ngp, "demo": _demo, "tiny": _tiny}
+PRESETS = {"seed": _seed, "nerf": _nerf, "mipnerf": _mipnerf, "ngp": _ngp, "demo": _demo, "tiny": _tiny,
+           "splat": _splat}
 PRESET_HELP = {
     "seed": "the reference report's Model-1 (D=4, W=128, 64 samples, near 0, far 5)",
     "nerf": "the original NeRF (D=8, W=256, 64 coarse + 128 fine, near 2, far 6)",
@@ -394,6 +436,7 @@ PRESET_HELP = {
     "ngp": "hash grid + occupancy grid (Instant-NGP): minutes instead of hours (the default)",
     "demo": "the fast field sized for the embedded procedural scene (nerfkit demo)",
     "tiny": "smallest model, for tests",
+    "splat": "3D Gaussian splatting (3DGS-MCMC, 50k Gaussians): real-time rendering, a standard .ply",
 }
 
 

@@ -38,6 +38,13 @@ def run_data_dir(run_dir: Path, data_dir: Path | None) -> Path:
     return path
 
 
+def refuse_chunk(cfg, chunk: int | None) -> None:
+    """ConfigError for --chunk on a Gaussian-splat run (it renders whole images with the tile rasteriser)."""
+    if chunk is not None and cfg.field.kind == "splat":
+        raise ConfigError("--chunk has no effect on a splat run (whole images go through the tile rasteriser, not "
+                          "ray chunks); drop it")
+
+
 def appearance_note(cfg) -> str | None:
     n = cfg.field.n_appearance()
     if not n:
@@ -60,6 +67,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     check_chunk(chunk)
     run_dir = Path(run_dir)
     cfg, model, params, aux, step = load_trained(run_dir, checkpoint)
+    refuse_chunk(cfg, chunk)
     if baked is not None:
         from nerfkit.bake.format import load_baked
         from nerfkit.bake.model import BakedModel
@@ -200,6 +208,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
             raise ConfigError(f"{name} must be positive (got {v})")
     run_dir = Path(run_dir)
     cfg, model, params, aux, step = load_trained(run_dir)
+    refuse_chunk(cfg, chunk)
     data_dir = run_data_dir(run_dir, data_dir)
     scene = load_run_scene(run_dir)
     d = cfg.data

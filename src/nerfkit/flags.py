@@ -5,7 +5,9 @@ A setting is named "section.field" (e.g. "field.width"); its command-line flag i
 model will not read, with the reason:
 
     by kind       field.depth, field.width, ... are read by the MLP fields (mlp, mip) only;
-                  field.hash_*, field.bound, sampler.occ_*, sampler.march_steps, ... by ngp only
+                  field.hash_*, field.bound, sampler.occ_*, sampler.march_steps, ... by ngp only;
+                  the ray and NeRF-optimiser settings (near, far, batch_rays, lr, ...) by the fields only,
+                  splat.* by the Gaussian splats (splat) only
     by value      field.l_xyz without positional encoding (--no-pe), field.l_dir without view
                   directions, train.precrop_frac without a warm-up (--precrop-steps 0),
                   data.target_width when --downscale is given, sampler.occ_warmup_decay
@@ -25,8 +27,9 @@ import dataclasses
 from nerfkit.config import PRESETS, Config
 from nerfkit.errors import ConfigError
 
-SECTIONS = ("data", "field", "sampler", "train")
+SECTIONS = ("data", "field", "sampler", "train", "splat")
 MLP_KINDS = frozenset({"mlp", "mip"})
+FIELD_KINDS = frozenset({"mlp", "mip", "ngp"})  # radiance fields, rendered by marching rays
 
 # Settings that only some model kinds read (every setting not listed is read by all of them).
 BY_KIND: dict[str, frozenset[str]] = {
@@ -38,12 +41,19 @@ BY_KIND: dict[str, frozenset[str]] = {
     **{f"sampler.{n}": MLP_KINDS for n in ("n_samples", "n_importance")},
     **{f"sampler.{n}": frozenset({"ngp"}) for n in (
         "occ_res", "occ_update_every", "occ_warmup", "occ_warmup_decay", "march_steps", "max_samples")},
+    # Rays, samples and the fields' optimiser: the splats render whole images and have their own rates.
+    **{n: FIELD_KINDS for n in (
+        "field.appearance_dim", "sampler.near", "sampler.far", "sampler.perturb", "train.batch_rays", "train.lr",
+        "train.lr_decay_steps", "train.lr_decay_rate", "train.adam_b2", "train.precrop_steps", "train.precrop_frac",
+        "train.chunk", "train.devices")},
+    **{f"splat.{n}": frozenset({"splat"}) for n in (
+        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "init_points")},
 }
 
 # Settings filled in from the data (resolve.py), never from the command line.
 FROM_DATA = frozenset({"field.appearance_count"})
 
-KIND_NAMES = {"mlp": "NeRF MLP", "mip": "mip-NeRF", "ngp": "hash-grid (ngp)"}
+KIND_NAMES = {"mlp": "NeRF MLP", "mip": "mip-NeRF", "ngp": "hash-grid (ngp)", "splat": "Gaussian splatting"}
 
 
 def setting_names() -> list[str]:
@@ -96,9 +106,13 @@ def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]
         out["field.l_xyz"] = out["field.l_dir"] = "positional encoding is off (--no-pe)"
     if kind in MLP_KINDS and not f.viewdirs:
         out["field.l_dir"] = "the colour does not depend on the view direction (--no-viewdirs)"
+    if kind == "splat":
+        out["field.kind"] = "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"
+        if cfg.splat.sh_degree == 0:
+            out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
     if kind == "ngp" and s.occ_warmup == 0:
         out["sampler.occ_warmup_decay"] = "there is no occupancy warm-up (--occ-warmup 0)"
-    if t.precrop_steps == 0:
+    if t.precrop_steps == 0 and kind in FIELD_KINDS:
         out["train.precrop_frac"] = "there is no centre-crop warm-up (--precrop-steps 0)"
     if d.downscale is not None:
         out["data.target_width"] = "--downscale sets the image size"
@@ -107,6 +121,12 @@ def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]
             out["data.holdout_every"] = f"the {capture.format} capture {capture.root} has its own splits"
         if not capture.has_masks and not capture.masks_dropped:
             out["data.masks"] = f"the capture {capture.root} has no object masks"
+        if kind == "splat" and cfg.splat.init_points == "auto":
+            from nerfkit.splat.method import find_sfm_points
+
+            if find_sfm_points(capture) is None:
+                out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
+                                            f"points3D): the Gaussians start random in the box")
     return out
 
 
@@ -124,9 +144,25 @@ def refuse_unused(cfg: Config, given: dict[str, str], where: str, capture=None) 
             raise ConfigError(f"{typed} has no effect: {moot[name]}; drop it{hint}")
 
 
+def refuse_family_switch(cfg: Config, given: dict[str, str], preset: str | None) -> None:
+    """ConfigError when --kind moves a run between method families (the preset's Gaussian splats and a
+    radiance field, or back): their settings have nothing in common; the preset picks the family."""
+    if "field.kind" not in given or preset not in PRESETS:
+        return
+    if (PRESETS[preset]().field.kind == "splat") != (cfg.field.kind == "splat"):
+        raise ConfigError(f"{given['field.kind']} {cfg.field.kind} with --preset {preset}: Gaussian splats and "
+                          f"radiance fields are different methods; pick the preset instead (--preset splat, "
+                          f"--preset ngp, ...) and drop {given['field.kind']}")
+
+
 def describe_model(cfg: Config) -> str:
     """One line naming the model that runs, with the settings it reads (and only those)."""
     f, s = cfg.field, cfg.sampler
+    if f.kind == "splat":
+        g = cfg.splat
+        return (f"splat: up to {g.capacity} Gaussians ({g.strategy} density control), SH degree {g.sh_degree}"
+                f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, L1 + {g.ssim_lambda:g} D-SSIM, "
+                f"{g.init_points} init, one view per step")
     near_far = "" if s.near is None or s.far is None else f", near {s.near:g}, far {s.far:g}"
     app = f"; appearance embeddings of {f.appearance_dim}" if f.appearance_dim else ""
     if f.kind == "ngp":

@@ -14,6 +14,11 @@ trainer, evaluation and rendering code use without knowing which field is inside
          anti-aliased models; None: thin rays)
     losses(out, target, weights=None) -> (loss, {"mse": ...})
     update_aux(params, aux, step, key) -> aux   (e.g. an occupancy grid; no-op here)
+
+Method families that are not radiance fields (Gaussian splats: splat/method.py) render whole
+views, not rays: build_model returns their own model object, and the trainer, the renderer
+factory and the checkpoint loader hand it the optimiser, the training step and the renderer
+(a model with `make_train_step` owns them; see splat/method.py for that interface).
 """
 
 from __future__ import annotations
@@ -295,4 +300,8 @@ def build_model(cfg: Config):
         return NGPModel(cfg)
     if cfg.field.kind == "mip":
         return MipNeRFModel(cfg)
+    if cfg.field.kind == "splat":
+        from nerfkit.splat.method import SplatModel
+
+        return SplatModel(cfg)
     raise ValueError(f"unknown field kind {cfg.field.kind!r}")

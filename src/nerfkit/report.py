@@ -348,7 +348,10 @@ def _exports_html(run: Path) -> str:
                      "threshold {threshold:.4g}" if rec.get("method", "levelset") == "levelset" else
                      "{method} of {views} views" + (", closed" if rec.get("closed_manifold") else "")),
                  "pointcloud": "{points} points from {views} views",
-                 "cameras": "{frames} cameras"}[kind]
+                 "cameras": "{frames} cameras",
+                 "splat": "{gaussians} Gaussians, SH degree {sh_degree}, read back and rendered"}[kind]
+        if kind == "pointcloud" and "source" in rec:  # a splat run's centres
+            facts = "{points} points ({source})"
         try:
             facts = facts.format(**rec)
         except (KeyError, ValueError, TypeError):

@@ -78,6 +78,8 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
         s.near = UNBOUNDED_NEAR if kind == "unbounded" else 0.0
     if s.far is None:
         s.far = UNBOUNDED_FAR if kind == "unbounded" else _round_up(float(dist.max()) + math.sqrt(3) * f.bound)
+    if f.appearance_dim is None and f.kind == "splat":  # not (yet) for Gaussian splats
+        f.appearance_dim = 0
     if f.appearance_dim is None:
         f.appearance_dim = 0 if cap.format == "blender" or cap.has_masks else APPEARANCE_DIM
         if cap.has_masks:

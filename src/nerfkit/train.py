@@ -37,7 +37,7 @@ from nerfkit.config import Config, validate
 from nerfkit.data.capture import SceneData
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.flags import describe_budget, describe_model, refuse_unused
+from nerfkit.flags import describe_budget, describe_model, refuse_family_switch, refuse_unused
 from nerfkit.inference import make_renderer
 from nerfkit.metrics import mse_to_psnr, psnr as psnr_np
 from nerfkit.model import build_model
@@ -45,8 +45,11 @@ from nerfkit.resolve import default_splits, resolve_config
 from nerfkit.viz import background_rgb, colorize_renders, comparison, plot_curves, read_jsonl, save_png
 
 
-def make_optimizer(cfg: Config):
-    """Adam with lr(step) = lr * decay_rate ** (step / decay_steps), continuous decay."""
+def make_optimizer(cfg: Config, model=None):
+    """Adam with lr(step) = lr * decay_rate ** (step / decay_steps), continuous decay; a model with its own
+    optimiser (Gaussian splats) gives (optimiser, schedule) itself."""
+    if hasattr(model, "make_optimizer"):
+        return model.make_optimizer(cfg)
     t = cfg.train
     schedule = optax.exponential_decay(t.lr, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
     return optax.adam(schedule, b2=t.adam_b2, eps=t.adam_eps), schedule
@@ -87,7 +90,11 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
     of their frame's pixel radius for the anti-aliased models) and
     applies one Adam update. The randomness of step s is fold_in(PRNGKey(seed), s), so a resumed run
     repeats exactly. A step whose loss or gradients are not finite is not applied.
+
+    A model with its own step (Gaussian splats, splat/method.py: one view per step) makes it instead.
     """
+    if hasattr(model, "make_train_step"):
+        return model.make_train_step(optimizer, data, cfg, mesh)
     t = cfg.train
     h, w = data.height, data.width
     table = parallel.replicate({k: jnp.asarray(v) for k, v in ray_table(data.cameras).items()}, mesh)
@@ -192,7 +199,7 @@ def load_trained(run_dir: Path, checkpoint: Path | None = None):
     run_dir = Path(run_dir)
     cfg = load_run_config(run_dir)
     model = build_model(cfg)
-    optimizer, _ = make_optimizer(cfg)
+    optimizer, _ = make_optimizer(cfg, model)
     path = ckpt_lib.latest_checkpoint(run_dir / "checkpoints") if checkpoint is None else Path(checkpoint)
     if path is None:
         raise NerfkitError(f"{run_dir / 'checkpoints'}: no checkpoint yet; train first")
@@ -250,6 +257,7 @@ class Trainer:
         self.ckpt_dir = self.run_dir / "checkpoints"
         given = given or {}
         where = f"--preset {preset}" if preset and not resume else "this run's model"
+        refuse_family_switch(cfg, given, None if resume else preset)
         refuse_unused(cfg, given, where)
         if resume and overwrite:
             raise ConfigError("--resume and --overwrite: pick one (continue the run, or start it again from scratch)")
@@ -283,16 +291,19 @@ class Trainer:
         cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
         self.cfg = cfg
         self.model = build_model(cfg)
-        self.mesh = parallel.data_mesh(parallel.mesh_devices(cfg.train.devices))
-        self.primary = parallel.is_primary()  # process 0 of a multi-process run writes the run folder
         split = getattr(self.model, "PARALLEL", "rays")  # what the devices split (make_train_step)
+        self.mesh = None if split == "views" else parallel.data_mesh(parallel.mesh_devices(cfg.train.devices))
+        self.primary = parallel.is_primary()  # process 0 of a multi-process run writes the run folder
         if split == "rays":
             parallel.check_batch(cfg.train.batch_rays, self.mesh)
-        else:
+        elif split == "samples":
             parallel.check_batch(cfg.sampler.max_samples, self.mesh, "--max-samples")
         say(f"model: {describe_model(cfg)}")
-        say(parallel.describe(cfg.train.batch_rays, self.mesh, split, cfg.sampler.max_samples))
-        self.optimizer, self.schedule = make_optimizer(cfg)
+        if split == "views":  # whole views, one per step, on one device (Gaussian splats)
+            self.model.bind_data(self.capture, td, log=say)
+        else:
+            say(parallel.describe(cfg.train.batch_rays, self.mesh, split, cfg.sampler.max_samples))
+        self.optimizer, self.schedule = make_optimizer(cfg, self.model)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
         whole = "" if len(self.val_ids) == len(self.val_data) else (
@@ -338,7 +349,9 @@ class Trainer:
         vrows = read_jsonl(self.run_dir / "val_metrics.jsonl")
         plots = self.run_dir / "plots"
         steps = [r["step"] for r in rows]
-        plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", "loss (MSE)",
+        g = self.cfg.splat
+        what = f"{1 - g.ssim_lambda:g} L1 + {g.ssim_lambda:g} D-SSIM" if self.cfg.field.kind == "splat" else "MSE"
+        plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", f"loss ({what})",
                     "Training loss", logy=True)
         plot_curves({"train": (steps, [r["psnr"] for r in rows])}, plots / "train_psnr.png", "step", "PSNR (dB)",
                     "Training PSNR", min_span=1.0)
@@ -387,7 +400,8 @@ class Trainer:
 
     def _log(self, pending: list, elapsed: float) -> dict:
         """Check the pending steps' metrics for non-finite ones (NerfkitError after max_bad_steps in a row) and
-        append the last one's row to metrics.jsonl; returns that row."""
+        append the last one's row to metrics.jsonl (loss and PSNR: of its batch; a model that trains on one
+        view per step: the mean over the pending steps); returns that row."""
         t = self.cfg.train
         for s, mm in pending:
             if bool(mm["finite"]):
@@ -399,7 +413,11 @@ class Trainer:
                 raise NerfkitError(f"stopping: {self._bad_streak} non-finite steps in a row (last at step {s}); the "
                                    f"last good checkpoint in {self.ckpt_dir} is intact. Try a lower --lr.")
         s, mm = pending[-1]
-        row = {"step": s, "loss": float(mm["loss"]), "psnr": float(mse_to_psnr(float(mm["mse"]))),
+        loss, mse = float(mm["loss"]), float(mm["mse"])
+        if getattr(self.model, "PARALLEL", "rays") == "views":  # one view per step: the mean over the logged steps
+            good = [m for _, m in pending if bool(m["finite"])] or [mm]
+            loss, mse = (float(np.mean([float(m[k]) for m in good])) for k in ("loss", "mse"))
+        row = {"step": s, "loss": loss, "psnr": float(mse_to_psnr(mse)),
                "lr": float(self.schedule(s)), "elapsed": round(elapsed, 3)}
         row.update({k: float(v) for k, v in mm.items() if k not in ("loss", "mse", "finite")})
         self._append("metrics.jsonl", row)

@@ -260,7 +260,15 @@ def test_jax_wrapper_jit_grad_vmap():
 
 
 def test_xla_candidate_matches_reference():
-    from nerfkit.splat.alt_xla import rasterize_xla
+    """The padded-XLA candidate of benchmarks/splat_raster.py (benchmarks/splat_alt_xla.py) renders the same image."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "splat_alt_xla.py"
+    spec = importlib.util.spec_from_file_location("splat_alt_xla", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    rasterize_xla = module.rasterize_xla
 
     scene = as_jax(random_scene(n=30, seed=8))
     image, alpha = jax.jit(lambda *a: rasterize_xla(*a, W, H, 64, 512))(*scene)

@@ -48,6 +48,11 @@ def check_baked(baked_dir: Path) -> dict:
     fix = f"make one with nerfkit bake RUN --out {baked_dir}"
     if not baked_dir.is_dir():
         raise ConfigError(f"{baked_dir}: no such folder; a baked scene is a folder: {fix}")
+    if (baked_dir / "splats.json").is_file() and (baked_dir / "splats.bin").is_file():  # a splat run's page
+        try:
+            return json.loads((baked_dir / "splats.json").read_text())
+        except (OSError, ValueError):
+            raise ConfigError(f"{baked_dir / 'splats.json'}: unreadable; bake it again: {fix}") from None
     try:
         meta = json.loads((baked_dir / "baked.json").read_text())
     except (OSError, ValueError):
@@ -63,7 +68,7 @@ def check_baked(baked_dir: Path) -> dict:
 
 def scene_mb(baked_dir: Path) -> float:
     """Size of the scene's arrays (what the page downloads, besides itself) in MB (2^20 bytes)."""
-    return sum((Path(baked_dir) / n).stat().st_size for n in ARRAYS) / 2**20
+    return sum(p.stat().st_size for n in (*ARRAYS, "splats.bin") if (p := Path(baked_dir) / n).is_file()) / 2**20
 
 
 class _Handler(SimpleHTTPRequestHandler):
@@ -120,7 +125,7 @@ def start_server(baked_dir: Path, host: str = "127.0.0.1", port: int = 0, write_
     page served instead); False leaves the folder untouched and always serves the package's page."""
     baked_dir = Path(baked_dir)
     check_baked(baked_dir)
-    if write_page and not (baked_dir / "index.html").exists():
+    if write_page and not (baked_dir / "index.html").exists() and not (baked_dir / "splats.json").exists():
         try:
             write_web(baked_dir)
         except OSError:

@@ -97,6 +97,9 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
             check_new_file(side, overwrite, "--out")
     t0 = time.perf_counter()
     run = load_run(run_dir)
+    if run.cfg.field.kind == "splat":
+        raise ConfigError(f"{run_dir}: Gaussian splats have no density field to mesh; export them with nerfkit "
+                          f"export splat (or export pointcloud for points)")
     bound = run.bound if box is None else float(box)
     h = 2.0 * bound / (resolution - 1)
     if method == "tsdf":

@@ -67,6 +67,13 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
     run = load_run(run_dir)
     scale = float(np.cbrt(np.linalg.det(run.transform[:3, :3])))  # capture -> normalised lengths
     voxel_n = 2.0 * run.bound / VOXELS_PER_BOX if voxel_size is None else voxel_size * scale
+    if run.cfg.field.kind == "splat":
+        given = [f for f, v in (("--split", split), ("--every", every), ("--data", data), ("--chunk", chunk))
+                 if v is not None]
+        if given:
+            raise ConfigError(f"{given[0]} has no effect on a splat run (its point cloud is the Gaussians' centres, "
+                              f"no views are rendered); drop it")
+        return splat_centres(run, out, min_opacity, voxel_n, scale, t0, log)
     views = render_views(run, split, every, data, chunk, progress=progress)
     background = np.asarray(run.model.background, np.float32)
     pts, cols = zip(*(view_points(views, k, background, min_opacity) for k in range(len(views.c2w))))
@@ -87,6 +94,35 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
                                  f"{out.name}: {len(pts)} points from {n_views} views (step {run.step})")
     record = {"kind": "pointcloud", "file": str(out.resolve()), "step": run.step, "split": split, "every": views.every,
               "views": n_views, "min_opacity": min_opacity, "pixels": n_raw, "points": len(pts),
+              "voxel_size": voxel_n / scale, "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
+              "coordinates": "the capture's own (pose normalisation undone)"}
+    write_record(run.run_dir, "pointcloud", record)
+    return record
+
+
+def splat_centres(run, out: Path, min_opacity: float, voxel_n: float, scale: float, t0: float, log=print) -> dict:
+    """The point cloud of a splat run: the centres of its Gaussians of opacity >= min_opacity, coloured by
+    their view-independent (degree-0) colour SH_C0 f_dc + 0.5, voxel-downsampled like the fused clouds."""
+    from nerfkit.export.pictures import pointcloud_picture
+    from nerfkit.export.splat import active_gaussians
+    from nerfkit.splat.project import SH_C0
+
+    g = active_gaussians(run)
+    keep = 1.0 / (1.0 + np.exp(-g["opacity"].astype(np.float64))) >= min_opacity
+    if not keep.any():
+        raise NerfkitError(f"no Gaussian of {run.run_dir} reaches opacity {min_opacity:g}; try a lower --min-opacity")
+    pts = g["means"][keep].astype(np.float64)
+    cols = np.clip(SH_C0 * g["sh_dc"][keep, 0] + 0.5, 0.0, 1.0)
+    n_raw = len(pts)
+    pts, cols = voxel_downsample(pts, cols, voxel_n)
+    colors_u8 = (cols * 255 + 0.5).astype(np.uint8)
+    write_pointcloud(out, to_capture(pts, run.transform), colors_u8)
+    log(f"pointcloud: {n_raw} of {len(keep)} Gaussian centres with opacity >= {min_opacity:g} -> {len(pts)} points "
+        f"(voxel {voxel_n / scale:.4g} capture units)")
+    picture = pointcloud_picture(run.run_dir / "exports" / "pointcloud.png", pts, colors_u8,
+                                 f"{out.name}: {len(pts)} Gaussian centres (step {run.step})")
+    record = {"kind": "pointcloud", "file": str(out.resolve()), "step": run.step, "source": "Gaussian centres",
+              "views": 0, "min_opacity": min_opacity, "gaussians": n_raw, "points": len(pts),
               "voxel_size": voxel_n / scale, "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (pose normalisation undone)"}
     write_record(run.run_dir, "pointcloud", record)

@@ -16,7 +16,7 @@ from nerfkit.errors import ConfigError
 from nerfkit.outputs import check_new_file
 from nerfkit.train import load_run_scene, load_trained
 
-KINDS = ("mesh", "pointcloud", "cameras")
+KINDS = ("mesh", "pointcloud", "cameras", "splat")
 
 
 @dataclass

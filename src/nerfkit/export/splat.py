@@ -1,0 +1,71 @@
+"""`nerfkit export splat`: a splat run's Gaussians as an Inria-layout .ply in the capture's own coordinates.
+
+The run trains in nerfkit's normalised frame x_n = M x (scene.json's transform, a similarity
+s R x + t). The file holds the Gaussians moved by M^-1 (splat/transform.py): centres mapped,
+log scales minus log s, rotations turned by R^T (q' = q(R^T) q), and the SH coefficients of bands
+1..3 rotated exactly (each band's real-SH rotation matrix), so a viewer that draws the file with
+the capture's own cameras sees what nerfkit renders. Only the active Gaussians are written,
+with the run's SH degree (f_rest_* count 3 x (0, 3, 8 or 15)).
+
+The picture (RUN/exports/splat.png) is the written file read back with plyfile, moved back into
+the run's frame and rendered from the first training camera: the round trip, shown.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from nerfkit.errors import ConfigError
+from nerfkit.export.run import check_out, exports_dir, load_run, write_atomic, write_record
+
+
+def is_splat_run(run) -> bool:
+    """Whether a loaded run (export.run.TrainedRun) holds Gaussian splats rather than a radiance field."""
+    return run.cfg.field.kind == "splat"
+
+
+def active_gaussians(run) -> dict:
+    """The run's Gaussians in use (numpy, model.py's layout, normalised frame)."""
+    from nerfkit.splat.model import PARAM_NAMES
+
+    active = np.asarray(run.aux["active"], bool)
+    return {k: np.asarray(run.params[k])[active] for k in PARAM_NAMES}
+
+
+def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False, log=print) -> dict:
+    """Write RUN's Gaussians to `out` (default RUN/exports/splat.ply) in the capture's coordinates; refuses
+    to replace a file unless `overwrite` and refuses runs that are not splat runs. Returns the record."""
+    from nerfkit.cameras import Camera
+    from nerfkit.splat.model import render
+    from nerfkit.splat.ply import export_ply, import_ply
+    from nerfkit.splat.transform import invert_similarity
+    from nerfkit.viz import save_png
+
+    run_dir = Path(run_dir)
+    if not (run_dir / "config.json").is_file():
+        raise ConfigError(f"{run_dir}: not a run folder (no config.json); pass a folder written by nerfkit train")
+    out = check_out(Path(out) if out is not None else run_dir / "exports" / "splat.ply", (".ply",), overwrite)
+    t0 = time.perf_counter()
+    run = load_run(run_dir)
+    if not is_splat_run(run):
+        raise ConfigError(f"{run_dir}: a {run.cfg.field.kind} radiance field, not Gaussian splats; export splat "
+                          f"needs a run of --preset splat (for this run: nerfkit export mesh or pointcloud)")
+    gaussians = active_gaussians(run)
+    degree = run.cfg.splat.sh_degree
+    to_capture = invert_similarity(run.transform)
+    write_atomic(out, lambda tmp: export_ply(tmp, gaussians, transform=to_capture, sh_degree=degree))
+    back = import_ply(out, transform=run.transform)
+    pose = np.asarray(run.scene["train_poses"][0], np.float64)
+    background = run.model.background
+    picture = exports_dir(run_dir) / "splat.png"
+    save_png(picture, np.clip(render(back, pose, Camera.from_json(run.scene["camera"]), background, degree)["rgb"], 0, 1))
+    log(f"splat: {len(gaussians['means'])} Gaussians, SH degree {degree}, Inria .ply layout, capture coordinates")
+    record = {"kind": "splat", "file": str(out.resolve()), "gaussians": int(len(gaussians["means"])),
+              "sh_degree": degree, "coordinates": "capture (scene.json transform undone)",
+              "layout": "Inria 3DGS .ply (x y z nx ny nz f_dc_* f_rest_* opacity scale_* rot_*)",
+              "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name, "step": run.step}
+    write_record(run_dir, "splat", record)
+    return record
