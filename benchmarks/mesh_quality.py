@@ -91,7 +91,8 @@ def main() -> None:
                                       "vertices": len(mesh.vertices), "faces": len(faces), **scores}
         print(f"{method}: IoU mean {scores['iou_mean']:.4f} (min {scores['iou_min']:.4f}), precision "
               f"{scores['precision_mean']:.4f}, recall {scores['recall_mean']:.4f}; depth within {tol:.3g}: "
-              f"{scores['depth_within_tol_mean']:.4f} of covered pixels; {len(faces)} faces, closed "
+              f"{scores['depth_within_tol_mean']:.4f} of covered pixels, {scores['depth_within_tol_interior_mean']:.4f} "
+              f"away from edges and depth jumps; {len(faces)} faces, closed "
               f"{scores['closed_manifold']}; {seconds:.0f} s")
         for col, k in enumerate(show):
             covered = np.isfinite(mesh_depth(verts, faces, poses[k], cams[k]))

@@ -118,3 +118,17 @@ def test_texture_bake_carries_the_colour_of_each_point(tmp_path):
     assert "m.png" in (tmp_path / "m.mtl").read_text()
     obj = trimesh.load(tmp_path / "m.obj", force="mesh")
     assert len(obj.faces) == len(faces) and obj.visual.uv.shape == (len(obj.vertices), 2)
+
+
+def test_interior_pixels_leave_out_edges_and_depth_jumps():
+    from nerfkit.export.quality import EDGE_PX, interior_pixels
+
+    sil = np.zeros((40, 40), bool)
+    sil[5:35, 5:35] = True
+    depth = np.where(np.arange(40)[None, :] < 20, 2.0, 3.0) * np.ones((40, 1))
+    inner = interior_pixels(sil, depth, tol=0.1)
+    row = inner[20]
+    # the silhouette's edge pixels (5, 34) and the jump's two sides (19, 20), each widened by EDGE_PX
+    far = [j for j in range(40) if min(abs(j - 5), abs(j - 34), abs(j - 19), abs(j - 20)) > EDGE_PX]
+    assert list(np.flatnonzero(row)) == far
+    assert interior_pixels(sil, np.full((40, 40), 2.0), 0.1)[20, 20]  # no jump: the middle is interior
