@@ -66,7 +66,7 @@ PROOFS = {
         "chunk": [f"{T}::test_pointcloud_split_every_and_voxel_size"],
         "progress": [f"{T}::test_no_progress_hides_the_bars"],
         "overwrite": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"]},
-    "ExportSplatArgs": {f: ["splat/test_cli.py::test_export_splat_reads_back_and_renders_the_same_image"]
+    "ExportSplatArgs": {f: ["splat/test_splat_cli.py::test_export_splat_reads_back_and_renders_the_same_image"]
                         for f in ("out", "overwrite")},
     "ExportCamerasArgs": {
         "out": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"],
