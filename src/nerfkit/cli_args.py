@@ -117,7 +117,7 @@ class ExportMeshArgs:
     texture: bool = False
     """Bake the colour into a UV texture (xatlas atlas; .glb with the image inside, or .obj + .mtl + .png),
     decimated to 100,000 faces unless --max-faces says otherwise."""
-    texture_size: int = 2048
+    texture_size: int = 1024
     """Texels per side of the texture atlas, roughly: xatlas scales the charts to it, and the padding between
     many small charts can make the atlas up to about twice as wide (the record gives the size)."""
     max_faces: int | None = None

@@ -69,7 +69,7 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
                 max_faces: int | None = None, visible_only: bool = True, snap: bool = True, every: int | None = None,
                 data: Path | None = None, progress: bool = True, log=print, carve: bool = True,
                 overwrite: bool = False, method: str = "tsdf", box: float | None = None, watertight: bool = False,
-                texture: bool = False, texture_size: int = 2048) -> dict:
+                texture: bool = False, texture_size: int = 1024) -> dict:
     """Write the run's mesh to `out` (default RUN/exports/mesh.ply, or mesh.glb with `texture`) in the
     capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from nerfkit.export.run import write_atomic
 
-COLOR_SAMPLES = 16
+COLOR_SAMPLES = 8
 
 
 def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
