@@ -55,7 +55,7 @@ def alternative(name: str, cfg) -> list[str]:
         "field.hash_max_res": "64", "sampler.near": "1.0", "sampler.far": "5.5", "sampler.max_samples": "16384",
         "train.devices": "2", "train.precrop_frac": "0.3",
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
-        "splat.strategy": "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
+        "splat.strategy": "mcmc" if v == "classic" else "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
     }
     if name == "field.kind" and v == "ngp":  # the MLP fields need a fixed [near, far]
         return [flag, "mlp", "--near", "2", "--far", "6"]
