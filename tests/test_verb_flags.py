@@ -99,9 +99,8 @@ PROOFS = {
         "n_val": ["test_cli.py::test_make_scene"], "n_test": ["test_cli.py::test_make_scene"],
         "seed": ["test_cli.py::test_make_scene"], "overwrite": ["test_cli.py::test_make_scene"]},
     "MakeMultiscaleArgs": {f: ["data/test_multiscale.py::multiscale"] for f in ("out", "levels", "progress")},
-    "DemoArgs": {f: ["test_demo.py::test_demo_end_to_end"] for f in
-                 ("out", "max_minutes", "size", "orbit_frames", "overwrite")} | {
-        "preset": [f"{T}::test_demo_preset_reaches_the_trainer"]},
+    "DemoArgs": {f: ["test_demo.py::test_demo_end_to_end"] for f in ("out", "max_steps", "size", "orbit_frames", "overwrite")}
+    | {f: [f"{T}::test_demo_preset_reaches_the_trainer"] for f in ("preset", "max_minutes", "max_steps")},
     "ExperimentArgs": {f: [f"{T}::test_experiment_flags_reach_the_experiment"] for f in (
         "out", "budget_minutes", "max_steps", "preset", "seed", "eval_every", "orbit_frames", "grid_views", "val_every",
         "train_split", "val_split", "target_width", "downscale", "models", "mlp_size", "progress")},
@@ -364,13 +363,19 @@ def test_demo_preset_reaches_the_trainer(monkeypatch, tmp_path):
         pass
 
     def fake_trainer(scene, run, cfg, overwrite=False):
-        seen["kind"] = cfg.field.kind
+        seen["kind"], seen["budget"] = cfg.field.kind, (cfg.train.max_minutes, cfg.train.max_steps)
         raise Stop
 
     monkeypatch.setattr("nerfkit.train.Trainer", fake_trainer)
     with pytest.raises(Stop):
         main(["demo", "--out", str(tmp_path / "d"), "--preset", "tiny", "--size", "8"])
-    assert seen["kind"] == "mlp"
+    assert seen["kind"] == "mlp" and seen["budget"][0] == 3.0  # the demo's own budget
+    # --max-minutes sets the time budget; --max-steps alone replaces it; both: whichever comes first
+    for k, (extra, minutes, steps) in enumerate(((["--max-minutes", "0.5"], 0.5, None), (["--max-steps", "7"], None, 7),
+                                                 (["--max-steps", "7", "--max-minutes", "2"], 2.0, 7))):
+        with pytest.raises(Stop):
+            main(["demo", "--out", str(tmp_path / f"e{k}"), "--preset", "tiny", "--size", "8", *extra])
+        assert seen["budget"][0] == minutes and (steps is None or seen["budget"][1] == steps)
 
 
 def test_frames_is_refused_for_images(tmp_path, capsys):

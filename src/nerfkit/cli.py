@@ -37,7 +37,7 @@ from nerfkit.cli_args import (
     ViewArgs,
     ViewBakedArgs,
 )
-from nerfkit.config import DEFAULT_PRESET, PRESET_HELP, PRESETS, preset
+from nerfkit.config import DEFAULT_PRESET, PRESET_HELP, PRESETS, preset, set_budget
 from nerfkit.errors import ConfigError, NerfkitError
 from nerfkit.flags import explicit_settings
 from nerfkit.outputs import check_new_folder
@@ -317,10 +317,13 @@ def cmd_demo(argv: list[str]) -> int:
         raise ConfigError(f"--out {a.out}: holds an earlier demo run ({run}); pass --overwrite to start again, or "
                           f"pick another --out")
     cfg = preset(a.preset)
-    cfg.train.max_minutes = a.max_minutes
+    set_budget(cfg, a.max_minutes if a.max_steps is None or _flag_value(argv, "--max-minutes") is not None else None,
+               a.max_steps)
     scene = make_scene(scene_dir, size=a.size)
     print(f"[1/4] procedural scene: {scene}")
-    print(f"[2/4] training ({a.preset} preset, up to {a.max_minutes:g} min) into {run}")
+    budget = " or ".join(x for x in (f"{cfg.train.max_minutes:g} min" if cfg.train.max_minutes else "",
+                                     f"{cfg.train.max_steps} steps" if a.max_steps is not None else "") if x)
+    print(f"[2/4] training ({a.preset} preset, up to {budget}) into {run}")
     res = Trainer(scene, run, cfg, overwrite=a.overwrite).run()
     print("[3/4] evaluating on the test views")
     ev = evaluate_run(run, scene, "test")

@@ -298,6 +298,8 @@ class DemoArgs:
     """Model preset to train."""
     max_minutes: float = 3.0
     """Training time budget."""
+    max_steps: int | None = None
+    """Stop after this many steps instead (with --max-minutes given too: whichever comes first)."""
     size: int = 256
     """Scene image size (training, evaluation and the orbit video)."""
     orbit_frames: int = 48
