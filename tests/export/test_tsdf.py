@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 import trimesh
 
+from nerfkit.cameras import Camera
 from nerfkit.data.scene import look_at
 from nerfkit.export import tsdf
+from nerfkit.export.carve import pixel_footprint
 from nerfkit.export.surface import closed_and_manifold, drop_specks
 
 R, SIZE, FOCAL, BOUND = 0.5, 64, 70.0, 1.0
@@ -44,7 +46,7 @@ def fused(poses: np.ndarray, res: int, watertight: bool):
     intr = np.tile([FOCAL, FOCAL, SIZE / 2, SIZE / 2], (len(poses), 1)).astype(np.float32)
     axis = np.linspace(-BOUND, BOUND, res, dtype=np.float32)
     h = float(axis[1] - axis[0])
-    tau = tsdf.truncation(h, tsdf.pixel_size(poses, intr))
+    tau = tsdf.truncation(h, pixel_footprint(poses, [Camera(SIZE, SIZE, FOCAL, FOCAL, SIZE / 2, SIZE / 2)] * len(poses)))
     f, known = tsdf.tsdf_volume(*tsdf.fuse_grid(axis, poses, intr, depth, opac, tau), watertight)
     return tsdf.zero_surface(f, known, BOUND, watertight), h
 

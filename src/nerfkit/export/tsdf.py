@@ -137,11 +137,6 @@ def zero_surface(f: np.ndarray, known: np.ndarray, bound: float, watertight: boo
     return verts.astype(np.float32), faces.astype(np.int64)
 
 
-def pixel_size(c2w: np.ndarray, intr: np.ndarray) -> float:
-    """One pixel's footprint at the origin: the median over views of |o_k| / fx_k."""
-    return float(np.median(np.linalg.norm(c2w[:, :3, 3], axis=1) / intr[:, 0]))
-
-
 FUSION_VIEWS = 64  # default: about this many training views are rendered and fused
 PIXELS_PER_CELL = 1  # ... this many pixels across per grid cell (the depth maps resolve what the grid does)
 
@@ -154,6 +149,7 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     from tqdm.auto import tqdm
 
     from nerfkit.errors import NerfkitError
+    from nerfkit.export.carve import pixel_footprint
     from nerfkit.export.grid import grid_axis
     from nerfkit.export.visibility import render_views
 
@@ -163,7 +159,7 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     t_render = time.perf_counter() - t0
     axis = grid_axis(bound, resolution)
     h = float(axis[1] - axis[0])
-    tau = truncation(h, pixel_size(views.c2w, views.intrinsics))
+    tau = truncation(h, pixel_footprint(views.c2w, views.cameras))
     log(f"mesh: TSDF fusion of {len(views.c2w)} rendered training views (every {views.every}) on a {resolution}^3 "
         f"grid over the box [-{bound:g}, {bound:g}]^3 (h = {h:.4g}), truncation {tau:.4g}")
     bar = (lambda it: tqdm(it, desc="fuse", unit="slab", leave=False)) if progress else None
