@@ -29,10 +29,9 @@ import trimesh
 from PIL import Image
 from scipy.ndimage import maximum_filter
 
-from nerfkit.cameras import project_points
 from nerfkit.data.loader import read_capture
-from nerfkit.evaluate import run_data_dir
-from nerfkit.train import load_run_config
+from nerfkit.rays.cameras import project_points
+from nerfkit.run.folder import RunFolder
 
 
 def alpha_of(frame, width: int | None = None) -> np.ndarray:
@@ -97,10 +96,10 @@ def main():
                         "--method", "levelset", "--no-progress"], check=True)
         print(f"export mesh: {time.perf_counter() - t0:.1f} s (whole CLI)")
     verts = np.asarray(trimesh.load(mesh_path, process=False).vertices, np.float64)
-    cfg = load_run_config(args.run)
+    cfg = RunFolder(args.run).config()
     d = cfg.data
     split = args.split or d.val_split
-    cap = read_capture(run_data_dir(args.run, args.data), split, d.format, d.masks, d.holdout_every)
+    cap = read_capture(RunFolder(args.run).data_dir(args.data), split, d.format, d.masks, d.holdout_every)
     frames = cap.frames(split)
     views = []
     for f in frames:

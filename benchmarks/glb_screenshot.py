@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 from provenance import provenance
 
+from nerfkit.run.folder import RunFolder
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "export")]
 
@@ -38,24 +40,22 @@ def main() -> None:
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
     a = ap.parse_args()
 
-    import matplotlib.pyplot as plt
     import tempfile
 
+    import matplotlib.pyplot as plt
     import test_glb_browser as page
     import trimesh
     from chromium import Chromium, find_chromium
     from PIL import Image
 
-    from nerfkit.cameras import Camera
+    from nerfkit.core.metrics import psnr
     from nerfkit.data.loader import read_capture, scene_cameras
-    from nerfkit.evaluate import run_data_dir
-    from nerfkit.export.run import load_run
-    from nerfkit.inference import make_renderer
-    from nerfkit.metrics import psnr
+    from nerfkit.rays.cameras import Camera
+    from nerfkit.render.images import make_renderer
 
-    run = load_run(a.run)
+    run = RunFolder(a.run).load()
     d = run.cfg.data
-    cap = read_capture(run_data_dir(a.run, None), d.train_split, d.format, d.masks, d.holdout_every)
+    cap = read_capture(RunFolder(a.run).data_dir(None), d.train_split, d.format, d.masks, d.holdout_every)
     sel = scene_cameras(cap, d.train_split)
     inv = np.linalg.inv(run.transform)
     page.W = page.H = a.size

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from provenance import provenance
 
-from nerfkit.viz import plot_curves, read_jsonl
+from nerfkit.core.viz import plot_curves, read_jsonl
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego"

@@ -23,17 +23,18 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-
 from provenance import provenance
 
-from nerfkit.config import preset, validate
+from nerfkit.core.config import validate
+from nerfkit.core.metrics import psnr
+from nerfkit.core.presets import preset
+from nerfkit.core.viz import plot_curves
 from nerfkit.data.loader import load_frames, read_capture
-from nerfkit.inference import Renderer
-from nerfkit.metrics import psnr
-from nerfkit.model import build_model
-from nerfkit.resolve import resolve_config
-from nerfkit.train import evenly_spaced, init_state, make_optimizer, make_train_step
-from nerfkit.viz import plot_curves
+from nerfkit.models.registry import build_model
+from nerfkit.render.images import Renderer
+from nerfkit.training.resolve import resolve_config
+from nerfkit.training.step import init_state, make_optimizer, make_train_step
+from nerfkit.training.trainer import evenly_spaced
 
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "nerf_synthetic" / "lego"
 

@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 from provenance import provenance
 
+from nerfkit.run.folder import RunFolder
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -56,11 +58,10 @@ def main() -> None:
     from nerfkit.export.carve import training_silhouettes
     from nerfkit.export.quality import mesh_against_views
     from nerfkit.export.raster import mesh_depth
-    from nerfkit.export.run import load_run
-    from nerfkit.inference import make_renderer
+    from nerfkit.render.images import make_renderer
 
     name = a.name or a.run.name
-    run = load_run(a.run)
+    run = RunFolder(a.run).load()
     sil = training_silhouettes(run, a.data, a.split)
     if sil is None:
         sys.exit("the capture has neither masks nor alpha: no silhouettes to measure against")

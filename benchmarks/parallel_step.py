@@ -25,10 +25,10 @@ os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={a.devices}"
 
 import numpy as np  # noqa: E402
 
-from nerfkit.config import preset  # noqa: E402
-from nerfkit.data.scene import make_scene  # noqa: E402
-from nerfkit.train import Trainer  # noqa: E402
-from nerfkit.viz import read_jsonl  # noqa: E402
+from nerfkit.core.presets import preset  # noqa: E402
+from nerfkit.core.viz import read_jsonl  # noqa: E402
+from nerfkit.data.procedural.scene import make_scene  # noqa: E402
+from nerfkit.training.trainer import Trainer  # noqa: E402
 
 
 def run(root: Path, scene: Path, n: int) -> tuple[float, list[float]]:

@@ -25,12 +25,12 @@ from pathlib import Path
 import numpy as np
 from provenance import provenance
 
-from nerfkit import checkpoint as ckpt_lib
-from nerfkit.data.llff import read_llff
+from nerfkit.core.viz import plot_curves
+from nerfkit.data.formats.llff import read_llff
 from nerfkit.data.loader import read_capture
-from nerfkit.evaluate import evaluate_run
+from nerfkit.evaluation.evaluate import evaluate_run
 from nerfkit.process.align import pose_errors
-from nerfkit.viz import plot_curves
+from nerfkit.training import checkpoint as ckpt_lib
 
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "maryrose"
 

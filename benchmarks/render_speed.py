@@ -25,11 +25,10 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from nerfkit.cameras import Camera
 from nerfkit.data.loader import load_frames, read_capture
-from nerfkit.evaluate import run_data_dir
-from nerfkit.inference import make_renderer
-from nerfkit.train import load_trained
+from nerfkit.rays.cameras import Camera
+from nerfkit.render.images import make_renderer
+from nerfkit.run.folder import RunFolder
 
 
 def timed(renderer, params, aux, c2w, camera, repeats: int) -> float:
@@ -71,8 +70,10 @@ def main():
     ap.add_argument("--results", type=Path, default=Path(__file__).resolve().parent / "results" / "render_speed.json")
     a = ap.parse_args()
 
-    cfg, model, params, aux, step = load_trained(a.run)
-    data = load_frames(read_capture(run_data_dir(a.run, a.data), a.split), a.split)
+    run_ = RunFolder(a.run).load()
+
+    cfg, model, params, aux, step = run_.cfg, run_.model, run_.params, run_.aux, run_.step
+    data = load_frames(read_capture(RunFolder(a.run).data_dir(a.data), a.split), a.split)
     c2w, cam = data.poses[0], data.cameras[0]
     renderer = make_renderer(model, cfg.train.chunk)
     print(f"{a.run} (step {step}), {type(renderer).__name__}, chunk {renderer.chunk}; jax {jax.__version__} on "

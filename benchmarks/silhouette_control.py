@@ -5,7 +5,7 @@
 Points sampled exactly on the surface of a sphere and of a capped rod (radii in pixels of a
 width x width image seen from 4 units away), 50 views from random directions (elevation within
 +-40 degrees), each view's silhouette as the exact pixel coverage (6 x 6 rays per pixel,
-analytic ray-primitive intersections from nerfkit.data.scene). Scored with export_silhouette's
+analytic ray-primitive intersections from nerfkit.data.procedural.scene). Scored with export_silhouette's
 `score`: a point passes when the pixel it projects into has coverage > 0.5 in >= 95% of the
 views that see it, strictly and within one pixel.
 
@@ -23,8 +23,8 @@ import argparse
 import numpy as np
 from export_silhouette import score
 
-from nerfkit.cameras import Camera
-from nerfkit.data.scene import intersect_cylinder, intersect_sphere, look_at
+from nerfkit.data.procedural.scene import intersect_cylinder, intersect_sphere, look_at
+from nerfkit.rays.cameras import Camera
 
 DISTANCE = 4.0
 SUPERSAMPLE = 6

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from nerfkit.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
-from nerfkit.splat.tiles_numba import TILE, bin_gaussians
+from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
+from nerfkit.models.splat.tiles_numba import TILE, bin_gaussians
 
 wp.config.quiet = True
 _AMAX, _AMIN, _SMAX, _TMIN = (wp.constant(float(v)) for v in (ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN))

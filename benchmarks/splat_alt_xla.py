@@ -19,8 +19,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from nerfkit.splat.reference import blend, gaussian_alpha
-from nerfkit.splat.tiles_numba import TILE
+from nerfkit.models.splat.reference import blend, gaussian_alpha
+from nerfkit.models.splat.tiles_numba import TILE
 
 
 def tile_rects(means2d, radii, width: int, height: int):

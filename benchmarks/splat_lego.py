@@ -30,9 +30,9 @@ import numpy as np
 from provenance import provenance
 
 from nerfkit.data.loader import load_frames, read_capture
-from nerfkit.splat.densify import ClassicSchedule
-from nerfkit.splat.model import render
-from nerfkit.splat.train import SplatConfig, evaluate, train_splats
+from nerfkit.models.splat.densify import ClassicSchedule
+from nerfkit.models.splat.model import render
+from nerfkit.models.splat.train import SplatConfig, evaluate, train_splats
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego"
@@ -142,7 +142,7 @@ def main():
     stem.with_suffix(".json").write_text(json.dumps(result, indent=2))
     plot(records, stem.with_suffix(".png"), cfg)
     if a.ply:
-        from nerfkit.splat.ply import export_ply
+        from nerfkit.models.splat.ply import export_ply
 
         export_ply(a.ply, params)
     print(f"\nsteps {steps} ({result['steps_per_s']:.2f}/s), {result['gaussians']} Gaussians")
@@ -153,7 +153,7 @@ def main():
 
 
 def plot(records, path: Path, cfg: SplatConfig) -> None:
-    from nerfkit.viz import plot_curves
+    from nerfkit.core.viz import plot_curves
 
     series = {f"3DGS {cfg.strategy} ({cfg.capacity // 1000}k)": ([r["elapsed"] / 60 for r in records],
                                                                    [r["psnr"] for r in records])}

@@ -39,10 +39,10 @@ import jax.numpy as jnp
 import numba
 import numpy as np
 
-from nerfkit.cameras import look_at
-from nerfkit.splat import tiles_numba
-from nerfkit.splat.project import project_gaussians
-from nerfkit.splat.rasterize import rasterize
+from nerfkit.models.splat import tiles_numba
+from nerfkit.models.splat.project import project_gaussians
+from nerfkit.models.splat.rasterize import rasterize
+from nerfkit.rays.cameras import look_at
 
 CONFIGS = [(200, 50_000), (200, 200_000), (800, 50_000), (800, 200_000)]
 XLA_MAX_WORK = 4e8  # the padded XLA candidate is skipped past this many alpha evaluations per frame

@@ -18,11 +18,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.cameras import Camera, look_at
-from nerfkit.config import preset
+from nerfkit.core.presets import preset
 from nerfkit.data.capture import SceneData
-from nerfkit.model import build_model
-from nerfkit.train import init_state, make_optimizer, make_train_step
+from nerfkit.models.registry import build_model
+from nerfkit.rays.cameras import Camera, look_at
+from nerfkit.training.step import init_state, make_optimizer, make_train_step
 
 
 def fake_scene(n: int, size: int) -> SceneData:

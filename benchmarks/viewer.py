@@ -24,9 +24,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from chromium import Chromium, find_chromium
 
-from nerfkit.cameras import orbit_poses
-from nerfkit.inference import make_renderer
-from nerfkit.train import Trainer, load_run_config, load_trained
+from nerfkit.rays.cameras import orbit_poses
+from nerfkit.render.images import make_renderer
+from nerfkit.run.folder import RunFolder
+from nerfkit.training.trainer import Trainer
 from nerfkit.viewer.run import attach_viewer, scene_view_of_run
 from nerfkit.viewer.server import Viewer, viser_from_c2w
 
@@ -40,7 +41,8 @@ def wait(cond, timeout=300.0):
 
 
 def frame_rate(run: Path, binary: str, resolution: int, seconds: float, window=(640, 480)) -> dict:
-    cfg, model, params, aux, step = load_trained(run)
+    run_ = RunFolder(run).load()
+    cfg, model, params, aux, step = run_.cfg, run_.model, run_.params, run_.aux, run_.step
     viewer = Viewer(make_renderer(model, cfg.train.chunk), scene_view_of_run(run, cfg), run, port=0)
     viewer.set_params(params, aux, step)
     viewer.resolution.value = resolution
@@ -101,7 +103,7 @@ def training_cost(run: Path, data: Path, binary: str, steps: int) -> dict:
     the duty-cycled rendering and the server), and with a headless Chromium connected on the same cores."""
     out = {}
     for label in ("without viewer", "viewer, no browser", "with viewer"):
-        cfg = load_run_config(run)
+        cfg = RunFolder(run).config()
         cfg.train.max_steps, cfg.train.max_minutes, cfg.train.val_every = steps, None, 10**9
         cfg.train.ckpt_every = 10**9
         tmp = Path(tempfile.mkdtemp())

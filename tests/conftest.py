@@ -13,7 +13,7 @@ def compile_cache():
     with tempfile.TemporaryDirectory(prefix="nerfkit-jax-cache-") as path:
         old = os.environ.get("NERFKIT_COMPILE_CACHE")
         os.environ["NERFKIT_COMPILE_CACHE"] = path
-        from nerfkit.cli import enable_compile_cache
+        from nerfkit.cli.main import enable_compile_cache
 
         enable_compile_cache()
         yield path

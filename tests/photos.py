@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from nerfkit.cameras import Camera
-from nerfkit.data import scene as proc
-from nerfkit.data.synthetic import render
+from nerfkit.data.procedural import scene as proc
+from nerfkit.data.procedural.captures import render
+from nerfkit.rays.cameras import Camera
 
 
 def arc_photos(n: int = 10, size: int = 192) -> list[np.ndarray]:

@@ -13,9 +13,9 @@ import shutil
 
 import numpy as np
 
-from nerfkit.config import preset
-from nerfkit.data.scene import make_scene
-from nerfkit.train import Trainer
+from nerfkit.core.presets import preset
+from nerfkit.data.procedural.scene import make_scene
+from nerfkit.training.trainer import Trainer
 
 SIZE = 64  # training images, pixels
 STEPS = 400

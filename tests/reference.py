@@ -8,11 +8,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.cameras import Camera, camera_rays, pinhole_directions, rotate_directions
-from nerfkit.data.blender import iter_frames
+from nerfkit.core.errors import DataError
+from nerfkit.data.formats.blender import iter_frames
 from nerfkit.data.loader import load_scene
-from nerfkit.errors import DataError
-from nerfkit.occupancy import OccupancyConfig, cell_coords
+from nerfkit.rays.cameras import (
+    Camera,
+    camera_rays,
+    pinhole_directions,
+    rotate_directions,
+)
+from nerfkit.sampling.occupancy import OccupancyConfig, cell_coords
 
 
 def pixel_directions(i, j, height: int, width: int, focal):

@@ -13,11 +13,11 @@ import pkgutil
 
 import imageio.v3 as iio
 import numpy as np
+import photos
 import pytest
 
 import nerfkit
-import photos
-from nerfkit.cli import main
+from nerfkit.cli.main import main
 
 pytestmark = pytest.mark.smoke
 
@@ -45,7 +45,7 @@ def test_splat_rasteriser_numba_matches_the_reference():
     # Not a CLI verb yet; its numba kernels and jax.pure_callback(vmap_method=...) set bounds.
     import jax
 
-    from nerfkit.splat.rasterize import rasterize
+    from nerfkit.models.splat.rasterize import rasterize
 
     rng = np.random.default_rng(0)
     n, w, h = 6, 24, 20

@@ -1,5 +1,5 @@
 import sys
 
-from nerfkit.cli import main
+from nerfkit.cli.main import main
 
 sys.exit(main())

@@ -10,16 +10,24 @@ import numpy as np
 import pytest
 
 from nerfkit.bake.bake import bake_run, baked_mb, fibonacci_directions
-from nerfkit.bake.format import BRICK, FORMAT, Baked, load_baked, lookup, quantise, save_baked
-from nerfkit.bake.model import BakedModel
-from nerfkit.cameras import camera_rays
-from nerfkit.cli import main
+from nerfkit.cli.main import main
+from nerfkit.core.metrics import psnr
 from nerfkit.data.loader import load_scene
 from nerfkit.encoding.sh import sh_encode
-from nerfkit.evaluate import evaluate_run
-from nerfkit.inference import make_renderer
-from nerfkit.metrics import psnr
-from nerfkit.train import load_trained
+from nerfkit.evaluation.evaluate import evaluate_run
+from nerfkit.models.baked.format import (
+    BRICK,
+    FORMAT,
+    Baked,
+    load_baked,
+    lookup,
+    quantise,
+    save_baked,
+)
+from nerfkit.models.baked.model import BakedModel
+from nerfkit.rays.cameras import camera_rays
+from nerfkit.render.images import make_renderer
+from nerfkit.run.folder import RunFolder
 
 
 def test_lookup_is_trilinear_inside_stored_bricks_and_empty_elsewhere(tmp_path):
@@ -97,7 +105,8 @@ def test_baked_scene_renders_like_the_field(baked):
     run, out, info = baked
     b = load_baked(out)
     assert b.meta["bricks"] == info["bricks"] == int((b.index >= 0).sum()) > 0
-    cfg, model, params, aux, _ = load_trained(run)
+    run_ = RunFolder(run).load()
+    model, params, aux = run_.model, run_.params, run_.aux
     data = load_scene(json.loads((run / "scene.json").read_text())["data_dir"], "test")
     bm = BakedModel(b)
     bp, ba = bm.params_and_aux(b)

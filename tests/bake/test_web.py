@@ -25,13 +25,13 @@ from chromium import Chromium
 
 from nerfkit.bake import web
 from nerfkit.bake.bake import bake_run
-from nerfkit.bake.format import FORMAT, load_baked
-from nerfkit.bake.model import BakedModel
-from nerfkit.cameras import Camera
-from nerfkit.cli import main
-from nerfkit.errors import ConfigError
-from nerfkit.inference import make_renderer
-from nerfkit.metrics import psnr
+from nerfkit.cli.main import main
+from nerfkit.core.errors import ConfigError
+from nerfkit.core.metrics import psnr
+from nerfkit.models.baked.format import FORMAT, load_baked
+from nerfkit.models.baked.model import BakedModel
+from nerfkit.rays.cameras import Camera
+from nerfkit.render.images import make_renderer
 
 SIZE = 64  # rendered images, pixels (the procedural scene's own size)
 VIEWS = (0, 8, 16)  # training cameras of the procedural run

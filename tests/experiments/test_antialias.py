@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from html_refs import refs
 
-from nerfkit.cli import main
-from nerfkit.data.multiscale import make_multiscale
-from nerfkit.data.scene import make_scene
-from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.cli.main import main
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.data.formats.multiscale import make_multiscale
+from nerfkit.data.procedural.scene import make_scene
 from nerfkit.experiments import antialias_experiment
 from nerfkit.experiments.antialias import crop, detail_window
 

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from html_refs import refs
 
-from nerfkit.cli import main
-from nerfkit.config import PRESETS
-from nerfkit.data.scene import make_scene
-from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.cli.main import main
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.presets import PRESETS
+from nerfkit.data.procedural.scene import make_scene
 from nerfkit.experiments import PE_ABLATION, pe_ablation
 
 STEPS = 10

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from nerfkit.cameras import Camera
-from nerfkit.data.scene import intersect_sphere, look_at
+from nerfkit.data.procedural.scene import intersect_sphere, look_at
 from nerfkit.export.carve import MARGIN_PX, TOLERANCE_VIEWS, carve, outside_count
+from nerfkit.rays.cameras import Camera
 
 R = 0.5  # the sphere, at the origin
 DIST, SIZE, FOCAL, SUPERSAMPLE = 4.0, 64, 80.0, 4

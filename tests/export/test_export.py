@@ -15,20 +15,20 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import trimesh
+from procedural_run import SIZE, similarity
 from scipy.spatial import cKDTree
 
-from nerfkit.cli import main
-from nerfkit.errors import ConfigError
-from nerfkit.data import scene as proc
+from nerfkit.cli.main import main
+from nerfkit.core.errors import ConfigError
+from nerfkit.data.formats.nerfstudio import read_nerfstudio
 from nerfkit.data.loader import read_capture
-from nerfkit.data.nerfstudio import read_nerfstudio
+from nerfkit.data.procedural import scene as proc
 from nerfkit.export.cameras import export_cameras
+from nerfkit.export.files import to_capture
 from nerfkit.export.levelset import default_threshold, half_opacity_snapper
 from nerfkit.export.mesh import export_mesh
 from nerfkit.export.pointcloud import export_pointcloud, voxel_downsample
-from nerfkit.export.run import to_capture
-from nerfkit.report import write_report
-from procedural_run import SIZE, similarity
+from nerfkit.report.run import write_report
 
 SCENE_SIZE = 2 * proc.SCENE_BOUNDS
 

@@ -18,9 +18,9 @@ import trimesh
 from chromium import Chromium
 from PIL import Image
 
+from nerfkit.core.metrics import psnr
 from nerfkit.export.mesh import export_mesh
 from nerfkit.export.raster import rasterize
-from nerfkit.metrics import psnr
 
 PAGE = Path(__file__).with_name("glb_page.html")
 W = H = 96

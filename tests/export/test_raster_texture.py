@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from nerfkit.cameras import Camera
-from nerfkit.data.scene import look_at
+from nerfkit.data.procedural.scene import look_at
 from nerfkit.export.quality import coverage_scores, mesh_against_views
 from nerfkit.export.raster import mesh_depth, rasterize
 from nerfkit.export.texture import bake, textured_files, write_textured
+from nerfkit.rays.cameras import Camera
 
 
 def test_rasterize_matches_brute_force_point_in_triangle():

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from nerfkit.cameras import Camera
-from nerfkit.data.scene import look_at
+from nerfkit.data.procedural.scene import look_at
 from nerfkit.export import tsdf
 from nerfkit.export.carve import pixel_footprint
 from nerfkit.export.surface import closed_and_manifold, drop_specks
+from nerfkit.rays.cameras import Camera
 
 R, SIZE, FOCAL, BOUND = 0.5, 64, 70.0, 1.0
 

@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from nerfkit.config import FieldConfig
+from nerfkit.core.config import FieldConfig
 from nerfkit.fields.mlp import MLPField
 
 SMALL = FieldConfig(depth=4, width=32, l_xyz=4, l_dir=2)

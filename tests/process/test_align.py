@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from nerfkit.data.synthetic import ring_poses
+from nerfkit.data.procedural.captures import ring_poses
 from nerfkit.process.align import pose_errors, umeyama
 
 

@@ -8,13 +8,13 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from nerfkit.cameras import Camera
-from nerfkit.cli import main
-from nerfkit.data.llff import list_images, read_llff
+from nerfkit.cli.main import main
+from nerfkit.data.formats.llff import list_images, read_llff
 from nerfkit.data.loader import load_scene, read_capture
-from nerfkit.data.synthetic import render, ring_poses
+from nerfkit.data.procedural.captures import render, ring_poses
 from nerfkit.process.align import pose_errors
 from nerfkit.process.video import select_frames
+from nerfkit.rays.cameras import Camera
 
 MARYROSE = Path(__file__).resolve().parents[2].parent / "shared/data/real/maryrose"
 needs_maryrose = pytest.mark.skipif(not MARYROSE.is_dir(), reason=f"{MARYROSE} not present (the shared data)")

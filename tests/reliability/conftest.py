@@ -38,7 +38,9 @@ def cached_env(compile_cache_dir):
 def compile_cache(compile_cache_dir):
     """Use the session's compilation cache in this process for one test, then restore the settings."""
     try:
-        from jax._src import compilation_cache as cc  # the only way to re-read the cache settings in-process
+        from jax._src import (
+            compilation_cache as cc,  # the only way to re-read the cache settings in-process
+        )
     except ImportError:  # pragma: no cover - an internal module: without it the tests are only slower
         yield
         return

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import pytest
 
-from nerfkit import checkpoint as ckpt_lib
-from nerfkit.cli import main
-from nerfkit.data.scene import make_scene
+from nerfkit.cli.main import main
+from nerfkit.data.procedural.scene import make_scene
+from nerfkit.training import checkpoint as ckpt_lib
 
 # A small fast-field run (every verb accepts it, bake included).
 SMALL = ["--preset", "demo", "--hash-levels", "4", "--hash-log2-size", "12", "--hash-max-res", "64", "--occ-res", "16",

@@ -2,7 +2,7 @@
 
 Random and mutated `transforms_train.json` text, JSON structures and PNG bytes (raw byte
 edits, and chunk-aware edits with valid CRCs so the decoder itself is exercised) are fed
-to nerfkit.data.blender.load_blender. Every case must either load sensible data or raise
+to nerfkit.data.formats.blender.load_blender. Every case must either load sensible data or raise
 nerfkit's own DataError; any other exception fails the test. The number of cases is
 bounded and the run is deterministic (derandomize).
 """
@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from reference import load_blender, read_split_poses
-from nerfkit.data.scene import make_scene
-from nerfkit.errors import DataError
+
+from nerfkit.core.errors import DataError
+from nerfkit.data.procedural.scene import make_scene
 
 SETTINGS = settings(max_examples=100, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])

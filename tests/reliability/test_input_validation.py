@@ -2,8 +2,8 @@
 and the fix; what can be read sensibly (grayscale, 16-bit, RGB without alpha, palette,
 1-bit) is accepted with the right values.
 
-Complements tests/data/test_blender.py (missing folder / JSON / image, bad JSON, pose
-checks, size mismatch, truncated PNG, split ranges, downscale) and tests/test_cli.py.
+Complements tests/data/formats/test_blender.py (missing folder / JSON / image, bad JSON, pose
+checks, size mismatch, truncated PNG, split ranges, downscale) and tests/cli/test_main.py.
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-
-from nerfkit.cli import main
 from reference import load_blender, read_split_poses
-from nerfkit.data.scene import make_scene
-from nerfkit.errors import DataError
+
+from nerfkit.cli.main import main
+from nerfkit.core.errors import DataError
+from nerfkit.data.procedural.scene import make_scene
 
 SIZE = 8
 

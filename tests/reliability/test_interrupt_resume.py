@@ -5,7 +5,7 @@ SIGINT part-way, resumed with the command its message prints, interrupted again 
 SIGTERM, and resumed to the end. The final parameters and optimizer state must equal
 those of an uninterrupted run of the same number of steps (the RNG of step s is
 fold_in(PRNGKey(seed), s)). A second test resumes a model whose non-trainable state is a
-real occupancy grid (nerfkit.occupancy) and checks the grid is restored, not rebuilt.
+real occupancy grid (nerfkit.sampling.occupancy) and checks the grid is restored, not rebuilt.
 """
 
 from __future__ import annotations
@@ -22,14 +22,15 @@ import jax
 import numpy as np
 import pytest
 
-from nerfkit import checkpoint as ckpt_lib
-from nerfkit import train as train_mod
-from nerfkit.cli import main
-from nerfkit.config import preset
-from nerfkit.data.scene import make_scene
-from nerfkit.model import NeRFModel
-from nerfkit.occupancy import OccupancyConfig, init_occupancy, update_occupancy
-from nerfkit.train import Trainer, load_trained
+from nerfkit.cli.main import main
+from nerfkit.core.presets import preset
+from nerfkit.data.procedural.scene import make_scene
+from nerfkit.models.nerf import NeRFModel
+from nerfkit.run.folder import RunFolder
+from nerfkit.sampling.occupancy import OccupancyConfig, init_occupancy, update_occupancy
+from nerfkit.training import checkpoint as ckpt_lib
+from nerfkit.training import trainer as train_mod
+from nerfkit.training.trainer import Trainer
 
 N = 60
 ARGS = ["--preset", "tiny", "--no-progress", "--max-steps", str(N), "--log-every", "2", "--val-every", "1000",
@@ -117,8 +118,11 @@ def test_sigint_sigterm_and_resume_match_a_straight_run(scene, tmp_path, cached_
     straight = tmp_path / "straight"
     assert main(["train", str(scene), "--out", str(straight), *ARGS]) == 0
 
-    cfg_a, _, params_a, aux_a, s_a = load_trained(run)
-    cfg_b, _, params_b, aux_b, s_b = load_trained(straight)
+    run_ = RunFolder(run).load()
+
+    params_a, aux_a, s_a = run_.params, run_.aux, run_.step
+    run_ = RunFolder(straight).load()
+    cfg_b, params_b, aux_b, s_b = run_.cfg, run_.params, run_.aux, run_.step
     assert s_a == s_b == N
     _assert_trees_close(params_a, params_b)
     # Optimizer state (Adam moments and count) too, from the raw checkpoints.

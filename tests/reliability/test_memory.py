@@ -1,6 +1,6 @@
 """Item 6: full-image rendering memory is set by --chunk, not by the image size.
 
-A subprocess renders views of a tiny model with nerfkit.inference.Renderer and reports,
+A subprocess renders views of a tiny model with nerfkit.render.images.Renderer and reports,
 for each, the peak resident memory above the memory it held just before (the kernel's
 high-water mark is reset through /proc/self/clear_refs). Then:
 
@@ -34,10 +34,10 @@ CHILD = textwrap.dedent(
     """
     import gc, json, sys
     import jax, numpy as np
-    from nerfkit.cameras import look_at
-    from nerfkit.config import preset
-    from nerfkit.inference import Renderer
-    from nerfkit.model import build_model
+    from nerfkit.rays.cameras import look_at
+    from nerfkit.core.presets import preset
+    from nerfkit.render.images import Renderer
+    from nerfkit.models.registry import build_model
 
     def vm(key):
         with open("/proc/self/status") as f:

@@ -7,15 +7,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-
-from nerfkit import checkpoint as ckpt_lib
-from nerfkit import train as train_mod
-from nerfkit.config import preset
 from reference import load_blender
-from nerfkit.data.scene import make_scene
-from nerfkit.errors import NerfkitError
-from nerfkit.model import NeRFModel
-from nerfkit.train import Trainer, init_state, load_trained, make_optimizer, make_train_step
+
+from nerfkit.core.errors import NerfkitError
+from nerfkit.core.presets import preset
+from nerfkit.data.procedural.scene import make_scene
+from nerfkit.models.nerf import NeRFModel
+from nerfkit.run.folder import RunFolder
+from nerfkit.training import checkpoint as ckpt_lib
+from nerfkit.training import trainer as train_mod
+from nerfkit.training.step import init_state, make_optimizer, make_train_step
+from nerfkit.training.trainer import Trainer
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +98,8 @@ def test_run_reports_isolated_bad_steps_and_stops_on_a_streak(scene, tmp_path, c
     bad = [int(line.split()[1].rstrip(":")) for line in out.splitlines() if "non-finite" in line]
     assert res.step == 40 and bad, out
     assert all(6 < s <= 40 for s in bad) and "update skipped" in out
-    _, _, params40, _, step = load_trained(run)
+    run_ = RunFolder(run).load()
+    params40, step = run_.params, run_.step
     assert step == 40 and all(np.all(np.isfinite(x)) for x in _leaves(params40))
     good_ckpt = ckpt_lib.latest_checkpoint(run / "checkpoints")
     good_bytes = good_ckpt.read_bytes()
@@ -114,6 +117,7 @@ def test_run_reports_isolated_bad_steps_and_stops_on_a_streak(scene, tmp_path, c
     # The last good checkpoint is intact and still the newest.
     assert ckpt_lib.latest_checkpoint(run / "checkpoints") == good_ckpt
     assert good_ckpt.read_bytes() == good_bytes
-    _, _, params, _, step = load_trained(run)
+    run_ = RunFolder(run).load()
+    params, step = run_.params, run_.step
     assert step == 40
     assert _same(params, params40)

@@ -1,7 +1,7 @@
 """Item 5: safe loading. No pickle anywhere; a corrupted, truncated, foreign or damaged
 checkpoint gives a clear one-line error; one from another model says what differs.
 
-Complements tests/test_checkpoint.py (truncation, random bytes, field-config mismatch,
+Complements tests/training/test_checkpoint.py (truncation, random bytes, field-config mismatch,
 shape mismatch, leftover temporaries).
 """
 
@@ -18,11 +18,16 @@ import msgpack
 import numpy as np
 import pytest
 
-from nerfkit.checkpoint import checkpoint_path, read_checkpoint, restore_checkpoint, save_checkpoint
-from nerfkit.config import preset
-from nerfkit.errors import CheckpointError
-from nerfkit.model import NeRFModel
-from nerfkit.train import init_state, make_optimizer
+from nerfkit.core.errors import CheckpointError
+from nerfkit.core.presets import preset
+from nerfkit.models.nerf import NeRFModel
+from nerfkit.training.checkpoint import (
+    checkpoint_path,
+    read_checkpoint,
+    restore_checkpoint,
+    save_checkpoint,
+)
+from nerfkit.training.step import init_state, make_optimizer
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "nerfkit"
 FIELD = dataclasses.asdict(preset("tiny").field)

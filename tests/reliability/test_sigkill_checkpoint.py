@@ -1,7 +1,7 @@
 """Item 2: a process killed with SIGKILL while saving leaves a loadable latest checkpoint.
 
 A helper process imports nerfkit once and, on request, forks a "saver" that writes
-checkpoints of a ~4 MB state in a tight loop (nerfkit.checkpoint.save_checkpoint, keep=2).
+checkpoints of a ~4 MB state in a tight loop (nerfkit.training.checkpoint.save_checkpoint, keep=2).
 The test SIGKILLs the saver at random moments; after every kill the newest complete
 checkpoint must restore cleanly and hold exactly the state of its step. Kills are repeated
 until several of them landed in the middle of a write (a temporary file was left behind),
@@ -21,8 +21,13 @@ import time
 
 import numpy as np
 
-from nerfkit.checkpoint import latest_checkpoint, list_checkpoints, restore_checkpoint, save_checkpoint
-from nerfkit.config import FieldConfig
+from nerfkit.core.config import FieldConfig
+from nerfkit.training.checkpoint import (
+    latest_checkpoint,
+    list_checkpoints,
+    restore_checkpoint,
+    save_checkpoint,
+)
 
 FIELD = dataclasses.asdict(FieldConfig(width=8))
 SIDE = 1024  # a 1024 x 1024 float32 leaf: 4 MB per checkpoint
@@ -32,8 +37,8 @@ SPAWNER = textwrap.dedent(
     import dataclasses, os, sys
     from pathlib import Path
     import numpy as np
-    from nerfkit.checkpoint import latest_checkpoint, save_checkpoint
-    from nerfkit.config import FieldConfig
+    from nerfkit.training.checkpoint import latest_checkpoint, save_checkpoint
+    from nerfkit.core.config import FieldConfig
 
     ckpt_dir, side = Path(sys.argv[1]), int(sys.argv[2])
     field = dataclasses.asdict(FieldConfig(width=8))

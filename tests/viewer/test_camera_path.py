@@ -6,9 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from nerfkit.cameras import look_at
-from nerfkit.errors import DataError
-from nerfkit.viewer.camera_path import focal_from_fov_y, interpolate, read_camera_path, write_camera_path
+from nerfkit.core.errors import DataError
+from nerfkit.rays.camera_path import (
+    focal_from_fov_y,
+    interpolate,
+    read_camera_path,
+    write_camera_path,
+)
+from nerfkit.rays.cameras import look_at
 
 
 def ring(k, radius=4.0, z=1.0):

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from nerfkit.cameras import camera_rays, look_at
+from nerfkit.rays.cameras import camera_rays, look_at
 from nerfkit.viewer.server import (
     c2w_from_viser,
     preview_quality,

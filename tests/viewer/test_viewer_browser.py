@@ -19,12 +19,13 @@ import numpy as np
 import pytest
 from chromium import Chromium, find_chromium
 
-from nerfkit.config import preset
-from nerfkit.data.scene import make_scene
-from nerfkit.evaluate import render_run
-from nerfkit.inference import make_renderer
-from nerfkit.train import Trainer, load_trained
-from nerfkit.viewer.camera_path import read_camera_path
+from nerfkit.core.presets import preset
+from nerfkit.data.procedural.scene import make_scene
+from nerfkit.evaluation.evaluate import render_run
+from nerfkit.rays.camera_path import read_camera_path
+from nerfkit.render.images import make_renderer
+from nerfkit.run.folder import RunFolder
+from nerfkit.training.trainer import Trainer
 from nerfkit.viewer.run import attach_viewer, scene_view_of_run
 from nerfkit.viewer.server import Viewer, viser_from_c2w
 
@@ -108,7 +109,8 @@ def still_frame_of(st, version: int | None = None):
 
 
 def test_viewer_renders_in_headless_chromium(chromium, run, tmp_path):
-    cfg, model, params, aux, step = load_trained(run)
+    run_ = RunFolder(run).load()
+    cfg, model, params, aux, step = run_.cfg, run_.model, run_.params, run_.aux, run_.step
     viewer = Viewer(make_renderer(model, 4096), scene_view_of_run(run, cfg), run, port=0)
     viewer.set_params(params, aux, step)
     assert viewer.host == "127.0.0.1"

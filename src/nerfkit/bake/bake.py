@@ -24,11 +24,20 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from nerfkit.bake.finetune import finetune, training_poses
-from nerfkit.bake.format import BRICK, FORMAT, LOG_SIGMA_MIN, Baked, check_out, quantise, save_baked
 from nerfkit.bake.web import write_web
+from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.encoding.sh import sh_encode
-from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.export.run import load_run
+from nerfkit.models.baked.format import (
+    BRICK,
+    FORMAT,
+    LOG_SIGMA_MIN,
+    Baked,
+    check_out,
+    quantise,
+    save_baked,
+)
+from nerfkit.run.folder import RunFolder
+from nerfkit.sampling import occupancy
 
 N_DIRECTIONS = 32
 AUTO_RESOLUTIONS = (256, 224, 192, 160, 128, 96, 64)
@@ -55,8 +64,6 @@ def brick_vertices(bricks: np.ndarray, bound: float, resolution: int) -> np.ndar
 def occupied_bricks(run, resolution: int) -> np.ndarray:
     """Integer coordinates [K, 3] of the bricks that contain a point of an occupied cell (each brick's
     vertices and cell centres are tested against the run's occupancy grid)."""
-    from nerfkit import occupancy
-
     model, aux = run.model, run.aux
     m = resolution // BRICK
     allb = np.stack(np.meshgrid(*[np.arange(m)] * 3, indexing="ij"), -1).reshape(-1, 3)
@@ -148,7 +155,7 @@ def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: 
         raise ConfigError(f"--sh-bands must be 1, 2 or 3 (got {sh_bands})")
     check_out(out, overwrite)
     t0 = time.perf_counter()
-    run = load_run(run_dir)
+    run = RunFolder(run_dir).load()
     if run.cfg.field.kind != "ngp" or run.model.unbounded:
         raise ConfigError(f"{run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a "
                           f"masked capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")

@@ -24,10 +24,17 @@ import numpy as np
 import optax
 from tqdm.auto import tqdm
 
-from nerfkit.bake.format import Baked
-from nerfkit.bake.model import BakedModel
-from nerfkit.cameras import draw_pixels, ray_table, rotate_directions, table_directions
-from nerfkit.metrics import mse_to_psnr
+from nerfkit.core.metrics import mse_to_psnr
+from nerfkit.data.loader import load_frames, read_capture, scene_cameras
+from nerfkit.models.baked.format import Baked
+from nerfkit.models.baked.model import BakedModel
+from nerfkit.rays.cameras import (
+    draw_pixels,
+    ray_table,
+    rotate_directions,
+    table_directions,
+)
+from nerfkit.run.folder import RunFolder
 
 LR = 3e-2
 BATCH_RAYS = 4096
@@ -36,17 +43,12 @@ LIVE_PER_RAY = 32  # of which still seen (T >= 1e-4); rays needing more are rend
 
 
 def _training_capture(run):
-    from nerfkit.data.loader import read_capture
-    from nerfkit.evaluate import run_data_dir
-
     d = run.cfg.data
-    return read_capture(run_data_dir(run.run_dir, None), d.train_split, d.format, d.masks, d.holdout_every)
+    return read_capture(RunFolder(run.run_dir).data_dir(None), d.train_split, d.format, d.masks, d.holdout_every)
 
 
 def training_frames(run):
     """The run's training images (its split, resolution and background)."""
-    from nerfkit.data.loader import load_frames
-
     d = run.cfg.data
     return load_frames(_training_capture(run), d.train_split, downscale=d.downscale, target_width=d.target_width,
                        background=d.background, progress=False)
@@ -54,8 +56,6 @@ def training_frames(run):
 
 def training_poses(run) -> np.ndarray:
     """The run's training poses c2w [N, 4, 4] (normalised frame), without reading the images."""
-    from nerfkit.data.loader import scene_cameras
-
     d = run.cfg.data
     return scene_cameras(_training_capture(run), d.train_split, d.downscale, d.target_width).poses
 

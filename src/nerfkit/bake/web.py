@@ -25,8 +25,8 @@ from functools import partial
 from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
-from nerfkit.bake.format import FORMAT
-from nerfkit.errors import ConfigError
+from nerfkit.core.errors import ConfigError
+from nerfkit.models.baked.format import FORMAT
 from nerfkit.viewer.run import check_port, is_loopback
 
 WEB_DIR = Path(__file__).parent / "web"

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.cameras import Camera
-from nerfkit.errors import DataError
+from nerfkit.core.errors import DataError
+from nerfkit.rays.cameras import Camera
 
 _SPEC_ITEM = re.compile(r"^\s*([A-Za-z0-9_\-]+)\s*(?:\[\s*(-?\d+)?\s*:\s*(-?\d+)?\s*\])?\s*$")
 

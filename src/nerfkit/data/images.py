@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from nerfkit.errors import DataError
+from nerfkit.core.errors import DataError
 
 # Pillow modes read as they are (palette and 1-bit images are expanded), and the 16-bit gray ones.
 _COLOR_MODES = ("1", "L", "LA", "P", "PA", "RGB", "RGBA")

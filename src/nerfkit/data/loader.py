@@ -1,13 +1,7 @@
 """One entry point for every capture format: detect it, select frames, read images and
 masks, shrink them, and normalise the poses.
 
-Formats (`--format`, or detected from what the folder holds, in this order):
-
-    blender     transforms_{split}.json (+ RGBA PNGs)          data/blender.py
-                or mip-NeRF's multiscale metadata.json          data/multiscale.py
-    nerfstudio  transforms.json (nerfstudio / instant-ngp)       data/nerfstudio.py
-    llff        poses_bounds.npy + images/                       data/llff.py
-    colmap      sparse/0/{cameras,images,points3D}.{bin,txt}     data/colmap.py
+Formats (`--format`, or detected from what the folder holds): data/formats/registry.py.
 
 Masks (white = object) turn into alpha: pixels outside become the background colour, as a
 Blender scene's alpha does. Images larger than MAX_SIDE on their long side are shrunk by
@@ -22,54 +16,34 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.data import blender, colmap, llff, multiscale, nerfstudio
+from nerfkit.core.errors import DataError
 from nerfkit.data.capture import Capture, SceneData
-from nerfkit.data.images import area_downscale, check_one_size, composite, read_masked, resolve_downscale
+from nerfkit.data.formats import registry
+from nerfkit.data.images import (
+    area_downscale,
+    check_one_size,
+    composite,
+    read_masked,
+    resolve_downscale,
+)
 from nerfkit.data.normalize import apply_transform, normalizing_transform
-from nerfkit.errors import DataError
 
-FORMATS = ("blender", "nerfstudio", "llff", "colmap")
 MAX_SIDE = 1600
 
 
 def detect_format(root: Path) -> str:
-    """The format of a capture folder (see the module docstring), or a DataError listing what is looked for."""
-    root = Path(root)
-    if not root.is_dir():
-        raise DataError(f"{root}: data folder does not exist")
-    if blender.is_blender(root) or multiscale.is_multiscale(root):
-        return "blender"
-    if (root / "transforms.json").exists():
-        return "nerfstudio"
-    if (root / "poses_bounds.npy").exists():
-        return "llff"
-    if colmap.find_model(root) is not None:
-        return "colmap"
-    raise DataError(f"{root}: no capture found (looked for transforms_train.json, metadata.json, transforms.json, "
-                    f"poses_bounds.npy, "
-                    f"sparse/0/cameras.bin|txt); for a folder of photos run `nerfkit process-data images {root} "
-                    f"--out DATA` first")
+    """The `--format` name of a capture folder (formats/registry.py), or a DataError listing what is looked for."""
+    return registry.detect_format(root).NAME
 
 
 def read_capture(root: str | Path, spec: str, format: str = "auto", masks: bool = True,
                  holdout_every: int = 8) -> Capture:
     """The capture in `root` (frames by split; only the Blender JSONs that `spec` names are read)."""
     root = Path(root)
-    fmt = detect_format(root) if format == "auto" else format
-    if fmt not in FORMATS:
-        raise DataError(f"--format {fmt!r} is not one of auto, {', '.join(FORMATS)}")
+    fmt = registry.detect_format(root) if format == "auto" else registry.format_named(format, root)
     if not root.is_dir():
         raise DataError(f"{root}: data folder does not exist")
-    if fmt == "blender" and multiscale.is_multiscale(root) and not blender.is_blender(root):
-        cap = multiscale.read_multiscale(root)
-    elif fmt == "blender":
-        cap = blender.read_blender(root, spec)
-    elif fmt == "nerfstudio":
-        cap = nerfstudio.read_nerfstudio(root, holdout_every, masks)
-    elif fmt == "llff":
-        cap = llff.read_llff(root, holdout_every, masks)
-    else:
-        cap = colmap.read_colmap(root, holdout_every, masks)
+    cap = fmt.read(root, spec, holdout_every, masks)
     if not masks:
         cap.masks_dropped = cap.has_masks
         for f in cap.all_frames:

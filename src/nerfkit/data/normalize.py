@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from nerfkit.cameras import Camera, scene_center
+from nerfkit.rays.cameras import Camera, scene_center
 
 CAMERA_RADIUS = 4.0
 

@@ -33,12 +33,24 @@ from typing import Callable
 import numpy as np
 from imageio.v3 import imread
 
-from nerfkit import checkpoint as ckpt_lib
-from nerfkit.config import Config
-from nerfkit.config import preset as make_preset
-from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.experiments.common import apply_settings, budget_text, check_budget, labelled_grid, overlay_plots
-from nerfkit.viz import read_jsonl
+from nerfkit.core.config import Config
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.presets import preset as make_preset
+from nerfkit.core.viz import read_jsonl
+from nerfkit.data.formats.multiscale import level_specs
+from nerfkit.data.loader import load_scene, read_capture
+from nerfkit.evaluation.evaluate import split_slug, train_and_evaluate
+from nerfkit.experiments.common import (
+    apply_settings,
+    budget_text,
+    check_budget,
+    labelled_grid,
+    overlay_plots,
+)
+from nerfkit.report import html as h
+from nerfkit.report.run import write_report
+from nerfkit.training import checkpoint as ckpt_lib
+from nerfkit.training.trainer import evenly_spaced
 
 MLP_SIZES = ("small", "paper")
 
@@ -150,12 +162,6 @@ def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: 
     `budget_minutes` of wall time and/or `max_steps` steps each (whichever comes first), evaluate each at
     every scale of the val split (every `eval_every`-th view), and write results.{json,md}, curves,
     per-scale grids and crops of `grid_views` views and report.html into `out`. Returns the results dict."""
-    from nerfkit.data.loader import load_scene, read_capture
-    from nerfkit.data.multiscale import level_specs
-    from nerfkit.evaluate import split_slug, train_and_evaluate
-    from nerfkit.report import write_report
-    from nerfkit.train import evenly_spaced
-
     data_dir, out = Path(data_dir), Path(out)
     check_budget(budget_minutes, max_steps)
     if mlp_size not in MLP_SIZES:
@@ -246,7 +252,6 @@ def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: 
 def write_antialias_report(exp: Path, results: dict) -> Path:
     """EXP/report.html: the question, the per-scale table, the verdicts, the curves, the per-scale grids and
     crops, and links to each model's run report."""
-    from nerfkit.report import _e, _fmt, _img, _link, _minutes, _page, _table, _write
 
     models = results["models"]
     widths = [s["width"] for s in models[0]["scales"]]
@@ -254,34 +259,34 @@ def write_antialias_report(exp: Path, results: dict) -> Path:
     rows = []
     for m in models:
         rep = exp / m["run_dir"] / "report.html"
-        name = _e(m["label"]) + (f" ({_link(rep, exp, 'run report')})" if rep.is_file() else "")
+        name = h.e(m["label"]) + (f" ({h.link(rep, exp, 'run report')})" if rep.is_file() else "")
         vals = [s["psnr"] for s in m["scales"]] + [m["psnr"]]
-        cells = [f"<b>{_fmt(v)}</b>" if v == b else _fmt(v) for v, b in zip(vals, best)]
-        rows.append([name, _e(m["description"]), _e(f"D={m['depth']} W={m['width']}, {m['samples'][0]} + "
+        cells = [f"<b>{h.fmt(v)}</b>" if v == b else h.fmt(v) for v, b in zip(vals, best)]
+        rows.append([name, h.e(m["description"]), h.e(f"D={m['depth']} W={m['width']}, {m['samples'][0]} + "
                                                      f"{m['samples'][1]}" if m["preset"] != "ngp" else "hash grid"),
-                     _e(m["steps"]), _e(_minutes(m["train_seconds"]))] + cells + [_fmt(m["ssim"], 4)])
+                     h.e(m["steps"]), h.e(h.minutes(m["train_seconds"]))] + cells + [h.fmt(m["ssim"], 4)])
     ev, b = results["eval"], results["budget"]
-    setup = _table(["", ""], [
-        ["data", _e(results["data_dir"])], ["training", _e(f"every scale of {results['train_split']}")],
-        ["budget per model", _e(b["text"])], ["seed", _e(results["seed"])],
-        ["evaluation", _e(f"{ev['split']} at every scale, every {ev['every']} view(s): {ev['n_views']} renders")],
-        ["files", " ".join(_link(exp / n, exp) for n in ("results.md", "results.json") if (exp / n).is_file())]])
+    setup = h.table(["", ""], [
+        ["data", h.e(results["data_dir"])], ["training", h.e(f"every scale of {results['train_split']}")],
+        ["budget per model", h.e(b["text"])], ["seed", h.e(results["seed"])],
+        ["evaluation", h.e(f"{ev['split']} at every scale, every {ev['every']} view(s): {ev['n_views']} renders")],
+        ["files", " ".join(h.link(exp / n, exp) for n in ("results.md", "results.json") if (exp / n).is_file())]])
     head = ["model", "rays", "MLP", "steps", "train time"] + [f"{w} px" for w in widths] + ["mean PSNR", "mean SSIM"]
     n = len(head)
-    table = _table(head, rows, numeric=set(range(3, n)))
-    verdict = "".join(f"<p>{_e(v)}</p>" for v in results["verdicts"])
-    res_html = (f"<p>{_e(results['question'])}</p>" + setup + table + verdict
+    table = h.table(head, rows, numeric=set(range(3, n)))
+    verdict = "".join(f"<p>{h.e(v)}</p>" for v in results["verdicts"])
+    res_html = (f"<p>{h.e(results['question'])}</p>" + setup + table + verdict
                 + '<p class="note">PSNR in dB per scale (bold: the best at that scale).</p>')
-    figs = [_img(exp / p, exp, k, _e(k.replace("_", " "))) for k, p in results["plots"].items() if (exp / p).is_file()]
+    figs = [h.img(exp / p, exp, k, h.e(k.replace("_", " "))) for k, p in results["plots"].items() if (exp / p).is_file()]
     curves = f'<div class="plots two">{"".join(figs)}</div>' if figs else ""
     gfigs = []
     for g in results["grids"]:
         for key, what in (("scales", "every scale, enlarged to the same size"),
                           ("crops", "the crop with the most fine detail, at every scale")):
             if (exp / g[key]).is_file():
-                gfigs.append(_img(exp / g[key], exp, f"{key} of view {g['view']}",
-                                  _e(f"val view {g['view']} ({g['name']}): {what}; PSNR of the whole view")))
+                gfigs.append(h.img(exp / g[key], exp, f"{key} of view {g['view']}",
+                                  h.e(f"val view {g['view']} ({g['name']}): {what}; PSNR of the whole view")))
     grids = f'<div class="gallery">{"".join(gfigs)}</div>' if gfigs else ""
     sections = [("results", "Results", res_html), ("views", "Views at every scale", grids),
                 ("curves", "Curves", curves)]
-    return _write(exp / "report.html", _page(results["title"], results["subtitle"], sections))
+    return h.write(exp / "report.html", h.page(results["title"], results["subtitle"], sections))

@@ -8,8 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.config import set_budget
-from nerfkit.viz import plot_curves, read_jsonl
+from nerfkit.core.errors import ConfigError
+from nerfkit.core.presets import set_budget
+from nerfkit.core.viz import colorize_depth, depth_range, plot_curves, read_jsonl
 
 
 def budget_text(budget_minutes: float | None, max_steps: int | None) -> str:
@@ -23,8 +24,6 @@ def budget_text(budget_minutes: float | None, max_steps: int | None) -> str:
 
 def check_budget(budget_minutes: float | None, max_steps: int | None) -> None:
     """ConfigError unless a budget is given and positive."""
-    from nerfkit.errors import ConfigError
-
     if budget_minutes is None and max_steps is None:
         raise ConfigError("give the models a budget: --budget-minutes M and/or --max-steps N")
     if budget_minutes is not None and not budget_minutes > 0:
@@ -92,8 +91,6 @@ def image_grid(path: Path, gt: np.ndarray, renders: list[np.ndarray], depths: li
     """Labelled 2-row grid: top ground truth then each model's render, bottom each model's
     depth map (under the ground truth: the exact depth where known). Images [H, W, 3]."""
     import matplotlib.pyplot as plt
-
-    from nerfkit.viz import colorize_depth, depth_range
 
     h, w = gt.shape[:2]
     ncols = 1 + len(renders)

@@ -26,10 +26,12 @@ from typing import Callable
 
 from imageio.v3 import imread
 
-from nerfkit import checkpoint as ckpt_lib
-from nerfkit.config import PRESETS
-from nerfkit.config import preset as make_preset
-from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.presets import PRESETS
+from nerfkit.core.presets import preset as make_preset
+from nerfkit.core.viz import read_jsonl
+from nerfkit.data.loader import load_scene
+from nerfkit.evaluation.evaluate import render_run, split_slug, train_and_evaluate
 from nerfkit.experiments.common import (
     apply_settings,
     budget_text,
@@ -39,7 +41,11 @@ from nerfkit.experiments.common import (
     num_text,
     overlay_plots,
 )
-from nerfkit.viz import read_jsonl
+from nerfkit.experiments.report import write_experiment_report
+from nerfkit.report.run import write_report
+from nerfkit.run.folder import RunFolder
+from nerfkit.training import checkpoint as ckpt_lib
+from nerfkit.training.trainer import evenly_spaced
 
 
 @dataclass(frozen=True)
@@ -97,11 +103,6 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     orbit of each at the training resolution, and write results.{json,md}, the overlaid
     plots, `grid_views` image grids and report.html into `out`. Returns the results dict.
     train_split, val_split, target_width, downscale: the data settings (default: the data's)."""
-    from nerfkit.data.loader import load_scene
-    from nerfkit.evaluate import render_run, split_slug, train_and_evaluate
-    from nerfkit.report import write_experiment_report, write_report
-    from nerfkit.train import evenly_spaced, load_run_config
-
     data_dir, out = Path(data_dir), Path(out)
     check_budget(budget_minutes, max_steps)
     for name, v in (("--eval-every", eval_every), ("--orbit-frames", orbit_frames), ("--grid-views", grid_views)):
@@ -162,7 +163,7 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     ev0 = json.loads((out / models[0]["eval_json"]).read_text())
     plots = overlay_plots(out, [m["label"] for m in models], [out / m["run_dir"] for m in models])
 
-    d = load_run_config(out / models[0]["run_dir"]).data
+    d = RunFolder(out / models[0]["run_dir"]).config().data
     val = load_scene(data_dir, val_split, format=d.format, downscale=d.downscale, target_width=d.target_width,
                      background=d.background, masks=d.masks, holdout_every=d.holdout_every)
     bg = (1.0, 1.0, 1.0) if d.background == "white" else (0.0, 0.0, 0.0)

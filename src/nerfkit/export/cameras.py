@@ -11,11 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.data.blender import every_split
+from nerfkit.core.errors import ConfigError
+from nerfkit.data.formats.blender import every_split
+from nerfkit.data.formats.nerfstudio import write_nerfstudio
 from nerfkit.data.loader import read_capture
-from nerfkit.data.nerfstudio import write_nerfstudio
-from nerfkit.errors import ConfigError
-from nerfkit.export.run import check_out, exports_dir, write_atomic, write_record
+from nerfkit.export.files import check_out, write_atomic
+from nerfkit.process.plot import plot_cameras
+from nerfkit.run.folder import RunFolder
 
 
 def relative_path(path: Path, start: Path) -> str:
@@ -44,18 +46,14 @@ def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = N
     """`nerfkit export cameras`: every frame of the capture (or only those of `split`) as transforms.json at
     `out` (default RUN/exports/cameras.json), each listed in nerfstudio's train_filenames / val_filenames /
     test_filenames by its split in the run (frame_splits), with a picture in RUN/exports/."""
-    from nerfkit.evaluate import run_data_dir
-    from nerfkit.process.plot import plot_cameras
-    from nerfkit.train import load_run_config
-
     run_dir = Path(run_dir)
     if not (run_dir / "config.json").is_file():
         raise ConfigError(f"{run_dir}: not a run folder (no config.json); pass a folder written by nerfkit train")
     out = check_out(Path(out) if out is not None else run_dir / "exports" / "cameras.json", (".json",), overwrite)
     t0 = time.perf_counter()
-    cfg = load_run_config(run_dir)
+    cfg = RunFolder(run_dir).config()
     d = cfg.data
-    root = run_data_dir(run_dir, data)
+    root = RunFolder(run_dir).data_dir(data)
     spec = f"{d.train_split},{d.val_split},{every_split(root)}" + (f",{split}" if split else "")
     cap = read_capture(root, spec, d.format, d.masks, d.holdout_every)
     tagged = frame_splits(cap, d.train_split, d.val_split)
@@ -73,12 +71,12 @@ def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = N
     write_atomic(out, lambda tmp: write_nerfstudio(tmp, rows, [f.camera for f in frames], extra=extra))
     c2ws = np.stack([f.c2w for f in frames]).astype(np.float64)
     what = split or ", ".join(f"{n} {s}" for s, n in counts.items())
-    picture = plot_cameras(exports_dir(run_dir) / "cameras.png", c2ws, [f.camera for f in frames],
+    picture = plot_cameras(RunFolder(run_dir).exports / "cameras.png", c2ws, [f.camera for f in frames],
                            title=f"{out.name}: {len(frames)} cameras ({what})")
     log(f"cameras: {len(frames)} frames ({what}; {cap.format} capture) in nerfstudio's transforms.json layout")
     record = {"kind": "cameras", "file": str(out.resolve()), "split": split or "all", "splits": counts,
               "frames": len(frames), "format": "nerfstudio transforms.json",
               "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (OpenGL camera-to-world)"}
-    write_record(run_dir, "cameras", record)
+    RunFolder(run_dir).write_record("cameras", record)
     return record

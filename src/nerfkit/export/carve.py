@@ -30,9 +30,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from nerfkit.cameras import Camera, project_points
 from nerfkit.data.images import area_downscale, read_masked
 from nerfkit.data.loader import read_capture, scene_cameras
+from nerfkit.rays.cameras import Camera, project_points
+from nerfkit.run.folder import RunFolder
 
 MARGIN_PX = 0.5
 TOLERANCE_VIEWS = 1
@@ -136,11 +137,9 @@ def training_silhouettes(run, data=None, split: str | None = None):
     """(poses [V, 4, 4] normalised, cameras, silhouettes: bool [H, W], alpha > 1/2) of the run's training
     views (or those of `split`) at the photos' own size (shrunk as the loader shrinks large photos), or
     None when the capture has neither masks nor an alpha channel."""
-    from nerfkit.evaluate import run_data_dir
-
     d = run.cfg.data
     split = split or d.train_split
-    cap = read_capture(run_data_dir(run.run_dir, data), split, d.format, d.masks, d.holdout_every)
+    cap = read_capture(RunFolder(run.run_dir).data_dir(data), split, d.format, d.masks, d.holdout_every)
     frames = cap.frames(split)
     if not (cap.alpha or any(f.mask is not None for f in frames)):
         return None

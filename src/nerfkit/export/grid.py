@@ -10,8 +10,8 @@ from __future__ import annotations
 import jax
 import numpy as np
 
-from nerfkit import occupancy
-from nerfkit.export.run import TrainedRun
+from nerfkit.run.folder import TrainedRun
+from nerfkit.sampling import occupancy
 
 CHUNK = 65536
 

@@ -28,10 +28,17 @@ import numpy as np
 from scipy import ndimage
 from tqdm.auto import tqdm
 
-from nerfkit.errors import NerfkitError
-from nerfkit.export.grid import chunked, grid_axis, slab_points
-from nerfkit.export.run import TrainedRun
+from nerfkit.core.errors import NerfkitError
+from nerfkit.export.carve import (
+    carve,
+    pixel_footprint,
+    training_silhouettes,
+    used_vertices,
+)
+from nerfkit.export.grid import chunked, field_functions, grid_axis, slab_points
 from nerfkit.export.surface import vertex_normals
+from nerfkit.export.visibility import make_visibility, render_views
+from nerfkit.run.folder import TrainedRun
 
 SNAP_CELLS = 1.0  # how far (in grid cells) a vertex may move onto the half-opaque surface
 CARVE_CELLS, CARVE_PIXELS = 2.0, 2.0  # how far a vertex may move into the training silhouettes: cells or pixels
@@ -129,8 +136,6 @@ def seen_faces(verts: np.ndarray, faces: np.ndarray, seen_fn):
     tri = verts[faces]
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     keep = chunked(seen_fn, tri.mean(axis=1).astype(np.float32), normals.astype(np.float32))
-    from nerfkit.export.carve import used_vertices
-
     return used_vertices(verts, faces[keep])
 
 
@@ -138,8 +143,6 @@ def carve_mesh(run: TrainedRun, verts: np.ndarray, faces: np.ndarray, h: float, 
     """(verts, faces, stats) carved into the training silhouettes (carve.py: moves of up to CARVE_CELLS
     grid cells of size h or CARVE_PIXELS pixels, whichever is longer), or None when the capture has no
     masks or alpha channel."""
-    from nerfkit.export.carve import carve, pixel_footprint, training_silhouettes
-
     sil = training_silhouettes(run, data)
     if sil is None:
         log("mesh: the capture has neither masks nor an alpha channel; not carved to silhouettes")
@@ -169,8 +172,6 @@ def levelset_surface(run: TrainedRun, bound: float, resolution: int, threshold: 
     visible_only: keep only faces that some training view (every `every`-th) sees; snap: move the
     vertices onto the half-opaque surface (half_opacity_snapper); carve: keep the vertices inside the
     training silhouettes where the capture has masks or alpha (carve.py)."""
-    from nerfkit.export.grid import field_functions
-
     h = 2.0 * bound / (resolution - 1)
     level = default_threshold(bound, resolution) if threshold is None else float(threshold)
     rule = "ln 2 / h (one grid cell half opaque)" if threshold is None else "--threshold"
@@ -187,8 +188,6 @@ def levelset_surface(run: TrainedRun, bound: float, resolution: int, threshold: 
     verts, faces = extract_surface(vol, level, bound)
     n_level_set = len(faces)
     if visible_only:
-        from nerfkit.export.visibility import make_visibility, render_views
-
         views = render_views(run, every=every, data=data, pinhole=True, progress=progress)
         verts, faces = seen_faces(verts, faces, make_visibility(views, h))
         log(f"mesh: {len(faces)} of the level set's {n_level_set} faces are seen by {len(views.c2w)} training views "

@@ -23,9 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.errors import ConfigError, NerfkitError
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.outputs import check_new_file
+from nerfkit.export.files import check_out, to_capture
 from nerfkit.export.grid import chunked, field_functions
-from nerfkit.export.run import check_out, load_run, to_capture, write_record
+from nerfkit.export.levelset import levelset_surface
+from nerfkit.export.pictures import mesh_picture
 from nerfkit.export.surface import (
     closed_and_manifold,
     drop_specks,
@@ -35,6 +38,9 @@ from nerfkit.export.surface import (
     vertex_normals,
     write_mesh,
 )
+from nerfkit.export.texture import bake, textured_files, write_textured
+from nerfkit.export.tsdf import tsdf_surface
+from nerfkit.run.folder import RunFolder
 
 METHODS = ("tsdf", "levelset")
 MESH_SUFFIXES = (".ply", ".obj", ".glb")
@@ -90,25 +96,18 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
         raise ConfigError(f"--out {out}: a textured mesh is written as .glb (texture inside) or .obj (+ .mtl + .png)")
     out = check_out(out, suffixes, overwrite)
     if texture and out.suffix.lower() == ".obj":
-        from nerfkit.export.texture import textured_files
-        from nerfkit.outputs import check_new_file
-
         for side in textured_files(out)[1:]:
             check_new_file(side, overwrite, "--out")
     t0 = time.perf_counter()
-    run = load_run(run_dir)
+    run = RunFolder(run_dir).load()
     if run.cfg.field.kind == "splat":
         raise ConfigError(f"{run_dir}: Gaussian splats have no density field to mesh; export them with nerfkit "
                           f"export splat (or export pointcloud for points)")
     bound = run.bound if box is None else float(box)
     h = 2.0 * bound / (resolution - 1)
     if method == "tsdf":
-        from nerfkit.export.tsdf import tsdf_surface
-
         verts, faces, info = tsdf_surface(run, bound, resolution, every, data, watertight, progress, log)
     else:
-        from nerfkit.export.levelset import levelset_surface
-
         verts, faces, info = levelset_surface(run, bound, resolution, threshold, visible_only, snap, every, data,
                                               carve, progress, log)
     n_surface, dropped = len(faces), 0
@@ -133,8 +132,6 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
               "faces_of_surface": n_surface, "pieces_dropped": dropped, "faces_before_simplification": n_faces,
               "closed_manifold": closed, "watertight_requested": watertight, **info}
     if texture:
-        from nerfkit.export.texture import bake, write_textured
-
         log(f"mesh: texture atlas (xatlas, about {texture_size}^2 texels) for {len(faces)} faces...")
         uv, tex_faces, tex_verts, image = bake(verts, normals, faces, texture_size,
                                                lambda p, n: chunked(colors_of, p, n, chunk=16384))
@@ -142,11 +139,9 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
         record["texture"] = {"files": [str(f.resolve()) for f in files], "size": list(image.shape[1::-1])}
     else:
         write_mesh(out, to_capture(verts, run.transform), faces, colors)
-    from nerfkit.export.pictures import mesh_picture
-
     picture = mesh_picture(run.run_dir / "exports" / "mesh.png", verts, faces, colors,
                            f"{out.name}: {len(verts)} vertices, {len(faces)} faces ({method}, step {run.step})")
     record.update({"vertices": len(verts), "faces": len(faces), "seconds": round(time.perf_counter() - t0, 2),
                    "picture": picture.name, "coordinates": "the capture's own (pose normalisation undone)"})
-    write_record(run.run_dir, "mesh", record)
+    RunFolder(run.run_dir).write_record("mesh", record)
     return record

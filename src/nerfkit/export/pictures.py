@@ -7,6 +7,8 @@ from pathlib import Path
 
 import matplotlib
 
+from nerfkit.export.surface import simplify
+
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
@@ -50,8 +52,6 @@ def shaded_face_colors(verts: np.ndarray, faces: np.ndarray, colors: np.ndarray)
 def mesh_picture(path: Path, verts: np.ndarray, faces: np.ndarray, colors: np.ndarray, title: str) -> Path:
     """PNG of a vertex-coloured mesh from two sides (a decimated copy when it has more than
     MAX_PICTURE_FACES faces; matplotlib sorts polygons by depth, so this is a preview)."""
-    from nerfkit.export.surface import simplify
-
     if len(faces) > MAX_PICTURE_FACES:
         from scipy.spatial import cKDTree
 

@@ -16,9 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.errors import ConfigError, NerfkitError
-from nerfkit.export.run import check_out, load_run, to_capture, write_atomic, write_record
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.export.files import check_out, to_capture, write_atomic
+from nerfkit.export.pictures import pointcloud_picture
+from nerfkit.export.splat import active_gaussians
 from nerfkit.export.visibility import render_views, view_points
+from nerfkit.models.splat.project import SH_C0
+from nerfkit.render.images import check_chunk
+from nerfkit.run.folder import RunFolder
 
 VOXELS_PER_BOX = 512  # default voxel: the box's side / this
 
@@ -53,8 +58,6 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
                       overwrite: bool = False) -> dict:
     """`nerfkit export pointcloud`: fuse the depth of every `every`-th view of `split` (default:
     the run's training split) into RUN/exports/pointcloud.ply (or `out`), in the capture's units."""
-    from nerfkit.inference import check_chunk
-
     if every is not None and every < 1:
         raise ConfigError(f"--every must be >= 1 (got {every})")
     if not 0.0 < min_opacity <= 1.0:
@@ -64,7 +67,7 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
     check_chunk(chunk)
     out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "pointcloud.ply", (".ply",), overwrite)
     t0 = time.perf_counter()
-    run = load_run(run_dir)
+    run = RunFolder(run_dir).load()
     scale = float(np.cbrt(np.linalg.det(run.transform[:3, :3])))  # capture -> normalised lengths
     voxel_n = 2.0 * run.bound / VOXELS_PER_BOX if voxel_size is None else voxel_size * scale
     if run.cfg.field.kind == "splat":
@@ -88,25 +91,19 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
     write_pointcloud(out, to_capture(pts, run.transform), colors_u8)
     log(f"pointcloud: {n_raw} pixels with opacity >= {min_opacity:g} in {n_views} views of {split} "
         f"-> {len(pts)} points (voxel {voxel_n / scale:.4g} capture units)")
-    from nerfkit.export.pictures import pointcloud_picture
-
     picture = pointcloud_picture(run.run_dir / "exports" / "pointcloud.png", pts, colors_u8,
                                  f"{out.name}: {len(pts)} points from {n_views} views (step {run.step})")
     record = {"kind": "pointcloud", "file": str(out.resolve()), "step": run.step, "split": split, "every": views.every,
               "views": n_views, "min_opacity": min_opacity, "pixels": n_raw, "points": len(pts),
               "voxel_size": voxel_n / scale, "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (pose normalisation undone)"}
-    write_record(run.run_dir, "pointcloud", record)
+    RunFolder(run.run_dir).write_record("pointcloud", record)
     return record
 
 
 def splat_centres(run, out: Path, min_opacity: float, voxel_n: float, scale: float, t0: float, log=print) -> dict:
     """The point cloud of a splat run: the centres of its Gaussians of opacity >= min_opacity, coloured by
     their view-independent (degree-0) colour SH_C0 f_dc + 0.5, voxel-downsampled like the fused clouds."""
-    from nerfkit.export.pictures import pointcloud_picture
-    from nerfkit.export.splat import active_gaussians
-    from nerfkit.splat.project import SH_C0
-
     g = active_gaussians(run)
     keep = 1.0 / (1.0 + np.exp(-g["opacity"].astype(np.float64))) >= min_opacity
     if not keep.any():
@@ -125,5 +122,5 @@ def splat_centres(run, out: Path, min_opacity: float, voxel_n: float, scale: flo
               "views": 0, "min_opacity": min_opacity, "gaussians": n_raw, "points": len(pts),
               "voxel_size": voxel_n / scale, "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (pose normalisation undone)"}
-    write_record(run.run_dir, "pointcloud", record)
+    RunFolder(run.run_dir).write_record("pointcloud", record)
     return record

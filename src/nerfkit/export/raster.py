@@ -18,6 +18,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from nerfkit.rays.cameras import project_points
+
 
 @numba.njit(cache=True)
 def _scan(xy, z, faces, height, width, face_id, bary, depth):
@@ -69,8 +71,6 @@ def rasterize(xy: np.ndarray, z: np.ndarray, faces: np.ndarray, height: int, wid
 def mesh_depth(verts: np.ndarray, faces: np.ndarray, c2w: np.ndarray, camera) -> np.ndarray:
     """float32 [H, W]: the z-depth of the mesh (world vertices [V, 3]) seen by a camera at c2w
     (OpenGL axes; its lens included, vertex by vertex), inf where it shows no triangle."""
-    from nerfkit.cameras import project_points
-
     p = (np.asarray(verts, np.float64) - c2w[:3, 3]) @ np.asarray(c2w, np.float64)[:3, :3]
     z = -p[:, 2]
     u, v, front = project_points(verts, c2w, camera)

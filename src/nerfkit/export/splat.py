@@ -18,8 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.errors import ConfigError
-from nerfkit.export.run import check_out, exports_dir, load_run, write_atomic, write_record
+from nerfkit.core.errors import ConfigError
+from nerfkit.core.viz import save_png
+from nerfkit.export.files import check_out, write_atomic
+from nerfkit.models.splat.model import PARAM_NAMES, render
+from nerfkit.models.splat.ply import export_ply, import_ply
+from nerfkit.models.splat.transform import invert_similarity
+from nerfkit.rays.cameras import Camera
+from nerfkit.run.folder import RunFolder
 
 
 def is_splat_run(run) -> bool:
@@ -29,8 +35,6 @@ def is_splat_run(run) -> bool:
 
 def active_gaussians(run) -> dict:
     """The run's Gaussians in use (numpy, model.py's layout, normalised frame)."""
-    from nerfkit.splat.model import PARAM_NAMES
-
     active = np.asarray(run.aux["active"], bool)
     return {k: np.asarray(run.params[k])[active] for k in PARAM_NAMES}
 
@@ -38,18 +42,12 @@ def active_gaussians(run) -> dict:
 def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False, log=print) -> dict:
     """Write RUN's Gaussians to `out` (default RUN/exports/splat.ply) in the capture's coordinates; refuses
     to replace a file unless `overwrite` and refuses runs that are not splat runs. Returns the record."""
-    from nerfkit.cameras import Camera
-    from nerfkit.splat.model import render
-    from nerfkit.splat.ply import export_ply, import_ply
-    from nerfkit.splat.transform import invert_similarity
-    from nerfkit.viz import save_png
-
     run_dir = Path(run_dir)
     if not (run_dir / "config.json").is_file():
         raise ConfigError(f"{run_dir}: not a run folder (no config.json); pass a folder written by nerfkit train")
     out = check_out(Path(out) if out is not None else run_dir / "exports" / "splat.ply", (".ply",), overwrite)
     t0 = time.perf_counter()
-    run = load_run(run_dir)
+    run = RunFolder(run_dir).load()
     if not is_splat_run(run):
         raise ConfigError(f"{run_dir}: a {run.cfg.field.kind} radiance field, not Gaussian splats; export splat "
                           f"needs a run of --preset splat (for this run: nerfkit export mesh or pointcloud)")
@@ -60,12 +58,12 @@ def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False
     back = import_ply(out, transform=run.transform)
     pose = np.asarray(run.scene["train_poses"][0], np.float64)
     background = run.model.background
-    picture = exports_dir(run_dir) / "splat.png"
+    picture = RunFolder(run_dir).exports / "splat.png"
     save_png(picture, np.clip(render(back, pose, Camera.from_json(run.scene["camera"]), background, degree)["rgb"], 0, 1))
     log(f"splat: {len(gaussians['means'])} Gaussians, SH degree {degree}, Inria .ply layout, capture coordinates")
     record = {"kind": "splat", "file": str(out.resolve()), "gaussians": int(len(gaussians["means"])),
               "sh_degree": degree, "coordinates": "capture (scene.json transform undone)",
               "layout": "Inria 3DGS .ply (x y z nx ny nz f_dc_* f_rest_* opacity scale_* rot_*)",
               "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name, "step": run.step}
-    write_record(run_dir, "splat", record)
+    RunFolder(run_dir).write_record("splat", record)
     return record

@@ -18,7 +18,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.export.run import write_atomic
+from nerfkit.export.carve import used_vertices
+from nerfkit.export.files import write_atomic
 
 COLOR_SAMPLES = 8
 
@@ -74,8 +75,6 @@ def drop_specks(verts: np.ndarray, faces: np.ndarray, size: float) -> tuple[np.n
     np.minimum.at(lo, corner_labels, pts)
     np.maximum.at(hi, corner_labels, pts)
     speck = np.linalg.norm(hi - lo, axis=1) < size
-    from nerfkit.export.carve import used_vertices
-
     v, f = used_vertices(verts, faces[~speck[labels]])
     return v, f, int(speck.sum())
 

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from nerfkit.export.files import write_atomic
 from nerfkit.export.raster import rasterize
 
 PADDING = 2  # texels between charts
@@ -84,8 +85,6 @@ def write_textured(out: Path, verts: np.ndarray, faces: np.ndarray, uv: np.ndarr
     Returns the files written."""
     import trimesh
     from PIL import Image
-
-    from nerfkit.export.run import write_atomic
 
     out = Path(out)
     material = trimesh.visual.material.SimpleMaterial(image=Image.fromarray(image))

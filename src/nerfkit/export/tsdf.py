@@ -28,6 +28,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from nerfkit.core.errors import NerfkitError
+from nerfkit.export.carve import pixel_footprint
+from nerfkit.export.grid import grid_axis
+from nerfkit.export.visibility import render_views
+
 A_FREE = 0.5  # a pixel less opaque than this shows free space all along its ray
 TRUNC_CELLS = 3.0  # tau: this many grid cells, or TRUNC_PIXELS pixel footprints at the centre, the larger
 TRUNC_PIXELS = 2.0
@@ -147,11 +152,6 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     every `every`-th training view (default: about FUSION_VIEWS; PIXELS_PER_CELL x resolution pixels
     wide), fuses their depth on the grid of [-bound, bound]^3 and takes F = 0."""
     from tqdm.auto import tqdm
-
-    from nerfkit.errors import NerfkitError
-    from nerfkit.export.carve import pixel_footprint
-    from nerfkit.export.grid import grid_axis
-    from nerfkit.export.visibility import render_views
 
     t0 = time.perf_counter()
     views = render_views(run, every=every, data=data, pinhole=True, progress=progress, target=FUSION_VIEWS,

@@ -22,9 +22,10 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.cameras import Camera, camera_rays
 from nerfkit.data.loader import read_capture, scene_cameras
-from nerfkit.inference import make_renderer
+from nerfkit.rays.cameras import Camera, camera_rays
+from nerfkit.render.images import make_renderer
+from nerfkit.run.folder import RunFolder
 
 A_MIN = 0.5  # a pixel at least this opaque shows a surface at its depth
 DEFAULT_VIEWS = 32  # when no --every is given: about this many views, evenly spaced
@@ -51,11 +52,9 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
     """Render every `every`-th view of `split` (default: the run's training split; about
     `target` views) at the training resolution, or `width` pixels wide (the same field of view).
     pinhole: drop the lens model (for projecting points with K alone)."""
-    from nerfkit.evaluate import run_data_dir
-
     d = run.cfg.data
     split = split or d.train_split
-    cap = read_capture(run_data_dir(run.run_dir, data), split, d.format, d.masks, d.holdout_every)
+    cap = read_capture(RunFolder(run.run_dir).data_dir(data), split, d.format, d.masks, d.holdout_every)
     sel = scene_cameras(cap, split, d.downscale, d.target_width)
     every = every or max(1, math.ceil(len(sel.poses) / target))
     ids = list(range(0, len(sel.poses), every))

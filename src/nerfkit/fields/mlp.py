@@ -25,7 +25,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from nerfkit.config import FieldConfig
+from nerfkit.core.config import FieldConfig
 from nerfkit.encoding.integrated import integrated_positional_encoding
 from nerfkit.encoding.positional import encoded_size, positional_encoding
 

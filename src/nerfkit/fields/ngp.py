@@ -24,11 +24,11 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from nerfkit.config import FieldConfig
-from nerfkit.coord import CONTRACTED_BOUND, contract, contraction_scale
+from nerfkit.core.config import FieldConfig
 from nerfkit.encoding.hashgrid import HashGridConfig, encode_hashgrid, init_hashgrid
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.fields.mlp import appearance_embedding, dense_init
+from nerfkit.rays.coord import CONTRACTED_BOUND, contract, contraction_scale
 
 GEO_FEATURES = 16  # outputs of the density MLP: log-density + 15 geometry features
 SH_DEGREE = 4

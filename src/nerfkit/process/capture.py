@@ -29,14 +29,15 @@ import numpy as np
 from PIL import Image
 from tqdm.auto import tqdm
 
-from nerfkit.cameras import _from_pycolmap
-from nerfkit.data.colmap import c2w_from_cam_from_world
+from nerfkit.core.errors import DataError
+from nerfkit.data.formats.colmap import c2w_from_cam_from_world
+from nerfkit.data.formats.llff import find_mask, list_images
+from nerfkit.data.formats.nerfstudio import write_nerfstudio
 from nerfkit.data.images import check_one_size, image_size, load_mask, one_line
-from nerfkit.data.llff import find_mask, list_images
-from nerfkit.data.nerfstudio import write_nerfstudio
-from nerfkit.errors import DataError
 from nerfkit.process.plot import plot_cameras
 from nerfkit.process.sfm import SfmOptions, run_sfm
+from nerfkit.process.video import select_frames
+from nerfkit.rays.cameras import _from_pycolmap
 
 EXHAUSTIVE_UP_TO = 150
 
@@ -232,8 +233,6 @@ def process_video(video: Path, out: Path, n_frames: int = 120, masks: Path | Non
     """Sample `n_frames` sharp frames of a video (process/video.py), then as process_images
     (matching "auto" is sequential: video frames come in order)."""
     import tempfile
-
-    from nerfkit.process.video import select_frames
 
     video, out = Path(video), Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())) and not overwrite:

@@ -10,8 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from nerfkit.cameras import Camera  # noqa: E402
 from nerfkit.data.normalize import apply_transform, normalizing_transform  # noqa: E402
+from nerfkit.rays.cameras import Camera  # noqa: E402
 
 
 def frustum_lines(c2w: np.ndarray, cam: Camera, size: float) -> list[np.ndarray]:

@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from nerfkit._colmap import pycolmap
+from nerfkit.rays.colmap_compat import pycolmap
 
 CAMERA_MODELS = ("SIMPLE_RADIAL", "OPENCV", "PINHOLE")
 

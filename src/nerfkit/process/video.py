@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from nerfkit.errors import DataError
+from nerfkit.core.errors import DataError
 
 
 def sharpness(rgb: np.ndarray) -> float:

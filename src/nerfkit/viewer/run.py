@@ -7,10 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.cameras import Camera
-from nerfkit.errors import ConfigError
+from nerfkit.core.errors import ConfigError, DataError
+from nerfkit.core.viz import background_rgb, to_uint8
+from nerfkit.data.loader import read_capture, scene_cameras
+from nerfkit.rays.cameras import Camera
+from nerfkit.render.images import check_chunk, make_renderer
+from nerfkit.run.folder import RunFolder
 from nerfkit.viewer.server import SceneView, Viewer
-from nerfkit.viz import background_rgb, to_uint8
 
 THUMB = 96  # longest side of the photos shown in the training-camera frustums
 
@@ -64,12 +67,7 @@ def _photo_thumbnails(data_dir: Path, names: list[str]) -> list[np.ndarray] | No
 
 def scene_view_of_run(run_dir: Path, cfg) -> SceneView:
     """Training cameras (with thumbnails when the photos are still where the run found them), box, background."""
-    from nerfkit.data.loader import read_capture, scene_cameras
-    from nerfkit.errors import DataError
-
-    from nerfkit.train import load_run_scene
-
-    scene = load_run_scene(run_dir)
+    scene = RunFolder(run_dir).scene()
     poses = np.asarray(scene["train_poses"], np.float64)
     cams = [Camera.from_json(scene["camera"])] * len(poses)
     thumbs = None
@@ -94,13 +92,11 @@ def scene_view(poses: np.ndarray, cameras: list, thumbs: list | None, cfg) -> Sc
 
 def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: int | None = None) -> None:
     """`nerfkit view RUN`: serve the newest checkpoint of a run until Ctrl-C."""
-    from nerfkit.inference import check_chunk, make_renderer
-    from nerfkit.train import load_trained
-
     run_dir = Path(run_dir)
     check_address(host, port)
     check_chunk(chunk)
-    cfg, model, params, aux, step = load_trained(run_dir)
+    trained = RunFolder(run_dir).load(scene=False)
+    cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
     viewer = Viewer(make_renderer(model, cfg.train.chunk if chunk is None else chunk), scene_view_of_run(run_dir, cfg),
                     run_dir, host=host, port=port)
     viewer.set_params(params, aux, step)

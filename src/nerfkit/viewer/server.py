@@ -34,9 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.cameras import Camera, look_at
-from nerfkit.viewer.camera_path import write_camera_path
-from nerfkit.viz import colorize_depth, depth_range, save_png, to_uint8
+from nerfkit.core.viz import colorize_depth, depth_range, save_png, to_uint8
+from nerfkit.rays.camera_path import write_camera_path
+from nerfkit.rays.cameras import Camera, look_at
+from nerfkit.render.images import coarser
 
 FLIP_YZ = np.diag([1.0, -1.0, -1.0])
 MODES = ("RGB", "Depth", "Opacity")
@@ -280,8 +281,6 @@ class Viewer:
 
     def _renderer(self, stride: int):
         if stride not in self._renderers:
-            from nerfkit.inference import coarser
-
             self._renderers[stride] = coarser(self.renderer, stride)
         return self._renderers[stride]
 

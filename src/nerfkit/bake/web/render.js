@@ -1,4 +1,4 @@
-// nerfkit baked scene renderer: WebGL2 ray marching of a nerfkit-baked-v1 brick grid (src/nerfkit/bake/format.py).
+// nerfkit baked scene renderer: WebGL2 ray marching of a nerfkit-baked-v1 brick grid (src/nerfkit/models/baked/format.py).
 // The page (orbit camera, on-screen view, test API) is baked.js; this file exports window.nerfkitRender =
 // {FORMAT, loadScene, Renderer}.
 //

@@ -1,0 +1,137 @@
+"""`nerfkit train` and `nerfkit demo`: train a run folder (and, for the demo, evaluate and render it)."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import time
+from pathlib import Path
+
+import tyro
+
+from nerfkit.cli.args import (
+    DemoArgs,
+    TrainArgs,
+)
+from nerfkit.cli.parsing import flag_value, parse
+from nerfkit.core.errors import ConfigError
+from nerfkit.core.outputs import check_new_folder
+from nerfkit.core.presets import (
+    DEFAULT_PRESET,
+    PRESETS,
+    preset,
+    set_budget,
+)
+from nerfkit.training.flags import explicit_settings
+
+
+def parse_train_args(argv: list[str]) -> TrainArgs:
+    """`nerfkit train` arguments: the preset's config (or, with --resume, the run's own) with the flags on top."""
+    name = flag_value(argv, "--preset") or DEFAULT_PRESET
+    if name not in PRESETS:
+        raise ConfigError(f"--preset {name}: no such preset; pick one of {', '.join(PRESETS)}")
+    base = preset(name)
+    out = flag_value(argv, "--out")
+    if "--resume" in argv and out and (Path(out) / "config.json").is_file():
+        from nerfkit.run.folder import RunFolder
+
+        base = RunFolder(Path(out)).config()  # a resumed run keeps its own config
+    default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name, cfg=base)
+    args = parse(TrainArgs, argv, "nerfkit train", default=default)
+    from nerfkit.models.registry import METHODS
+
+    if args.cfg.field.kind not in METHODS:
+        raise ConfigError(f"--kind {args.cfg.field.kind}: no such method; pick one of {', '.join(METHODS)}")
+    given = explicit_settings(argv)
+    if "train.max_steps" in given and "train.max_minutes" not in given:
+        args.cfg.train.max_minutes = None  # a step budget alone replaces the preset's time budget
+    return args
+
+
+def cmd_train(argv: list[str]) -> int:
+    from nerfkit.training.trainer import Trainer
+
+    if any(a in ("-h", "--help", "--help-all") for a in argv):
+        from nerfkit.cli.help import train_help
+
+        name = flag_value(argv, "--preset") or DEFAULT_PRESET
+        if name not in PRESETS:
+            raise ConfigError(f"--preset {name}: no such preset; pick one of {', '.join(PRESETS)}")
+        print(train_help(name, full="--help-all" in argv))
+        return 0
+    args = parse_train_args(argv)
+    from nerfkit.training.parallel import init_distributed, is_primary
+
+    if init_distributed() > 1 and args.viewer:
+        raise ConfigError("--viewer: not in a multi-process run; view the run folder with `nerfkit view` instead")
+    trainer = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress and is_primary(),
+                      overwrite=args.overwrite, given=explicit_settings(argv), preset=args.preset)
+    if args.viewer:
+        from nerfkit.viewer.run import attach_viewer
+
+        attach_viewer(trainer, args.viewer_host, args.viewer_port)
+    try:
+        res = trainer.run()
+        from nerfkit.report.run import write_report_or_warn
+
+        if is_primary():
+            write_report_or_warn(res.run_dir)
+        val = f"{res.val_psnr:.2f} dB" if res.val_psnr is not None else "n/a"
+        print(f"step {res.step}, {res.steps_per_second:.2f} steps/s, val PSNR {val}; run folder: {res.run_dir}")
+        if not res.interrupted:
+            print(f"next: nerfkit render {shlex.quote(str(res.run_dir))} --orbit 60")
+        if trainer.viewer is not None and not res.interrupted:
+            from nerfkit.viewer.run import linger
+
+            linger(trainer.viewer)
+    finally:
+        if trainer.viewer is not None:
+            trainer.viewer.close()
+    return 130 if res.interrupted else 0
+
+
+def cmd_demo(argv: list[str]) -> int:
+    from nerfkit.data.procedural.scene import make_scene
+    from nerfkit.evaluation.evaluate import evaluate_run, format_eval_table, render_run
+    from nerfkit.training.trainer import Trainer, run_files
+
+    a = parse(DemoArgs, argv, "nerfkit demo")
+    t0 = time.perf_counter()
+    run, scene_dir = a.out / "run", a.out / "scene"
+    check_new_folder(scene_dir, a.overwrite, "--out")
+    if (run_files(run) or (a.out / "demo_summary.json").exists()) and not a.overwrite:
+        raise ConfigError(f"--out {a.out}: holds an earlier demo run ({run}); pass --overwrite to start again, or "
+                          f"pick another --out")
+    cfg = preset(a.preset)
+    set_budget(cfg, a.max_minutes if a.max_steps is None or flag_value(argv, "--max-minutes") is not None else None,
+               a.max_steps)
+    scene = make_scene(scene_dir, size=a.size)
+    print(f"[1/4] procedural scene: {scene}")
+    budget = " or ".join(x for x in (f"{cfg.train.max_minutes:g} min" if cfg.train.max_minutes else "",
+                                     f"{cfg.train.max_steps} steps" if a.max_steps is not None else "") if x)
+    print(f"[2/4] training ({a.preset} preset, up to {budget}) into {run}")
+    res = Trainer(scene, run, cfg, overwrite=a.overwrite).run()
+    print("[3/4] evaluating on the test views")
+    ev = evaluate_run(run, scene, "test")
+    print(format_eval_table(ev))
+    print(f"[4/4] rendering a {a.orbit_frames}-frame orbit")
+    info = render_run(run, scene, orbit=a.orbit_frames)
+    summary = {
+        "scene": str(scene), "run": str(run), "steps": res.step, "steps_per_second": round(res.steps_per_second, 2),
+        "val_psnr": res.val_psnr, "test_psnr": ev["psnr"], "test_ssim": ev["ssim"],
+        "videos": [str(Path(info["out"]) / "rgb.mp4"), str(Path(info["out"]) / "depth.mp4")],
+        "plots": str(run / "plots"), "minutes": round((time.perf_counter() - t0) / 60, 2),
+    }
+    (a.out / "demo_summary.json").write_text(json.dumps(summary, indent=2))
+    from nerfkit.report.run import write_report
+
+    report = write_report(run)
+    print("\nnerfkit demo finished in {minutes} min: test PSNR {test_psnr:.2f} dB, SSIM {test_ssim:.3f}".format(**summary))
+    print(f"  run folder : {run}  (config, metrics.jsonl, plots/, val/, checkpoints/)")
+    print(f"  test views : {run / 'eval_test'}  and {run / 'eval_test.json'}")
+    print(f"  videos     : {summary['videos'][0]}  {summary['videos'][1]}")
+    print(f"  report     : {report}  (open it in a browser)")
+    return 0
+
+
+# Flags that only one experiment reads (the other refuses them).

@@ -1,0 +1,344 @@
+"""Typed configuration and presets.
+
+A run is described by one `Config`: data, field, sampler and training settings, each a
+small dataclass. Presets are complete `Config`s; the CLI starts from a preset and
+overrides single knobs (`--preset seed --max-steps 5000`). The resolved config is saved
+as JSON in the run folder so `eval`, `render` and `--resume` rebuild the same model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import types
+import typing
+from dataclasses import dataclass
+from typing import Any, Literal, Union
+
+from nerfkit.core.errors import ConfigError
+
+# Settings of earlier versions that no model reads: config.json files that hold them still load.
+RETIRED = frozenset({
+    "sampler.eval_samples_per_ray",  # the one-pass ngp renderer's budget; the wavefront renderer has its own
+})
+
+
+@dataclass
+class DataConfig:
+    """Which images to load and how."""
+
+    train_split: str | None = None
+    """Frames to train on: comma-separated `split` or `split[a:b]`, e.g. "train,val[0:50]" (default: train)."""
+    val_split: str | None = None
+    """Frames for periodic validation, same syntax (default: val if the data has it, else test)."""
+    downscale: int | None = None
+    """Shrink images by this integer factor (area resampling). Overrides --target-width. Default: 1, or for
+    photos the smallest power of two that brings the long side to 1600 px or less."""
+    target_width: int | None = None
+    """Pick the downscale factor that gives this image width (must divide the width)."""
+    background: Literal["white", "black"] = "white"
+    """Colour RGBA images and masked photos are composited on, and the colour rendered behind the field."""
+    format: str = "auto"
+    """Capture format: auto (from the files in the data folder), blender, nerfstudio, llff or colmap (any
+    format in data/formats/registry.py)."""
+    masks: bool = True
+    """Use object masks where the capture has them (pixels outside become the background); --no-masks ignores them."""
+    holdout_every: int = 8
+    """Formats without splits: every N-th image (sorted by name, index % N == 0) is held out as 'test'."""
+
+
+@dataclass
+class FieldConfig:
+    """The radiance field F(x, d) -> (rgb, sigma)."""
+
+    kind: str = "mlp"
+    """The method (models/registry.py). mlp: positional-encoded MLP of the original NeRF. ngp: hash grid + tiny MLPs. mip: mip-NeRF (cones,
+    integrated positional encoding of conical frustums, one MLP queried coarse then fine). splat: 3D Gaussian
+    splatting (--preset splat; its settings are the splat section)."""
+    depth: int = 8
+    """MLP trunk layers D; the encoded input is concatenated back in after layer D/2."""
+    width: int = 256
+    """MLP trunk width W."""
+    pe: bool = True
+    """Positional encoding of position and direction; --no-pe feeds raw coordinates."""
+    l_xyz: int = 10
+    """Number of positional-encoding frequencies for positions."""
+    l_dir: int = 4
+    """Number of positional-encoding frequencies for view directions."""
+    viewdirs: bool = True
+    """Condition colour on the view direction."""
+    hash_levels: int = 16
+    """ngp: hash-grid levels L."""
+    hash_features: int = 2
+    """ngp: features per level F."""
+    hash_log2_size: int = 19
+    """ngp: log2 of the hash table size T per level."""
+    hash_base_res: int = 16
+    """ngp: resolution of the coarsest level."""
+    hash_max_res: int = 1024
+    """ngp: resolution of the finest level (cells across the scene box)."""
+    hidden: int = 64
+    """ngp: width of the density and colour MLPs."""
+    antialias: bool = False
+    """ngp: down-weight hash-grid levels finer than each sample's pixel footprint (Zip-NeRF's feature
+    downweighting), so the field renders cleanly at scales it was not trained at."""
+    bound: float | None = None
+    """ngp: bounded scenes lie in the box [-bound, bound]^3; unbounded ones are contracted outside the ball
+    of this radius. Default: from the data (1.5 for Blender scenes, the visual hull of masked captures,
+    1.1 x the farthest camera for unbounded ones)."""
+    scene_type: Literal["auto", "bounded", "unbounded"] = "auto"
+    """ngp: bounded (object in a box, background colour behind) or unbounded (mip-NeRF 360 contraction, the
+    background is part of the scene). auto: bounded for Blender scenes and masked captures, else unbounded."""
+    appearance_dim: int | None = None
+    """Per-image appearance embedding size (NeRF-W); absorbs exposure / white balance. Default: 16 for photo
+    captures, 0 (off) for Blender scenes and masked object captures. Held-out views use the mean embedding."""
+    appearance_count: int = 0
+    """Set from the data: number of training images that own an appearance embedding."""
+
+    def resolved_bound(self) -> float:
+        return 1.5 if self.bound is None else self.bound
+
+    def unbounded(self) -> bool:
+        return self.scene_type == "unbounded"
+
+    def n_appearance(self) -> int:
+        """Embedding size actually used (0 unless both the size and the image count are set)."""
+        return (self.appearance_dim or 0) if self.appearance_count > 0 else 0
+
+
+@dataclass
+class SamplerConfig:
+    """How points are placed along rays."""
+
+    n_samples: int = 64
+    """Stratified samples per ray (coarse samples when hierarchical sampling is on)."""
+    n_importance: int = 0
+    """Extra fine samples from the coarse weights (inverse CDF); 0 disables the fine network."""
+    near: float | None = 2.0
+    """Near bound of the ray interval, in z-depth (units of the camera's viewing axis); ngp default: from the data."""
+    far: float | None = 6.0
+    """Far bound of the ray interval; ngp default: from the data (beyond the box; 1e4 for unbounded scenes)."""
+    perturb: bool = True
+    """Jitter samples within their bins while training (stratified); eval uses bin midpoints."""
+    occ_res: int = 64
+    """ngp: occupancy grid cells per axis."""
+    occ_update_every: int = 16
+    """ngp: update the occupancy grid every N steps."""
+    occ_warmup: int = 256
+    """ngp: steps during which every update re-evaluates all cells."""
+    occ_warmup_decay: float = 0.6
+    """ngp: decay of a cell's running max density per update during the warm-up (0.95 afterwards, as in
+    instant-ngp); faster than instant-ngp's so that a CPU run carves empty space in its first minute."""
+    march_steps: int = 512
+    """ngp: ray-marching steps across the box diagonal (step = 2 sqrt(3) bound / N); unbounded scenes: steps
+    evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""
+    max_samples: int = 65536
+    """ngp: samples per training step; rays per step adapt to fill it (at most --batch-rays)."""
+
+
+@dataclass
+class TrainConfig:
+    """Optimisation, logging and checkpointing."""
+
+    max_steps: int = 200_000
+    """Train until this step (in total, also with --resume)."""
+    max_minutes: float | None = None
+    """Stop after this many minutes of wall time (compile included), whichever comes first. Presets have a
+    default (ngp 10, demo 3, seed 20, nerf and mipnerf 30); --max-steps alone lifts it."""
+    batch_rays: int = 1024
+    """Rays per step, drawn at random across all training images."""
+    lr: float = 5e-4
+    """Adam learning rate at step 0."""
+    lr_decay_steps: int = 250_000
+    """lr(step) = lr * decay_rate ** (step / lr_decay_steps)."""
+    lr_decay_rate: float = 0.1
+    """See --lr-decay-steps."""
+    adam_b2: float = 0.999
+    """Adam beta_2."""
+    adam_eps: float = 1e-8
+    """Adam epsilon."""
+    seed: int = 0
+    """Seeds initialisation and every step's randomness (runs are reproducible)."""
+    precrop_steps: int = 0
+    """For the first N steps draw rays only from the image centre (helps white-background scenes start)."""
+    precrop_frac: float = 0.5
+    """Fraction of the image side used during the centre-crop warm-up."""
+    val_every: int = 2500
+    """Validate every N steps (and at the end)."""
+    val_views: int = 4
+    """Number of validation views rendered at each validation (evenly spread over the val split)."""
+    val_max_fraction: float = 0.1
+    """Periodic validation takes at most this share of the wall time: a validation that took v seconds
+    is followed by at least v (1 - f) / f seconds of training before the next (the final one always runs)."""
+    ckpt_every: int = 5000
+    """Write a checkpoint every N steps (and at the end or on interrupt)."""
+    keep_ckpts: int = 3
+    """Checkpoints kept; older ones are deleted once a newer one is safely on disk."""
+    log_every: int = 50
+    """Append a metrics.jsonl row every N steps."""
+    chunk: int = 4096
+    """Rays rendered at once in full-image rendering; bounds memory."""
+    max_bad_steps: int = 5
+    """Stop the run after this many consecutive non-finite losses or gradients."""
+    devices: int | None = None
+    """Local devices to split each step's rays over (data parallel; --batch-rays is the global batch, a
+    multiple of the device count). Default: all local devices."""
+
+
+@dataclass
+class SplatSettings:
+    """3D Gaussian splatting (--preset splat): Gaussians, colour, density control (read by that preset only)."""
+
+    capacity: int = 50_000
+    """Gaussians at most (fixed slots, so one compiled step serves the whole run); 3DGS-MCMC grows to it."""
+    strategy: Literal["mcmc", "classic"] = "classic"
+    """Density control: classic (3DGS: clone, split, prune, opacity reset, within --capacity slots) or mcmc
+    (3DGS-MCMC: all --capacity Gaussians from the start, dead ones relocated onto live ones, position noise).
+    Lego, 10 min on 2 cores: classic 33.1 dB, mcmc 32.4 dB."""
+    sh_degree: int = 3
+    """Highest spherical-harmonic degree of the view-dependent colour (0: no view dependence)."""
+    sh_interval: int = 500
+    """Steps per SH degree: the degree rises by one every N steps up to --sh-degree (3DGS: 1000 of 30k)."""
+    ssim_lambda: float = 0.2
+    """Loss = (1 - lambda) L1 + lambda (1 - SSIM)."""
+    init_points: Literal["auto", "sfm", "random"] = "auto"
+    """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D), random (uniform in the
+    scene box) or auto (sfm where the capture has points, else random)."""
+
+
+@dataclass
+class Config:
+    """A complete nerfkit run."""
+
+    data: DataConfig = dataclasses.field(default_factory=DataConfig)
+    field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
+    sampler: SamplerConfig = dataclasses.field(default_factory=SamplerConfig)
+    train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+    splat: SplatSettings = dataclasses.field(default_factory=SplatSettings)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2)
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> "Config":
+        """Rebuild a config (e.g. a run folder's config.json); ConfigError if it is not a valid one. Settings
+        that earlier versions wrote and no model reads any more (RETIRED) are dropped."""
+        try:
+            sections = {k: {n: v for n, v in d[k].items() if f"{k}.{n}" not in RETIRED}
+                        for k in ("data", "field", "sampler", "train")}
+            cfg = Config(
+                data=DataConfig(**sections["data"]),
+                field=FieldConfig(**sections["field"]),
+                sampler=SamplerConfig(**sections["sampler"]),
+                train=TrainConfig(**sections["train"]),
+                splat=SplatSettings(**d.get("splat", {})),  # runs of earlier versions have no splat section
+            )
+        except (KeyError, TypeError) as e:
+            raise ConfigError(f"config is not a nerfkit config ({e})") from None
+        return validate(cfg)
+
+
+def _matches(v: Any, tp: Any) -> bool:
+    """isinstance for the annotations used in these dataclasses (int, float, bool, str, X | None, Literal)."""
+    origin = typing.get_origin(tp)
+    if origin is Literal:
+        return v in typing.get_args(tp)
+    if origin in (Union, types.UnionType):
+        return any(_matches(v, a) for a in typing.get_args(tp))
+    if tp is type(None):
+        return v is None
+    if tp is bool:
+        return isinstance(v, bool)
+    if tp is int:
+        return isinstance(v, int) and not isinstance(v, bool)
+    if tp is float:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+    return isinstance(v, tp)
+
+
+def _type_name(tp: Any) -> str:
+    if typing.get_origin(tp) is Literal:
+        return "one of " + ", ".join(map(repr, typing.get_args(tp)))
+    if typing.get_origin(tp) in (Union, types.UnionType):
+        return " or ".join(_type_name(a) for a in typing.get_args(tp))
+    return "null" if tp is type(None) else tp.__name__
+
+
+def _check_types(cfg: "Config") -> None:
+    for section in ("data", "field", "sampler", "train", "splat"):
+        obj = getattr(cfg, section)
+        hints = typing.get_type_hints(type(obj))
+        for f in dataclasses.fields(obj):
+            v = getattr(obj, f.name)
+            if not _matches(v, hints[f.name]):
+                raise ConfigError(f"{section}.{f.name} must be {_type_name(hints[f.name])} (got {v!r}); "
+                                  f"set --{f.name.replace('_', '-')}")
+
+
+def validate(cfg: Config) -> Config:
+    """Raise ConfigError naming the first bad value; return cfg unchanged otherwise."""
+    s, t, f, d = cfg.sampler, cfg.train, cfg.field, cfg.data
+
+    def need(ok: bool, msg: str) -> None:
+        if not ok:
+            raise ConfigError(msg)
+
+    if not isinstance(cfg, Config):
+        raise ConfigError(f"expected a nerfkit Config, got {type(cfg).__name__}")
+    _check_types(cfg)
+
+    need(not f.antialias or f.kind == "ngp", "--antialias is for the hash-grid field (--preset ngp); the mipnerf "
+                                             "preset anti-aliases with its own encoding")
+    need(f.kind != "mip" or f.pe, "--no-pe does not apply to mipnerf (its encoding is the integrated one)")
+    if f.kind in ("mlp", "mip"):
+        need(s.near is not None and s.far is not None, "--near and --far must be set for the mlp field")
+        need(not f.unbounded(), "--scene-type unbounded needs the ngp field (--preset ngp); the MLP presets sample a "
+                                "fixed [near, far] interval")
+        need(f.n_appearance() == 0 or f.viewdirs, "appearance embeddings need --viewdirs with the mlp field")
+    for name in ("near", "far"):
+        v = getattr(s, name)
+        need(v is None or math.isfinite(v), "--near and --far must be finite numbers")
+    need(s.near is None or s.near >= 0, f"--near must be >= 0 (got {s.near})")
+    need(s.near is None or s.far is None or s.near < s.far,
+         f"--near must be smaller than --far (got near={s.near}, far={s.far})")
+    need(f.appearance_dim is None or f.appearance_dim >= 0, f"--appearance-dim must be >= 0 (got {f.appearance_dim})")
+    need(f.appearance_count >= 0, f"--appearance-count must be >= 0 (got {f.appearance_count})")
+    need(d.holdout_every >= 1, f"--holdout-every must be >= 1 (got {d.holdout_every})")
+    need(s.n_samples >= 2, f"--n-samples must be at least 2 (got {s.n_samples})")
+    need(s.n_importance >= 0, f"--n-importance must be >= 0 (got {s.n_importance})")
+    need(t.max_steps >= 0, f"--max-steps must be >= 0 (got {t.max_steps})")
+    need(t.max_minutes is None or t.max_minutes > 0, f"--max-minutes must be positive (got {t.max_minutes})")
+    need(t.batch_rays >= 1, f"--batch-rays must be >= 1 (got {t.batch_rays})")
+    need(t.lr > 0 and math.isfinite(t.lr), f"--lr must be a positive number (got {t.lr})")
+    need(t.lr_decay_steps > 0, f"--lr-decay-steps must be positive (got {t.lr_decay_steps})")
+    need(0 < t.lr_decay_rate <= 1, f"--lr-decay-rate must be in (0, 1] (got {t.lr_decay_rate})")
+    need(0 < t.precrop_frac <= 1, f"--precrop-frac must be in (0, 1] (got {t.precrop_frac})")
+    need(0 < t.val_max_fraction <= 1, f"--val-max-fraction must be in (0, 1] (got {t.val_max_fraction})")
+    need(t.precrop_steps >= 0, f"--precrop-steps must be >= 0 (got {t.precrop_steps})")
+    for name in ("val_every", "ckpt_every", "log_every", "chunk", "val_views", "keep_ckpts", "max_bad_steps"):
+        v = getattr(t, name)
+        need(v >= 1, f"--{name.replace('_', '-')} must be >= 1 (got {v})")
+    need(t.devices is None or t.devices >= 1, f"--devices must be >= 1 (got {t.devices})")
+    need(f.depth >= 1, f"--depth must be >= 1 (got {f.depth})")
+    need(f.width >= 1, f"--width must be >= 1 (got {f.width})")
+    need(f.l_xyz >= 0 and f.l_dir >= 0, f"--l-xyz and --l-dir must be >= 0 (got {f.l_xyz}, {f.l_dir})")
+    if f.kind == "ngp":
+        need(f.bound is None or f.bound > 0, f"--bound must be positive (got {f.bound})")
+        need(1 <= f.hash_levels and 1 <= f.hash_features and 10 <= f.hash_log2_size <= 24,
+             "--hash-levels, --hash-features must be >= 1 and --hash-log2-size in [10, 24]")
+        need(2 <= f.hash_base_res <= f.hash_max_res, "need 2 <= --hash-base-res <= --hash-max-res")
+        need(s.occ_res >= 2 and s.occ_update_every >= 1 and s.march_steps >= 2,
+             "need --occ-res >= 2, --occ-update-every >= 1, --march-steps >= 2")
+        need(s.max_samples >= s.march_steps, f"--max-samples must be >= --march-steps ({s.march_steps})")
+    g = cfg.splat
+    need(g.capacity >= 1, f"--capacity must be >= 1 (got {g.capacity})")
+    need(0 <= g.sh_degree <= 3, f"--sh-degree must be 0, 1, 2 or 3 (got {g.sh_degree})")
+    need(g.sh_interval >= 1, f"--sh-interval must be >= 1 (got {g.sh_interval})")
+    need(0 <= g.ssim_lambda <= 1, f"--ssim-lambda must be in [0, 1] (got {g.ssim_lambda})")
+    need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
+    need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")
+    return cfg

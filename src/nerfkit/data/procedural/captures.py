@@ -1,0 +1,116 @@
+"""Photo-like captures of the procedural scene, with exact rays and depth, for tests and demos.
+
+`make_capture` renders the scene of data/scene.py through any `Camera` (lens models
+included: each pixel's ray comes from the camera's own unprojection) and writes it in a
+photo-capture format: nerfstudio transforms.json, LLFF poses_bounds.npy or a COLMAP
+model, with the images under images/ and the exact z-depth under depth/.
+
+With `environment=True` the scene gets a far, textured surround (a sphere of radius
+ENV_RADIUS around the origin), so every pixel is covered and nothing is transparent: an
+unbounded scene, like a photo of an object in a room. With `masks=True` (objects only) the
+images show the objects on a grey backdrop and masks/ holds their exact silhouettes.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+
+from nerfkit.core.errors import DataError
+from nerfkit.data.formats.colmap import write_colmap
+from nerfkit.data.formats.llff import write_llff
+from nerfkit.data.formats.nerfstudio import write_nerfstudio
+from nerfkit.data.procedural import scene as proc
+from nerfkit.rays.cameras import Camera, rotate_directions
+
+ENV_RADIUS = 12.0
+BACKDROP = 0.5  # grey behind masked objects (the masks say what is object)
+
+
+def environment(o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Colour [N, 3] and t [N] where rays o + t d from inside the sphere |x| = ENV_RADIUS leave it.
+
+    Texture: a 12 x 6 checkerboard over (azimuth, elevation) of the exit point, sky blue /
+    sand above the horizon, green / dark green below, shaded by elevation.
+    """
+    a = np.sum(d * d, -1)
+    half_b = np.sum(o * d, -1)
+    c = np.sum(o * o, -1) - ENV_RADIUS**2
+    t = (-half_b + np.sqrt(np.maximum(half_b**2 - a * c, 0.0))) / a  # the far root (c < 0 inside)
+    q = (o + t[:, None] * d) / ENV_RADIUS
+    az = np.mod(np.arctan2(q[:, 1], q[:, 0]), 2 * np.pi)
+    el = np.arcsin(np.clip(q[:, 2], -1, 1))
+    check = (np.floor(az / (2 * np.pi) * 12) + np.floor((el + np.pi / 2) / np.pi * 6)) % 2
+    up = el >= 0
+    sky = np.where(check[:, None] > 0, [0.45, 0.65, 0.95], [0.95, 0.85, 0.6])
+    ground = np.where(check[:, None] > 0, [0.2, 0.55, 0.25], [0.1, 0.3, 0.15])
+    rgb = np.where(up[:, None], sky, ground) * (0.75 + 0.25 * np.abs(np.sin(el)))[:, None]
+    return rgb, t
+
+
+def render(c2w: np.ndarray, camera: Camera, env: bool = False):
+    """rgb [H, W, 3] float, alpha [H, W], z-depth [H, W] (inf where nothing is hit) of the scene
+    seen by `camera` at pose c2w (OpenGL), through pixel centres, lens model included."""
+    o, d = rotate_directions(np.asarray(c2w, np.float64)[None, None], camera.directions().astype(np.float64))
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    rgb, alpha, t = proc.trace(o, d)
+    rgb, t = rgb.astype(np.float64), t.astype(np.float64)
+    if env:
+        miss = alpha < 0.5
+        rgb[miss], t[miss] = environment(o[miss], d[miss])
+        alpha = np.ones_like(alpha)
+    shape = (camera.height, camera.width)
+    return rgb.reshape(*shape, 3), alpha.reshape(shape), t.reshape(shape)
+
+
+def ring_poses(n: int, seed: int = 0, radius: float = proc.CAMERA_RADIUS) -> np.ndarray:
+    """n cameras looking at the origin from `radius`, evenly spread in azimuth (with a seeded
+    jitter) at elevations 10..50 degrees: [n, 4, 4] OpenGL camera-to-world."""
+    rng = np.random.default_rng(seed)
+    az = 2 * np.pi * (np.arange(n) + rng.uniform(0, 0.5, n)) / n
+    el = np.radians(rng.uniform(10, 50, n))
+    return np.stack([proc.orbit_pose(a, e, radius) for a, e in zip(az, el)])
+
+
+def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16, size: int = 48,
+                 camera: Camera | None = None, environment: bool = False, masks: bool = False,
+                 seed: int = 0, text: bool = True) -> Path:
+    """Write a synthetic photo capture (see the module docstring) and return its folder.
+
+    fmt: "nerfstudio" | "llff" | "colmap". camera: intrinsics of every image (default: an
+    ideal pinhole with the Blender scenes' field of view, size x size). LLFF needs a
+    pinhole camera centred on the image (its hwf column has room for nothing else).
+    """
+    out = Path(out)
+    cam = camera or Camera.pinhole(size, size, 0.5 * size / math.tan(0.5 * proc.CAMERA_ANGLE_X))
+    if fmt == "llff" and (cam.params or abs(cam.cx - cam.width / 2) > 1e-9 or cam.fx != cam.fy):
+        raise DataError("make_capture: LLFF holds only centred pinhole cameras")
+    poses = ring_poses(n_views, seed)
+    for sub in ("images", "depth") + (("masks",) if masks else ()):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+    names, frames, bounds = [], [], []
+    for k, c2w in enumerate(poses):
+        rgb, alpha, depth = render(c2w, cam, environment)
+        if masks:
+            rgb = rgb * alpha[..., None] + (1 - alpha[..., None]) * BACKDROP
+            iio.imwrite(out / "masks" / f"frame_{k:04d}.png", (alpha * 255).astype(np.uint8))
+        name = f"frame_{k:04d}.png"
+        iio.imwrite(out / "images" / name, np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8))
+        np.save(out / "depth" / f"frame_{k:04d}.npy", depth.astype(np.float32), allow_pickle=False)
+        names.append(name)
+        frames.append({"file_path": f"images/{name}", "transform_matrix": c2w.tolist(),
+                       "mask_path": f"masks/{name}" if masks else None})
+        hit = depth[np.isfinite(depth)]
+        bounds.append([hit.min(), hit.max()] if hit.size else [1.0, 10.0])
+    if fmt == "nerfstudio":
+        write_nerfstudio(out / "transforms.json", frames, [cam] * n_views)
+    elif fmt == "llff":
+        write_llff(out, poses, [cam] * n_views, np.array(bounds))
+    elif fmt == "colmap":
+        write_colmap(out / "sparse" / "0", names, poses, [cam] * n_views, text=text)
+    else:
+        raise DataError(f"make_capture: unknown format {fmt!r} (nerfstudio, llff, colmap)")
+    return out

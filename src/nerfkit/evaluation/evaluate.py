@@ -1,0 +1,274 @@
+"""Using a trained run: evaluation on a split, and rendering poses or orbits to images/videos."""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from nerfkit.core.errors import ConfigError
+from nerfkit.core.metrics import psnr, ssim
+from nerfkit.core.outputs import check_new_folder
+from nerfkit.core.viz import (
+    background_rgb,
+    colorize_renders,
+    comparison,
+    save_png,
+    write_video,
+)
+from nerfkit.data.formats.multiscale import level_specs
+from nerfkit.data.loader import load_frames, read_capture, scene_cameras
+from nerfkit.models.baked.format import load_baked
+from nerfkit.models.baked.model import BakedModel
+from nerfkit.rays.camera_path import focal_from_fov_y, read_camera_path
+from nerfkit.rays.cameras import Camera, ellipse_orbit_poses, orbit_poses
+from nerfkit.render.images import check_chunk, make_renderer
+from nerfkit.run.folder import RunFolder
+from nerfkit.training.trainer import Trainer, TrainResult
+
+
+def split_slug(spec: str) -> str:
+    """A file-name-safe form of a split spec: "val[50:100]" -> "val_50_100"."""
+    return re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9]+", "_", spec)).strip("_")
+
+
+def refuse_chunk(cfg, chunk: int | None) -> None:
+    """ConfigError for --chunk on a Gaussian-splat run (it renders whole images with the tile rasteriser)."""
+    if chunk is not None and cfg.field.kind == "splat":
+        raise ConfigError("--chunk has no effect on a splat run (whole images go through the tile rasteriser, not "
+                          "ray chunks); drop it")
+
+
+def appearance_note(cfg) -> str | None:
+    n = cfg.field.n_appearance()
+    if not n:
+        return None
+    return (f"appearance: the mean of the {cfg.field.appearance_count} training images' embeddings "
+            f"(held-out views have none of their own)")
+
+
+def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
+                 chunk: int | None = None, progress: bool = True, checkpoint: Path | None = None,
+                 write: bool = True, baked: Path | None = None, overwrite: bool = False) -> dict:
+    """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
+    the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
+    Multiscale data (data/multiscale.py): every level is scored at its own size, and the mean
+    over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
+    `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
+    is replaced only with `overwrite` (otherwise ConfigError before any work)."""
+    if every < 1:
+        raise ConfigError(f"--every must be >= 1 (got {every})")
+    check_chunk(chunk)
+    run_dir = Path(run_dir)
+    trained = RunFolder(run_dir).load(checkpoint, scene=False)
+    cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
+    refuse_chunk(cfg, chunk)
+    if baked is not None:
+        scene = load_baked(baked)
+        model = BakedModel(scene)
+        (params, aux), step = model.params_and_aux(scene), scene.meta.get("step_trained", step)
+    data_dir = RunFolder(run_dir).data_dir(data_dir)
+    d = cfg.data
+    cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
+    renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
+    levels = level_specs(cap, split)
+    name = (f"eval_{split_slug(split)}" + ("_multiscale" if levels is not None else "")
+            + ("_baked" if baked is not None else ""))
+    if write and not overwrite and ((run_dir / f"{name}.json").exists() or (run_dir / name).exists()):
+        raise ConfigError(f"{run_dir / (name + '.json')}: an earlier evaluation of {split} is there; pass --overwrite "
+                          f"to replace it")
+    bg = background_rgb(cfg.data.background)
+
+    def score(spec, out_dir, ds, tw):
+        data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background)
+        return score_views(renderer, params, aux, data, every, progress, out_dir if write else None, bg), data
+
+    if levels is None:
+        res, data = score(split, run_dir / name, downscale if downscale is not None else d.downscale,
+                          None if downscale is not None else d.target_width)
+        result = {"split": split, "step": step, "height": data.height, "width": data.width, **res}
+    else:  # multiscale data: every level at its own size (--downscale shrinks them all further)
+        scales = []
+        for lvl, spec in levels:
+            res, data = score(spec, run_dir / name / f"d{lvl}", downscale or 1, None)
+            scales.append({"level": lvl, "spec": spec, "height": data.height, "width": data.width, **res})
+        result = {"split": split, "step": step, "scales": scales, "n_views": sum(r["n_views"] for r in scales),
+                  "psnr": float(np.mean([r["psnr"] for r in scales])),
+                  "ssim": float(np.mean([r["ssim"] for r in scales])),
+                  "seconds_per_view": float(np.mean([r["seconds_per_view"] for r in scales])),
+                  "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
+    if appearance_note(cfg):
+        result["appearance"] = appearance_note(cfg)
+    if baked is not None:
+        result["baked"] = str(Path(baked).resolve())
+    if write:
+        (run_dir / f"{name}.json").write_text(json.dumps(result, indent=2))
+        result["written"] = str(run_dir / f"{name}.json")
+    return result
+
+
+def train_and_evaluate(data_dir: Path, run_dir: Path, cfg, every: int = 1, progress: bool = True,
+                       resume: bool = False) -> tuple[TrainResult, object, dict]:
+    """Train `cfg` on data_dir into run_dir (or resume it), then evaluate the result on the split the run
+    validated on (every `every`-th view). Returns (the training result, the run's resolved config, the
+    evaluation). KeyboardInterrupt when training was interrupted (its checkpoint is saved)."""
+    res = Trainer(data_dir, run_dir, cfg, resume=resume, progress=progress).run()
+    if res.interrupted:
+        raise KeyboardInterrupt
+    run_cfg = RunFolder(run_dir).config()
+    # The evaluation of the run just trained (an earlier one, of a resumed run's checkpoint, is out of date).
+    ev = evaluate_run(run_dir, data_dir, run_cfg.data.val_split, every=every, progress=progress, overwrite=True)
+    return res, run_cfg, ev
+
+
+def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir: Path | None, bg) -> dict:
+    """PSNR / SSIM of every `every`-th view of `data` (per view and mean); the renders (rgb, depth,
+    rgb beside ground truth, depth .npy) go to out_dir when given."""
+    per_view, renders = [], []
+    ids = list(range(0, len(data), every))
+    t0 = time.perf_counter()
+    for k in tqdm(ids, desc="eval", disable=not progress, unit="view"):
+        r = renderer.render_camera(params, aux, data.poses[k], data.cameras[k])
+        per_view.append({"view": k, "name": data.names[k], "psnr": psnr(r["rgb"], data.images[k]),
+                         "ssim": ssim(r["rgb"], data.images[k])})
+        renders.append(r)
+    seconds = time.perf_counter() - t0
+    depth_imgs, (lo, hi) = colorize_renders(renders, bg)
+    for k, r, depth_img, v in zip(ids, renders, depth_imgs, per_view) if out_dir is not None else ():
+        save_png(out_dir / f"view_{k:03d}_rgb.png", r["rgb"])
+        save_png(out_dir / f"view_{k:03d}_depth.png", depth_img)
+        save_png(out_dir / f"view_{k:03d}.png", comparison(data.images[k], r["rgb"], depth_img, lo / data.scale,
+                                                           hi / data.scale, v["psnr"], background=bg))
+        np.save(out_dir / f"view_{k:03d}_depth.npy", (r["depth"] / data.scale).astype(np.float32), allow_pickle=False)
+    return {"n_views": len(ids), "psnr": float(np.mean([v["psnr"] for v in per_view])),
+            "ssim": float(np.mean([v["ssim"] for v in per_view])), "seconds_per_view": seconds / max(len(ids), 1),
+            "per_view": per_view, "worst": worst_views(per_view), "outlier_db": OUTLIER_DB}
+
+
+OUTLIER_DB = 3.0  # a view this far below the median PSNR is pointed out
+
+
+def worst_views(per_view: list[dict], k: int = 3) -> list[dict]:
+    """The k lowest-scoring views (view, name, psnr), each marked "outlier" when more than OUTLIER_DB below
+    the median: a photo to look at (a moving object, a mask that leaves part out, blur)."""
+    if not per_view:
+        return []
+    median = float(np.median([v["psnr"] for v in per_view]))
+    low = sorted(per_view, key=lambda v: v["psnr"])[:k]
+    return [{"view": v["view"], "name": v["name"], "psnr": v["psnr"], "outlier": v["psnr"] < median - OUTLIER_DB}
+            for v in low]
+
+
+def format_eval_table(result: dict) -> str:
+    lines = [f"{'view':>5}  {'name':<28} {'PSNR':>7} {'SSIM':>7}"]
+    for v in result["per_view"]:
+        lines.append(f"{v['view']:>5}  {v['name'][-28:]:<28} {v['psnr']:7.2f} {v['ssim']:7.4f}")
+    for r in result.get("scales", ()):
+        what = f"(level {r['level']}: {r['n_views']} views, {r['width']}x{r['height']})"
+        lines.append(f"{'d' + str(r['level']):>5}  {what:<28} {r['psnr']:7.2f} {r['ssim']:7.4f}")
+    lines.append(f"{'mean':>5}  {'(' + str(result['n_views']) + ' views, step ' + str(result['step']) + ')':<28} "
+                 f"{result['psnr']:7.2f} {result['ssim']:7.4f}")
+    if result.get("appearance"):
+        lines.append(result["appearance"])
+    worst = result.get("worst") or worst_views(result["per_view"])
+    if len(result["per_view"]) > 1 and worst:
+        lines.append("worst views: " + ", ".join(f"{w['view']} {Path(w['name']).name} {w['psnr']:.2f} dB"
+                                                 + (" (outlier)" if w["outlier"] else "") for w in worst))
+        if any(w["outlier"] for w in worst):
+            lines.append(f"outlier: more than {OUTLIER_DB:g} dB below the median view; look at that photo (something "
+                         f"that moved, a mask that leaves part out, blur) in the eval folder")
+    return "\n".join(lines)
+
+
+ORBIT_MAX_WIDTH = 512  # orbits without --width/--height are rendered at most this wide
+
+
+def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, orbit: int | None = None,
+               width: int | None = None, height: int | None = None, out: Path | None = None,
+               fps: int | None = None, chunk: int | None = None, progress: bool = True,
+               camera_path: Path | None = None, overwrite: bool = False) -> dict:
+    """Render a split's poses, an N-frame orbit or a camera path (nerfstudio's camera_path.json)
+    at any resolution: RGB and colour-mapped depth PNGs, depth as float32 .npy (sum_i w_i t_i),
+    and an MP4 of each."""
+    if sum(x is not None for x in (split, orbit, camera_path)) != 1:
+        raise ConfigError("pass exactly one of --split SPLIT, --orbit N or --camera-path FILE")
+    check_chunk(chunk)
+    if orbit is not None and orbit < 1:
+        raise ConfigError(f"--orbit must be >= 1 frames (got {orbit})")
+    for name, v in (("--width", width), ("--height", height)):
+        if v is not None and v < 1:
+            raise ConfigError(f"{name} must be positive (got {v})")
+    run_dir = Path(run_dir)
+    trained = RunFolder(run_dir).load(scene=False)
+    cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
+    refuse_chunk(cfg, chunk)
+    data_dir = RunFolder(run_dir).data_dir(data_dir)
+    scene = RunFolder(run_dir).scene()
+    d = cfg.data
+    cap = read_capture(data_dir, cfg.data.train_split if split is None else split, d.format, d.masks, d.holdout_every)
+    path = read_camera_path(camera_path) if camera_path is not None else None
+    if split is not None:
+        sel = scene_cameras(cap, split, d.downscale, d.target_width)
+        name = split_slug(split)
+        poses = sel.poses
+    elif path is not None:
+        sel = scene_cameras(cap, cfg.data.train_split, d.downscale, d.target_width)
+        poses = path["c2w"].astype(np.float32)
+        name = f"path_{split_slug(Path(camera_path).stem)}"
+        if width is None and height is None:
+            width, height = path["width"], path["height"]
+    else:
+        train = scene_cameras(cap, cfg.data.train_split, d.downscale, d.target_width)
+        sel = train
+        poses = orbit_poses(train.poses, orbit) if cap.format == "blender" else ellipse_orbit_poses(
+            train.poses, orbit, center=np.zeros(3))
+        name = f"orbit{orbit}"
+    cam0 = sel.cameras[0]
+    aspect = cam0.height / cam0.width if path is None else path["height"] / path["width"]
+    capped = False
+    if width is None and height is None:
+        width, height = scene["width"], scene["height"]
+        if orbit is not None and width > ORBIT_MAX_WIDTH:  # a preview video: minutes, not an hour, on a CPU
+            width, height, capped = ORBIT_MAX_WIDTH, max(1, round(ORBIT_MAX_WIDTH * aspect)), True
+    elif width is None:
+        width = max(1, round(height / aspect))
+    elif height is None:
+        height = max(1, round(width * aspect))
+    native = split is not None and (width, height) == (cam0.width, cam0.height)
+    cams = sel.cameras if native else [c.with_size(width, height) for c in sel.cameras]
+    if path is not None:  # the path's own field of view (vertical, degrees), principal point at the centre
+        cams = [Camera(width, height, f, f, 0.5 * width, 0.5 * height)
+                for f in (focal_from_fov_y(v, height) for v in path["fov_y"])]
+        fps = fps or path["fps"]
+    elif split is None:
+        cams = [cams[0]] * len(poses)
+    fps = fps or 24
+    out = check_new_folder(Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}",
+                           overwrite)
+    renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
+    renders = []
+    t0 = time.perf_counter()
+    for k in tqdm(range(len(poses)), desc="render", disable=not progress, unit="view"):
+        renders.append(renderer.render_camera(params, aux, poses[k], cams[k]))
+    seconds = time.perf_counter() - t0
+    depth_frames, (lo, hi) = colorize_renders(renders, background_rgb(cfg.data.background))
+    for k, (r, depth_img) in enumerate(zip(renders, depth_frames)):
+        save_png(out / f"rgb_{k:04d}.png", r["rgb"])
+        save_png(out / f"depth_{k:04d}.png", depth_img)
+        np.save(out / f"depth_{k:04d}.npy", (r["depth"] / sel.scale).astype(np.float32), allow_pickle=False)
+    write_video(out / "rgb.mp4", [r["rgb"] for r in renders], fps=fps)
+    write_video(out / "depth.mp4", depth_frames, fps=fps)
+    # Camera-to-world of every frame in the capture's own coordinates (undoing the normalisation).
+    inv = np.linalg.inv(sel.transform)
+    capture_poses = [(inv @ p.astype(np.float64) @ np.diag([sel.scale] * 3 + [1.0])).tolist() for p in poses]
+    info = {"out": str(out), "frames": len(poses), "width": width, "height": height, "step": step,
+            "seconds_per_frame": seconds / len(poses), "depth_range": [lo / sel.scale, hi / sel.scale],
+            "depth_units": "z-depth in the capture's own units", "camera": cams[0].to_json(),
+            "width_capped_from": scene["width"] if capped else None,
+            "camera_to_world": capture_poses}
+    (out / "render.json").write_text(json.dumps(info, indent=2))
+    return info

@@ -1,0 +1,125 @@
+"""The seams between a method and everything that trains, renders and exports it.
+
+Two families share one `Model` interface (init, per-step aux updates, a declaration of what the
+method supports):
+
+    RayModel      renders batches of rays: render_rays(params, aux, o [R,3], d [R,3], key, train)
+                  -> {"rgb" [R,3], "depth" [R], "acc" [R], ...}, and losses(out, target). The
+                  trainer's ray step, the one-pass image renderer and per-ray evaluation use it.
+    MarchingModel a RayModel that marches an occupancy grid: it exposes its field, grid and sampler
+                  (candidates, sample_scale, MIN_TRANSMITTANCE), which the wavefront image renderer,
+                  baking and mesh export read.
+    ImageModel    renders whole images itself (rasterising primitives: Gaussian splats): its own
+                  optimiser and train step, and an image renderer (render_camera(params, aux, c2w,
+                  camera) -> {"rgb" [H,W,3], "depth" [H,W], "acc" [H,W]}).
+
+What a method supports is declared once, in `supports` (a `Supports`); the trainer, the renderers
+and the CLI read it instead of probing for attributes. The settings it reads are declared in `reads`
+(training/flags.py refuses the others when given). A new method is one module defining a class
+with these members, plus one line in models/registry.py.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+Params = dict[str, Any]  # a pytree of arrays
+Aux = dict[str, Any]  # non-trained state (occupancy grid, density-control statistics)
+
+
+@dataclass(frozen=True)
+class Supports:
+    """What a method can do.
+
+    family:     "rays" (RayModel), "marching" (MarchingModel) or "image" (ImageModel)
+    parallel:   what data-parallel training splits over devices: "rays" (each device a slice of the
+                batch), "samples" (the packed samples of one batch) or "views" (one view per step)
+    step_metrics: the ray step reports extra per-step metrics (model.step_metrics(out) -> dict)
+    antialias:  renders cones (pixel footprints), so multiscale training and --antialias mean something
+    bake:       `nerfkit bake` can turn it into a WebGL page of a baked density grid
+    mesh:       a density field that `export mesh|pointcloud` can sample
+    """
+
+    family: str = "rays"
+    parallel: str = "rays"
+    step_metrics: bool = False
+    antialias: bool = False
+    bake: bool = False
+    mesh: bool = True
+
+    @property
+    def marching(self) -> bool:
+        return self.family == "marching"
+
+    @property
+    def renders_images(self) -> bool:
+        return self.family == "image"
+
+
+@runtime_checkable
+class Model(Protocol):
+    """What every method has."""
+
+    supports: ClassVar[Supports]
+    title: ClassVar[str]  # its name in messages: "hash-grid (ngp)"
+    reads: ClassVar[frozenset[str]]  # the settings ("section.field") it reads beyond those every method reads
+
+    @staticmethod
+    def describe(cfg) -> str:
+        """One line naming the model that `cfg` makes, with the settings it reads (and only those)."""
+
+    def init(self, key) -> tuple[Params, Aux]:
+        """Initial (params, aux)."""
+
+
+@runtime_checkable
+class RayModel(Model, Protocol):
+    """A method that renders rays (the NeRF family)."""
+
+    def update_aux(self, params: Params, aux: Aux, step, key) -> Aux:
+        """aux after a training step (e.g. an occupancy-grid refresh); identity where nothing changes."""
+
+    def render_rays(self, params: Params, aux: Aux, o, d, key, train: bool, image_idx=None, radii=None) -> dict:
+        """{"rgb" [R, 3], "depth" [R], "acc" [R], ...} for rays o + t d."""
+
+    def losses(self, out: dict, target, weights=None) -> tuple:
+        """(total loss, fine-image mse) of a batch against target [R, 3]."""
+
+
+@runtime_checkable
+class MarchingModel(RayModel, Protocol):
+    """A RayModel that marches an occupancy grid (the wavefront renderer, bake and export read these)."""
+
+    MIN_TRANSMITTANCE: ClassVar[float]
+    field: Any  # to_grid(x), embedding(params, idx), density(params, x, scale), __call__(params, x, d, emb)
+    occ: Any  # sampling.occupancy.OccupancyConfig
+
+    def candidates(self, o, d, key=None, index=None) -> tuple:
+        """Candidate sample positions t [R, K] along the rays (and their intervals)."""
+
+    def sample_scale(self, t, dir_norm, radii):
+        """Footprint scale of each sample (None without cones)."""
+
+
+@runtime_checkable
+class ImageRenderer(Protocol):
+    def render_camera(self, params: Params, aux: Aux, c2w, camera) -> dict:
+        """{"rgb" [H, W, 3], "depth" [H, W], "acc" [H, W]} of one camera."""
+
+
+@runtime_checkable
+class ImageModel(Model, Protocol):
+    """A method that renders whole images by rasterising primitives (Gaussian splats)."""
+
+    def bind_data(self, capture, data, log=print) -> None:
+        """Take what initialisation needs from the training data (extent, SfM points)."""
+
+    def make_optimizer(self, cfg) -> tuple:
+        """(optimiser with .init(params), schedule(step) for the log)."""
+
+    def make_train_step(self, optimizer, data, cfg, mesh=None):
+        """step(state, step, images, poses) -> (state, metrics)."""
+
+    def renderer(self, chunk: int = 0) -> ImageRenderer:
+        """The image renderer."""

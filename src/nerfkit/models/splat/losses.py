@@ -1,0 +1,76 @@
+"""Photometric losses of 3DGS: L = (1 - lambda) L1 + lambda D-SSIM, lambda = 0.2 (Kerbl et al. 2023).
+
+SSIM (Wang et al. 2004) with an 11 x 11 Gaussian window (sigma 1.5, normalised), on images in
+[0, 1] (C1 = 0.01^2, C2 = 0.03^2). Local statistics are window-weighted means:
+
+    mu_x = g * x,  sigma_x^2 = g * x^2 - mu_x^2,  sigma_xy = g * (x y) - mu_x mu_y
+    SSIM = (2 mu_x mu_y + C1)(2 sigma_xy + C2) / ((mu_x^2 + mu_y^2 + C1)(sigma_x^2 + sigma_y^2 + C2))
+
+computed only where the window fits inside the image ("valid": pixels at least 5 px from the
+border), averaged over those pixels and the channels: the same number as nerfkit.core.metrics.ssim
+(skimage, gaussian_weights, use_sample_covariance=False), which reflects the border and then
+crops it. The separable window is applied as two matrix products with banded matrices
+B [H - 10, H], B_ij = g_{j - i} (valid filtering along one axis): on a CPU its gradient is ~20x
+faster than XLA's convolution or 11 shifted slices (11 vs 150-200 ms at 200 x 200, measured).
+D-SSIM = 1 - SSIM (as the 3DGS code).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+SSIM_WINDOW = 11
+SSIM_SIGMA = 1.5
+SSIM_C1 = 0.01**2
+SSIM_C2 = 0.03**2
+SSIM_LAMBDA = 0.2
+
+
+def gaussian_window(size: int = SSIM_WINDOW, sigma: float = SSIM_SIGMA) -> np.ndarray:
+    """1D weights [size], g_i proportional to exp(-(i - size // 2)^2 / (2 sigma^2)), summing to 1."""
+    x = np.arange(size) - size // 2
+    g = np.exp(-(x**2) / (2 * sigma**2))
+    return (g / g.sum()).astype(np.float32)
+
+
+def band_matrix(n: int, g: np.ndarray) -> np.ndarray:
+    """B [n - k + 1, n] with B_ij = g_{j - i} (0 outside 0 <= j - i < k): B x is x 'valid'-filtered by g [k]."""
+    k = len(g)
+    b = np.zeros((n - k + 1, n), np.float32)
+    for i in range(n - k + 1):
+        b[i, i:i + k] = g
+    return b
+
+
+def _filter_valid(x: jax.Array, g: np.ndarray) -> jax.Array:
+    """Separable 'valid' filter of x [M, H, W, C] with weights g [k] along H and W: [M, H-k+1, W-k+1, C]."""
+    bh = jnp.asarray(band_matrix(x.shape[-3], g))
+    bw = jnp.asarray(band_matrix(x.shape[-2], g))
+    return jnp.einsum("jw,miwc->mijc", bw, jnp.einsum("ih,mhwc->miwc", bh, x))
+
+
+def ssim_map(x: jax.Array, y: jax.Array, window: int = SSIM_WINDOW, sigma: float = SSIM_SIGMA) -> jax.Array:
+    """SSIM [H-10, W-10, C] of images x, y [H, W, C] in [0, 1] at every valid window position."""
+    g = gaussian_window(window, sigma)
+    mu_x, mu_y, xx, yy, xy = _filter_valid(jnp.stack([x, y, x * x, y * y, x * y]), g)
+    var_x, var_y, cov = xx - mu_x * mu_x, yy - mu_y * mu_y, xy - mu_x * mu_y
+    num = (2 * mu_x * mu_y + SSIM_C1) * (2 * cov + SSIM_C2)
+    den = (mu_x * mu_x + mu_y * mu_y + SSIM_C1) * (var_x + var_y + SSIM_C2)
+    return num / den
+
+
+def ssim(x: jax.Array, y: jax.Array) -> jax.Array:
+    """Mean SSIM (scalar) of [H, W, C] images (H, W >= 11): the mean of ssim_map."""
+    return jnp.mean(ssim_map(x, y))
+
+
+def l1(x: jax.Array, y: jax.Array) -> jax.Array:
+    """Mean absolute error (scalar)."""
+    return jnp.mean(jnp.abs(x - y))
+
+
+def photometric_loss(pred: jax.Array, target: jax.Array, ssim_lambda: float = SSIM_LAMBDA) -> jax.Array:
+    """(1 - lambda) L1 + lambda (1 - SSIM) of [H, W, 3] images (scalar)."""
+    return (1.0 - ssim_lambda) * l1(pred, target) + ssim_lambda * (1.0 - ssim(pred, target))

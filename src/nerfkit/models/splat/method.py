@@ -1,0 +1,243 @@
+"""Gaussian splatting as a nerfkit method: the object train.py, inference.py and the exports hold.
+
+nerfkit's run loop (train.Trainer) asks a model for five things; the radiance fields (model.py)
+answer with rays, this class with whole views:
+
+    bind_data(capture, data, log)   the training data it initialises from (SfM points, scene extent)
+    init(key) -> (params, aux)      parameters and non-trainable state (checkpointed together)
+    make_optimizer(cfg)             (optimiser with .init(params), schedule(step) for the log)
+    make_train_step(optimizer, data, cfg)  step(state, step, images, poses) -> (state, metrics)
+    renderer(chunk)                 .render_camera(params, aux, c2w, camera) -> rgb, depth, opacity
+
+One step renders one training view (a random order per epoch, fixed by the seed), takes an
+Adam step (train.make_step) and, on the host, the density control of 3DGS-MCMC or classic 3DGS
+(train.host_control). params are all `capacity` slots; aux["active"] marks the slots in use, aux
+holds the classic statistics and aux["clock"] the seconds spent in steps, so that progress
+t = max(step / max_steps, clock / budget), which schedules the means' learning rate and the
+density-control window, survives --resume.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from nerfkit.core.errors import DataError
+from nerfkit.data.formats.colmap import find_model
+from nerfkit.models.base import Supports
+from nerfkit.models.splat import densify as classic
+from nerfkit.models.splat.model import (
+    PARAM_NAMES,
+    init_from_points,
+    intrinsics_of,
+    read_points,
+    render,
+)
+from nerfkit.models.splat.optim import (
+    LearningRates,
+    init_state,
+    make_optimizers,
+    means_lr,
+    scene_extent,
+)
+from nerfkit.models.splat.train import (
+    SplatConfig,
+    host_control,
+    initial_params,
+    make_step,
+)
+from nerfkit.rays.cameras import Camera
+
+RANDOM_INIT = 100_000  # random Gaussians in the box without SfM points (3DGS's Blender init), fewer if capacity is
+# Their scales: this x the mean distance to the 3 nearest (1.0 in 3DGS). Measured on lego (seed protocol, 2 shared
+# cores, benchmarks/splat_lego.py --minutes 2.5): 0.3 gives 26.25 dB at 2 min and 5.8 steps/s, against 24.47 dB and
+# 5.1 steps/s at 1.0 (50k random Gaussians ~13 px wide cost the tile rasteriser 3x more per step at first).
+RANDOM_INIT_SCALE = 0.3
+
+
+def splat_config(cfg) -> SplatConfig:
+    """train.SplatConfig of a nerfkit Config (--preset splat): capacity, strategy, SH, loss weight, seed."""
+    g = cfg.splat
+    return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
+                       ssim_lambda=g.ssim_lambda, seed=cfg.train.seed, init_box=cfg.field.resolved_bound())
+
+
+def find_sfm_points(capture) -> Path | None:
+    """The capture's SfM points: transforms.json's ply_file_path or sparse_pc.ply beside it (nerfstudio,
+    process-data), or the COLMAP model (colmap); None for captures without (Blender, LLFF)."""
+    root = Path(capture.root)
+    if capture.format == "nerfstudio":
+        import json
+
+        meta = json.loads((root / "transforms.json").read_text(encoding="utf-8"))
+        for name in (meta.get("ply_file_path"), "sparse_pc.ply"):
+            if name and (root / name).is_file():
+                return root / name
+    if capture.format == "colmap":
+        return find_model(root)
+    return None
+
+
+def progress_of(step: int, clock: float, cfg) -> float:
+    """t = max(step / max_steps, clock / (60 max_minutes)) in [0, 1]: the fraction of the budget used."""
+    t = cfg.train
+    by_time = clock / (60.0 * t.max_minutes) if t.max_minutes else 0.0
+    return float(min(1.0, max(step / max(t.max_steps, 1), by_time)))
+
+
+def schedule_at(step: int, progress: float, cfg) -> dict:
+    """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
+    learning rate per unit of scene extent, and whether density control may run (the window)."""
+    sc = splat_config(cfg)
+    return {"sh_degree": min(sc.sh_degree, step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
+            "control": step >= sc.control_from and step % sc.control_every == 0 and progress < sc.control_until}
+
+
+class SplatOptimizer:
+    """Adam per parameter group with 3DGS's rates (optim.py); init(params) -> {group: optax state}."""
+
+    def __init__(self, lrs: LearningRates, extent: float, eps: float):
+        self.opts = make_optimizers(lrs, extent, eps)
+
+    def init(self, params: dict) -> dict:
+        return init_state(self.opts, params)
+
+
+class SplatRenderer:
+    """Full-image rendering of a splat run's active Gaussians (the tile rasteriser; no chunks)."""
+
+    def __init__(self, model: SplatModel):
+        self.model = model
+
+    def render_camera(self, params, aux, c2w: np.ndarray, camera) -> dict:
+        """rgb [H, W, 3], depth (sum_k w_k z_k), opacity and depth_normalized (depth / opacity) [H, W]."""
+        active = np.asarray(aux["active"], bool)
+        p = {k: np.asarray(params[k])[active] for k in PARAM_NAMES}
+        try:
+            intrinsics_of(camera)
+        except ValueError as e:
+            raise DataError(str(e)) from None
+        r = render(p, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree)
+        opacity = r["alpha"]
+        return {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
+                "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
+
+    def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
+        return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
+
+
+class SplatModel:
+    """3D Gaussian splatting behind nerfkit's model interface (see the module docstring)."""
+
+    supports = Supports(family="image", parallel="views", mesh=False)
+    title = "Gaussian splatting"
+    reads = frozenset(f"splat.{n}" for n in (
+        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "init_points"))
+
+    @staticmethod
+    def describe(cfg) -> str:
+        """One line naming the model with the settings it reads (and only those)."""
+        g = cfg.splat
+        return (f"splat: up to {g.capacity} Gaussians ({g.strategy} density control), SH degree {g.sh_degree}"
+                f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, L1 + {g.ssim_lambda:g} D-SSIM, "
+                f"{g.init_points} init, one view per step")
+
+    def __init__(self, cfg):
+        self.cfg = cfg
+        self.sc = splat_config(cfg)
+        self.background = (1.0, 1.0, 1.0) if cfg.data.background == "white" else (0.0, 0.0, 0.0)
+        self.extent = 1.0
+        self.init_gaussians: dict | None = None
+        self.init_note = "random in the box (no training data bound)"
+
+    # -- data and initialisation ---------------------------------------------------------------
+    def bind_data(self, capture, data, log=print) -> None:
+        """Take the scene extent from the training poses and the initial Gaussians from the capture's SfM
+        points (in the normalised frame) or, without them, random in the scene box."""
+        self.extent = scene_extent(data.poses)
+        if data.sizes is not None:
+            raise DataError(f"{capture.root}: --preset splat trains on images of one size; this selection has "
+                            f"several (multiscale data): pick one level with --train-split")
+        for cam in data.cameras[:1]:
+            try:
+                intrinsics_of(cam)
+            except ValueError as e:
+                raise DataError(f"{capture.root}: {e}") from None
+        choice = self.cfg.splat.init_points
+        path = find_sfm_points(capture) if choice != "random" else None
+        if choice == "sfm" and path is None:
+            raise DataError(f"{capture.root}: --init-points sfm, but the capture has no SfM points (sparse_pc.ply "
+                            f"or a COLMAP model); use --init-points random")
+        if path is not None:
+            pts, cols = read_points(path, transform=data.transform)
+            if len(pts) >= 4:
+                self.init_gaussians = init_from_points(pts, cols)
+                self.init_note = f"{len(pts)} SfM points of {path.name}"
+        if self.init_gaussians is None:
+            self.init_note = f"{min(RANDOM_INIT, self.sc.capacity)} random points in the box " \
+                             f"[-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
+        log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}")
+
+    def init(self, key=None):
+        """(params: all capacity slots, aux: active mask, classic statistics, clock) as numpy arrays."""
+        sc = self.sc
+        if self.init_gaussians is None:
+            from dataclasses import replace
+
+            sc = replace(sc, init_count=min(RANDOM_INIT, sc.capacity), init_scale=RANDOM_INIT_SCALE)
+        params, active = initial_params(sc, self.init_gaussians)
+        stats = {k: np.zeros(sc.capacity, np.float32) for k in classic.zero_stats(1)}  # numpy: eval_shape-safe
+        return params, {"active": active, **stats, "clock": np.zeros((), np.float32)}
+
+    # -- optimisation ----------------------------------------------------------------------------
+    def make_optimizer(self, cfg):
+        """(SplatOptimizer, schedule): schedule(step) is the means' rate per unit extent by step count alone
+        (the time budget can end the decay sooner; the log's lr column is the rate used)."""
+        return (SplatOptimizer(self.sc.lrs, self.extent, cfg.train.adam_eps),
+                lambda step: means_lr(step / max(cfg.train.max_steps, 1), 1.0, self.sc.lrs))
+
+    def make_train_step(self, optimizer, data, cfg, mesh=None):
+        """step(state, step, images, poses) -> (state, metrics: loss, mse, finite, lr, gaussians); runs the
+        jitted view step (train.make_step) and then the host's density control."""
+        sc, width, height = self.sc, data.width, data.height
+        jitted = make_step(sc, optimizer.opts, width, height, with_health=True)
+        intr = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
+        bg = jnp.asarray(self.background, jnp.float32)
+        base_key = jax.random.PRNGKey(sc.seed)
+        n_views = len(data.poses)
+
+        def view_of(step: int) -> int:
+            epoch, k = divmod(step, n_views)
+            return int(np.random.default_rng([sc.seed, epoch]).permutation(n_views)[k])
+
+        def step_fn(state, step, images, poses):
+            t0 = time.perf_counter()
+            step = int(step)
+            aux = dict(state["aux"])
+            active = np.asarray(aux["active"], bool)
+            clock = float(aux["clock"])
+            progress = progress_of(step, clock, cfg)
+            deg = min(sc.sh_degree, step // sc.sh_interval)
+            lr = means_lr(progress, self.extent, sc.lrs)
+            stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
+            params = {k: jnp.asarray(v) for k, v in state["params"].items()}
+            params, opt_state, stats, photo, mse, finite = jitted(
+                params, state["opt_state"], stats, jnp.asarray(active), images, poses, intr, bg, view_of(step),
+                jax.random.fold_in(base_key, step), lr, deg)
+            rng = np.random.default_rng([sc.seed, step + 1])
+            params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats,
+                                                               active, rng, self.extent, width)
+            aux.update({k: stats[k] for k in stats}, active=active,
+                       clock=np.float32(clock + time.perf_counter() - t0))
+            metrics = {"loss": photo, "mse": mse, "finite": finite, "lr": jnp.float32(lr),
+                       "gaussians": jnp.int32(active.sum())}
+            return {"params": params, "opt_state": opt_state, "aux": aux}, metrics
+
+        return step_fn
+
+    def renderer(self, chunk: int = 0) -> SplatRenderer:
+        return SplatRenderer(self)

@@ -1,0 +1,370 @@
+"""Rendering full images with a trained model, in fixed-size chunks of rays.
+
+Memory is bounded by the chunk size, not the image size: one compiled function renders
+`chunk` rays at a time (the last chunk is padded), and only the per-pixel outputs
+(rgb, depth, opacity) of the whole image are kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from nerfkit.core.errors import ConfigError
+from nerfkit.rays.cameras import Camera, camera_rays
+from nerfkit.rays.frustum import pixel_base_radius
+from nerfkit.sampling import occupancy
+
+OUTPUT_KEYS = ("rgb", "depth", "depth_normalized", "opacity")
+
+
+@dataclass
+class Renderer:
+    """Chunked full-image rendering for one model (compiles once per chunk size)."""
+
+    model: object
+    chunk: int = 4096
+
+    def __post_init__(self):
+        model = self.model
+
+        def render_chunk(params, aux, o, d, radii):
+            out = model.render_rays(params, aux, o, d, jax.random.PRNGKey(0), train=False, radii=radii)
+            res = {k: out[k] for k in OUTPUT_KEYS}
+            res["complete"] = out.get("complete", jnp.ones(o.shape[0], bool))
+            return res
+
+        self._render_chunk = jax.jit(render_chunk)
+
+    def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
+                    radii: np.ndarray | None = None) -> dict:
+        """Render rays [N, 3] (cones of radii [N] per unit z-depth for the anti-aliased models; None: thin
+        rays) chunk by chunk; returns numpy arrays rgb [N, 3], depth [N], ...
+
+        Models with a per-chunk sample budget mark rays that did not fit as incomplete;
+        those rays go to the front of the next chunk (the first ray of a chunk always fits).
+        """
+        n = origins.shape[0]
+        radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
+        outs = {k: np.zeros((n, 3) if k == "rgb" else (n,), np.float32) for k in OUTPUT_KEYS}
+        pending = np.arange(n)
+        while pending.size:
+            idx = pending[:self.chunk]
+            m = idx.size
+            if m < self.chunk:  # pad to the compiled size with copies of the last ray
+                idx = np.concatenate([idx, np.full(self.chunk - m, idx[-1])])
+            res = self._render_chunk(params, aux, jnp.asarray(origins[idx]), jnp.asarray(directions[idx]),
+                                     jnp.asarray(radii[idx]))
+            done = np.asarray(res["complete"])[:m]
+            if not done[0]:
+                raise RuntimeError("a single ray needs more samples than the render budget")
+            for k in OUTPUT_KEYS:
+                outs[k][idx[:m][done]] = np.asarray(res[k])[:m][done]
+            pending = np.concatenate([pending[:m][~done], pending[m:]])
+        return outs
+
+    def render_image(self, params, aux, c2w: np.ndarray, height: int, width: int, focal: float) -> dict:
+        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of an ideal pinhole camera at c2w."""
+        return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
+
+    def render_camera(self, params, aux, c2w: np.ndarray, camera: Camera) -> dict:
+        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of `camera` (lens model included) at c2w.
+        Appearance embeddings, where the model has them, are the mean over training images; the
+        anti-aliased models see cones of the camera's pixel size (frustum.pixel_base_radius)."""
+        o, d = camera_rays(c2w, camera)
+        radii = np.full(o.shape[0] * o.shape[1], float(pixel_base_radius(camera.fx, camera.fy)), np.float32)
+        out = self.render_rays(params, aux, o.reshape(-1, 3), d.reshape(-1, 3), radii)
+        return {k: v.reshape(camera.height, camera.width, *v.shape[1:]) for k, v in out.items()}
+
+
+def first_set_bits(words: jnp.ndarray, k: int):
+    """Positions of the k lowest set bits of each row of a bit mask, and of the next one.
+
+    words: uint32 [R, M], bit b of words[:, m] is candidate 32 m + b. Returns pos int32
+    [R, k] (ascending; valid only where ok), ok bool [R, k] (a prefix of each row: True for
+    the first min(popcount, k) entries), and rest int32 [R] (the position of the (k+1)-th
+    set bit, -1 when there is none). The lowest set bit of a word v is v & -v, its position
+    popcount((v & -v) - 1); clearing it is v & (v - 1).
+    """
+    rows = jnp.arange(words.shape[0])
+
+    def lowest(w):
+        m = jnp.argmax(w != 0, axis=1)  # first non-zero word (0 when all are zero)
+        v = w[rows, m]
+        low = v & (~v + jnp.uint32(1))
+        pos = 32 * m.astype(jnp.int32) + jax.lax.population_count(low - jnp.uint32(1)).astype(jnp.int32)
+        return pos, v != 0, w.at[rows, m].set(v & (v - jnp.uint32(1)))
+
+    pos, ok = [], []
+    for _ in range(k):
+        p, o, words = lowest(words)
+        pos.append(p)
+        ok.append(o)
+    p, o, _ = lowest(words)
+    return jnp.stack(pos, axis=1), jnp.stack(ok, axis=1), jnp.where(o, p, -1)
+
+
+def pack_bits(keep: jnp.ndarray) -> jnp.ndarray:
+    """bool [R, 32 M] -> uint32 [R, M] with bit b of word m set where keep[:, 32 m + b]."""
+    r, w = keep.shape
+    shifts = jnp.arange(32, dtype=jnp.uint32)
+    return jnp.sum(keep.reshape(r, w // 32, 32).astype(jnp.uint32) << shifts, axis=-1, dtype=jnp.uint32)
+
+
+def empty_distance(bits: np.ndarray, resolution: int) -> np.ndarray:
+    """Chessboard distance D [R^3] (int32, flat like the occupancy bits) from each cell to the nearest
+    occupied cell, in cells: 0 at occupied cells, 1 next to one, ...; R everywhere when none is occupied.
+    Every cell c' with |c' - c|_inf <= D(c) - 1 is then unoccupied."""
+    from scipy import (
+        ndimage,  # imported here: it costs 0.13 s of every command's start-up
+    )
+
+    occ = np.asarray(bits, bool).reshape((resolution,) * 3)
+    if not occ.any():
+        return np.full(occ.size, resolution, np.int32)
+    return ndimage.distance_transform_cdt(~occ, metric="chessboard").astype(np.int32).reshape(-1)
+
+
+def skip_empty(candidates, to_grid, occ_cfg, dist, lipschitz: float, o, d, k, iters: int = 3, search_bits: int = 10):
+    """Advance candidate indices k [R] past candidates whose midpoints certainly lie in unoccupied cells.
+
+    A midpoint x whose grid point y = to_grid(x) is in a cell at chessboard distance D >= 1 from every
+    occupied cell has a clearance of (D - 1) h (h the cell size): every grid point within that L-inf
+    (so also L2) distance of y is in an unoccupied cell. to_grid is `lipschitz`-Lipschitz (1 for the box,
+    1 / radius for the contraction, which never stretches), so every point of the ray with
+    |t' - t| |d| lipschitz <= (D - 1) h is unoccupied too: candidate k and the following n ones, n the
+    largest with t_mid(k + n) <= t_mid(k) + (D - 1) h / (|d| lipschitz) (binary search over
+    n < 2^search_bits, on `candidates`' own t grid, so the same samples are kept as without the skip),
+    are skipped: k <- k + n + 1. Repeated `iters` times (sphere tracing over the distance field).
+
+    candidates(o, d, None, index [R, 1]) -> t_start, t_end, cand [R, 1] (the model's march);
+    dist: int32 [R^3] (empty_distance). Returns int32 [R]."""
+    h = occ_cfg.cell_size
+    norm = jnp.linalg.norm(d, axis=-1)
+
+    def mid(kk):
+        t0, t1, cand = candidates(o, d, None, kk[:, None])
+        return 0.5 * (t0 + t1)[:, 0], cand[:, 0]
+
+    for _ in range(iters):
+        t, cand = mid(k)
+        idx, inside = occupancy.world_to_cell(to_grid(o + t[:, None] * d), occ_cfg)
+        gap = dist[idx]
+        reach = t + 0.999 * (gap.astype(jnp.float32) - 1.0) * h / jnp.maximum(norm * lipschitz, 1e-12)
+        n = jnp.zeros_like(k)
+        for b in reversed(range(search_bits)):
+            trial = n + (1 << b)
+            tm, c = mid(k + trial)
+            n = jnp.where(c & (tm <= reach), trial, n)
+        k = jnp.where(cand & inside & (gap >= 1), k + n + 1, k)
+    return k
+
+
+class WavefrontRenderer(Renderer):
+    """Full-image rendering for occupancy-marched fields that stops each ray where it is spent.
+
+    `chunk` slots each hold one ray. Every round, each live ray first skips the candidates
+    that the occupancy grid's distance field proves empty (skip_empty: sphere tracing over
+    empty_distance, on the march's own t grid), then looks at its next WINDOW candidate
+    intervals (model.candidates; the same t grid as training's march, without jitter) and
+    marks those in occupied cells in a bit mask; up to CAP marked ones are shaded: density
+    and colour, weights w_i = T_i (1 - exp(-sigma_i delta_i)) with T carried over from
+    earlier rounds, accumulated into the ray's colour, depth and opacity. A ray retires when
+    T < MIN_TRANSMITTANCE or its candidates run out, and the next pending ray takes its
+    slot. So empty space costs a few distance look-ups, and nothing behind a surface is
+    shaded (beyond the last window). The shaded samples of all slots are packed (ray-major,
+    offsets from a prefix sum of per-ray counts, starting at a round-robin slot) into the
+    smallest of a few fixed budgets that holds them, or the largest: rays past it shade
+    fewer samples this round and go on from their first unshaded one next round, so the
+    budget is full and padding small. Compositing runs on a dense [chunk, CAP] layout.
+    Pixels equal the one-pass renderer's (same samples, same weights) up to float
+    summation order.
+    """
+
+    # Measured on a 10-minute lego ngp run, 2 CPU cores, compiled (benchmarks/render_speed.py): one
+    # 800x800 frame 3.75 s / 256x256 0.40 s with chunk 4096, budgets (1, 2, 4), WINDOW 64, CAP 8; budgets
+    # (1, 4, 8) 4.22 s (more padding); WINDOW 32 3.79 s; chunk 8192 3.26-3.45 s (make_renderer's choice);
+    # chunk 2048 4.90 s. Budgets of 65536 samples run slower per sample than 32768 (cache).
+    WINDOW = 64  # a multiple of 32 (bit-mask words)
+    CAP = 8
+    BUDGETS = (1, 2, 4)  # samples per slot: a round's budget is chunk * m for the smallest m that holds it
+
+    def __post_init__(self):
+        model = self.model
+        r, w, cap = self.chunk, self.WINDOW, self.CAP
+        steps = jnp.arange(w, dtype=jnp.int32)
+
+        field = model.field
+        lipschitz = 1.0 / field.radius if field.unbounded else 1.0
+
+        def window(aux, dist, o, d, k0):
+            k0 = skip_empty(model.candidates, field.to_grid, model.occ, dist, lipschitz, o, d, k0)
+            t0, t1, cand = model.candidates(o, d, None, k0[:, None] + steps[None, :])
+            x = o[:, None, :] + (0.5 * (t0 + t1))[..., None] * d[:, None, :]
+            occ = occupancy.query_occupancy(aux, field.to_grid(x.reshape(-1, 3)), model.occ).reshape(r, w)
+            keep = cand & occ
+            return pack_bits(keep), jnp.sum(jnp.minimum(jnp.sum(keep, axis=1), cap)), ~cand[:, -1], k0
+
+        def shade(params, o, d, rad, k0, bits, trans, first, budget):
+            pos, ok, rest = first_set_bits(bits, cap)  # [r, cap]
+            count = jnp.sum(ok, axis=1)
+            # Packing order starts at slot `first` (round robin, so no slot waits for ever); rays past the
+            # budget shade fewer samples (or none) this round and go on from their first unshaded one.
+            rolled = jnp.roll(count, -first)
+            start = jnp.roll(jnp.cumsum(rolled) - rolled, first)  # first packed sample of each ray
+            take = jnp.clip(budget - start, 0, count)
+            ok = ok & (jnp.arange(cap)[None, :] < take[:, None])
+            slot = jnp.where(ok, start[:, None] + jnp.arange(cap)[None, :], budget)
+            # Inverse map of the packing: packed sample s -> (ray, j); slots past the total stay ray 0.
+            src = jnp.zeros(budget, jnp.int32).at[slot.reshape(-1)].set(jnp.arange(r * cap, dtype=jnp.int32),
+                                                                           mode="drop")
+            ray = src // cap
+            t0, t1, _ = model.candidates(o, d, None, k0[:, None] + pos)  # [r, cap]
+            t_mid = 0.5 * (t0 + t1)
+            norm = jnp.linalg.norm(d, axis=-1)
+            emb = model.field.embedding(params["field"], None)
+            t_s = t_mid.reshape(-1)[src]
+            rgb, sigma = model.field(params["field"], o[ray] + t_s[:, None] * d[ray], d[ray] / norm[ray][:, None], emb,
+                                     scale=model.sample_scale(t_s, norm[ray], rad[ray]))
+            back = jnp.minimum(slot, budget - 1)  # [r, cap]: each sample's packed position
+            tau = jnp.where(ok, sigma[back] * (t1 - t0) * norm[:, None], 0.0)
+            t_i = trans[:, None] * jnp.exp(-(jnp.cumsum(tau, axis=1) - tau))
+            wgt = jnp.where(ok & (t_i >= model.MIN_TRANSMITTANCE), t_i * (1.0 - jnp.exp(-tau)), 0.0)
+            return {"rgb": jnp.sum(wgt[..., None] * rgb[back], axis=1), "depth": jnp.sum(wgt * t_mid, axis=1),
+                    "opacity": jnp.sum(wgt, axis=1), "trans": trans * jnp.exp(-jnp.sum(tau, axis=1)),
+                    "k_next": jnp.where(take < count, k0 + jnp.take_along_axis(pos, jnp.minimum(take, cap - 1)[:, None],
+                                                                              axis=1)[:, 0],
+                                        jnp.where(rest >= 0, k0 + rest, k0 + w)),
+                    "next_first": (first + jnp.argmax(jnp.roll(take < count, -first))) % r,
+                    "shaded": jnp.sum(take)}
+
+        self._window = jax.jit(window)
+        self._shade = {m: jax.jit(partial(shade, budget=r * m)) for m in self.BUDGETS}
+        self._dist = None
+
+    def empty_distance(self, aux) -> jnp.ndarray:
+        """empty_distance of the occupancy bits in aux, computed once per bits array (the viewer renders
+        many frames of one grid)."""
+        bits = aux["bits"]
+        if self._dist is None or self._dist[0] is not bits:
+            self._dist = (bits, jnp.asarray(empty_distance(np.asarray(bits), self.model.occ.resolution)))
+        return self._dist[1]
+
+    def _free_slots(self) -> tuple[np.ndarray, ...]:
+        """The state of `chunk` free slots: o, d [chunk, 3], radii, k0 (far past every candidate) and
+        transmittance [chunk], with the shapes and dtypes the round functions are compiled for."""
+        r = self.chunk
+        return (np.zeros((r, 3), np.float32), np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (r, 1)),
+                np.zeros(r, np.float32), np.full(r, 1 << 30, np.int32), np.ones(r, np.float32))
+
+    def warm_up(self, params, aux) -> None:
+        """Compile the round functions (the window and every shading budget) on free slots, so that no
+        later frame waits for a compile (the viewer calls this in idle time)."""
+        o, d, rad, k0, trans = self._free_slots()
+        bits, _, _, k0 = self._window(aux, self.empty_distance(aux), o, d, k0)
+        k0 = np.array(k0)
+        for m in self.BUDGETS:
+            jax.block_until_ready(self._shade[m](params, o, d, rad, k0, bits, trans, 0))
+
+    def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
+                    radii: np.ndarray | None = None) -> dict:
+        """Render rays [N, 3] (cones of radii [N], see Renderer.render_rays); returns numpy arrays rgb [N, 3],
+        depth, depth_normalized, opacity [N]."""
+        n, r = origins.shape[0], self.chunk
+        radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
+        acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32),
+               "opacity": np.zeros(n, np.float32)}
+        slot_ray = np.full(r, -1)
+        o, d, rad, k0, trans = self._free_slots()
+        dist = self.empty_distance(aux)
+        nxt = first = 0
+        while True:
+            free = np.flatnonzero(slot_ray < 0)
+            take = free[: n - nxt]
+            if take.size:
+                ids = np.arange(nxt, nxt + take.size)
+                nxt += take.size
+                slot_ray[take], o[take], d[take], k0[take], trans[take] = ids, origins[ids], directions[ids], 0, 1.0
+                rad[take] = radii[ids]
+            live = slot_ray >= 0
+            if not live.any():
+                break
+            bits, shaded, exhausted, k0 = self._window(aux, dist, o, d, k0)
+            shaded, exhausted, k0 = int(shaded), np.asarray(exhausted), np.array(k0)
+            if shaded:
+                m = min([m for m in self.BUDGETS if r * m >= shaded] or [max(self.BUDGETS)])
+                res = self._shade[m](params, o, d, rad, k0, bits, trans, first)
+                first = int(res["next_first"])
+                ids = slot_ray[live]
+                for key in acc:
+                    acc[key][ids] += np.asarray(res[key])[live]
+                trans = np.asarray(res["trans"]).copy()
+                k_next = np.asarray(res["k_next"]).astype(np.int32)
+            else:
+                k_next = k0 + self.WINDOW
+            # Spent: past the last candidate with nothing left in the window, or opaque.
+            done = (exhausted & (k_next - k0 >= self.WINDOW)) | (trans < self.model.MIN_TRANSMITTANCE)
+            k0 = k_next
+            retire = live & done
+            slot_ray[retire] = -1
+            k0[retire] = 1 << 30
+        opacity = acc["opacity"]
+        rgb = acc["rgb"] + (1.0 - opacity[:, None]) * np.asarray(self.model.background)
+        depth_norm = np.where(opacity > 1e-6, acc["depth"] / np.maximum(opacity, 1e-6), self.model.far)
+        return {"rgb": rgb.astype(np.float32), "depth": acc["depth"], "depth_normalized": depth_norm.astype(np.float32),
+                "opacity": opacity}
+
+
+class CoarseMarch:
+    """A marching model seen with an s times longer step: its candidate k is the union of the model's
+    candidates s k .. s k + s - 1, the interval [t_start(s k), t_end(s k + s - 1)].
+
+    These intervals tile the same t range as the model's own, s times longer: exactly the march of
+    the model with march_steps / s (box and contraction alike), on the same occupancy grid and
+    field. The viewer's moving previews use it (about s times fewer samples where rays cross
+    occupied space, 35.6 dB against the full render at s = 2 on lego). Everything else is the model's."""
+
+    def __init__(self, model, stride: int):
+        self.base, self.stride = model, int(stride)
+
+    def __getattr__(self, name):
+        if name == "base":  # (not set yet: no recursion)
+            raise AttributeError(name)
+        return getattr(self.base, name)
+
+    def candidates(self, o, d, key=None, index=None):
+        """As model.candidates: t_start, t_end, cand [R, K / s] or shaped like `index` (int [R, W])."""
+        s = self.stride
+        if index is None:
+            k = -(-self.base.cfg.sampler.march_steps // s)
+            index = jnp.broadcast_to(jnp.arange(k, dtype=jnp.int32)[None, :], (o.shape[0], k))
+        t0, _, cand = self.base.candidates(o, d, key, s * index)
+        _, t1, _ = self.base.candidates(o, d, key, s * index + (s - 1))
+        return t0, t1, cand
+
+
+def coarser(renderer: WavefrontRenderer, stride: int) -> WavefrontRenderer:
+    """A wavefront renderer like `renderer` whose rays march with a `stride` times longer step
+    (CoarseMarch), sharing renderer's cached empty-space distance field."""
+    r = type(renderer)(CoarseMarch(renderer.model, stride), renderer.chunk)
+    r.empty_distance = renderer.empty_distance
+    return r
+
+
+def check_chunk(chunk: int | None) -> None:
+    """ConfigError unless a --chunk value is None (the run's own) or at least 1."""
+    if chunk is not None and chunk < 1:
+        raise ConfigError(f"--chunk must be >= 1 (got {chunk})")
+
+
+def make_renderer(model, chunk: int = 4096) -> Renderer:
+    """The wavefront renderer for models that march an occupancy grid, with 2 * chunk ray slots (a slot is
+    small: its window of candidates and up to CAP samples; measured on lego, 2 cores: 800x800 in 3.26 s
+    with 8192 slots, 3.89 s with 4096, 3.87 s with 16384), the chunked one otherwise."""
+    if model.supports.renders_images:  # a method with its own image renderer (Gaussian splats)
+        return model.renderer(chunk)
+    return WavefrontRenderer(model, 2 * chunk) if model.supports.marching else Renderer(model, chunk)

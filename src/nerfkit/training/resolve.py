@@ -1,0 +1,97 @@
+"""Settings that come from the data, not the preset: splits, scene type, scene box,
+near / far and appearance embeddings. A run's config.json holds the resolved values, so
+eval, render and --resume rebuild exactly the trained model.
+
+    splits        train: "train"; validation: "val" if the data has it, else "test"
+    scene type    bounded for Blender scenes, masked captures and instant-ngp files with
+                  aabb_scale 1; unbounded otherwise (mip-NeRF 360 contraction)
+    bound         Blender: 1.5 (the scenes' convention); masked: the masks' visual hull
+                  (normalize.masked_bound); unbounded: inner ball = 1.1 x the farthest camera
+    near, far     bounded: 0 and past the far side of the box from the farthest camera;
+                  unbounded: 0.05 (cameras sit at radius 4) and 1e4
+    appearance    16 per image for photo captures without masks (exposure and white balance
+                  change between their photos); off for Blender scenes and masked object
+                  captures (fixed exposure; on a turntable the embeddings soak up the shading
+                  that changes as the object turns, and the mean embedding of held-out views
+                  cannot give it back: -1.1 dB on maryrose's test photos, 4-minute runs)
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+
+from nerfkit.core.config import Config, validate
+from nerfkit.data.capture import Capture, SceneData
+from nerfkit.data.normalize import masked_bound
+
+UNBOUNDED_NEAR, UNBOUNDED_FAR = 0.05, 1e4
+APPEARANCE_DIM = 16
+
+
+def default_splits(cfg: Config, cap_splits: list[str] | None = None) -> tuple[str, str]:
+    """(train spec, val spec): the config's, else "train" and "val" (or "test" where there is no val)."""
+    d = cfg.data
+    val = d.val_split
+    if val is None:
+        val = "val" if cap_splits is None or "val" in cap_splits else "test"
+    return d.train_split or "train", val
+
+
+def scene_type(cfg: Config, cap: Capture) -> tuple[str, str]:
+    """(bounded | unbounded, why)."""
+    if cfg.field.scene_type != "auto":
+        return cfg.field.scene_type, "--scene-type"
+    if cap.format == "blender":
+        return "bounded", "Blender scene"
+    if cap.has_masks:
+        return "bounded", "masked capture"
+    if cap.hint == "bounded":
+        return "bounded", "aabb_scale 1"
+    return "unbounded", "photos without masks"
+
+
+def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Config:
+    """A copy of cfg with every data-dependent default filled in (see module docstring)."""
+    cfg = copy.deepcopy(cfg)
+    f, s = cfg.field, cfg.sampler
+    kind, why = scene_type(cfg, cap)
+    notes = []
+    if f.kind == "ngp" or f.scene_type != "auto":
+        f.scene_type = kind
+    dist = np.linalg.norm(train.poses[:, :3, 3], axis=-1)
+    if f.bound is None:
+        if kind == "unbounded":
+            f.bound = _round_up(1.1 * float(dist.max()))
+            where = "inner ball: 1.1 x the farthest camera"
+        elif cap.format != "blender" and train.alphas is not None and train.has_masks:
+            b = masked_bound(train.poses, train.cameras, train.alphas)
+            f.bound = _round_up(b) if b is not None else 1.5
+            where = "visual hull of the masks" if b is not None else "no point inside every mask: default"
+        else:
+            f.bound = 1.5
+            where = "the Blender scenes' box"
+        notes.append(f"{'radius' if kind == 'unbounded' else 'box'} {f.bound:g} ({where})")
+    if s.near is None:
+        s.near = UNBOUNDED_NEAR if kind == "unbounded" else 0.0
+    if s.far is None:
+        s.far = UNBOUNDED_FAR if kind == "unbounded" else _round_up(float(dist.max()) + math.sqrt(3) * f.bound)
+    if f.appearance_dim is None and f.kind == "splat":  # not (yet) for Gaussian splats
+        f.appearance_dim = 0
+    if f.appearance_dim is None:
+        f.appearance_dim = 0 if cap.format == "blender" or cap.has_masks else APPEARANCE_DIM
+        if cap.has_masks:
+            log("appearance embeddings: off for a masked object capture (--appearance-dim 16 turns them on)")
+    f.appearance_count = len(train) if f.appearance_dim else 0
+    if f.kind == "ngp" or f.scene_type != "auto":
+        log(f"scene: {kind} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
+    if f.appearance_dim:
+        log(f"appearance embeddings: {f.appearance_dim} per training image ({len(train)}); held-out views use the "
+            f"mean embedding")
+    return validate(cfg)
+
+
+def _round_up(x: float, step: float = 0.05) -> float:
+    return round(math.ceil(x / step - 1e-9) * step, 6)

@@ -1,0 +1,366 @@
+"""Training: the run loop (the jit-compiled step is step.py) and the run folder it writes.
+
+Run folder layout (see README):
+
+    config.json          resolved config          scene.json      camera/image facts
+    metrics.jsonl        step, loss, psnr, lr, elapsed (train)
+    val_metrics.jsonl    step, psnr, elapsed, per-view PSNR (validation)
+    plots/               train_loss.png, train_psnr.png, val_psnr.png
+    val/step_XXXXXXX/    view_K.png (ground truth | render | depth), view_K_depth.npy
+    checkpoints/         ckpt_XXXXXXXX.msgpack (the newest `keep_ckpts`)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shlex
+import shutil
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from tqdm.auto import tqdm
+
+from nerfkit.core.config import Config, validate
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.metrics import mse_to_psnr
+from nerfkit.core.metrics import psnr as psnr_np
+from nerfkit.core.viz import (
+    background_rgb,
+    colorize_renders,
+    comparison,
+    plot_curves,
+    read_jsonl,
+    save_png,
+)
+from nerfkit.data.loader import load_frames, read_capture
+from nerfkit.models.registry import build_model
+from nerfkit.render.images import make_renderer
+from nerfkit.training import checkpoint as ckpt_lib
+from nerfkit.training import parallel
+from nerfkit.training.flags import (
+    describe_budget,
+    describe_model,
+    refuse_family_switch,
+    refuse_unused,
+)
+from nerfkit.training.resolve import default_splits, resolve_config
+from nerfkit.training.step import init_state, make_optimizer, make_train_step
+from nerfkit.training.stopping import StopFlag
+
+
+@dataclass
+class TrainResult:
+    run_dir: Path
+    step: int
+    val_psnr: float | None
+    steps_per_second: float
+    interrupted: bool
+
+
+def evenly_spaced(n: int, k: int) -> list[int]:
+    k = min(k, n)
+    return sorted({int(round(x)) for x in np.linspace(0, n - 1, k)})
+
+
+def validation_views(ids: list[int], n: int, spec: str) -> str:
+    """Which views periodic validation renders, in words: "4 of 9 views of test (0, 3, 5, 8), evenly spaced"."""
+    shown = ", ".join(map(str, ids[:12])) + (", ..." if len(ids) > 12 else "")
+    return (f"all {n} views of {spec}" if len(ids) == n else
+            f"{len(ids)} of {n} views of {spec} ({shown}), evenly spaced")
+
+
+# What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
+# run refuses a folder holding any of them unless told to overwrite, and then removes exactly these.
+RUN_FILES = ("config.json", "scene.json", "metrics.jsonl", "val_metrics.jsonl", "plots", "val", "checkpoints",
+             "report.html", "renders", "exports", "eval_*")
+
+
+def run_files(run_dir: Path) -> list[Path]:
+    """The files and folders of an earlier run in run_dir (RUN_FILES), sorted."""
+    run_dir = Path(run_dir)
+    return sorted({p for pattern in RUN_FILES for p in run_dir.glob(pattern)})
+
+
+def clear_run(run_dir: Path) -> None:
+    """Remove an earlier run's files (run_files) from run_dir; anything else in it stays."""
+    for p in run_files(run_dir):
+        shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+
+
+class Trainer:
+    def __init__(self, data_dir: str | Path, run_dir: str | Path, cfg: Config, resume: bool = False,
+                 progress: bool = True, overwrite: bool = False, given: dict[str, str] | None = None,
+                 preset: str | None = None):
+        """`given`: the settings the user set explicitly ({"field.width": "--width"}, flags.explicit_settings)
+        and `preset` the preset they started from: a given setting the model or the data will not read
+        is refused (flags.refuse_unused). `overwrite`: a fresh run into a folder that holds an earlier
+        run's files removes them first (otherwise it is refused)."""
+        self.cfg = validate(cfg)
+        self.data_dir = Path(data_dir)
+        self.run_dir = Path(run_dir)
+        self.resume = resume
+        self.progress = progress
+        self.ckpt_dir = self.run_dir / "checkpoints"
+        given = given or {}
+        where = f"--preset {preset}" if preset and not resume else "this run's model"
+        refuse_family_switch(cfg, given, None if resume else preset)
+        refuse_unused(cfg, given, where)
+        if resume and overwrite:
+            raise ConfigError("--resume and --overwrite: pick one (continue the run, or start it again from scratch)")
+        old = [] if resume else run_files(self.run_dir)
+        if old and not overwrite:
+            if ckpt_lib.list_checkpoints(self.ckpt_dir):
+                raise NerfkitError(f"{self.run_dir}: already holds a run; pass --resume to continue it, --overwrite "
+                                   f"to start it again (its files are removed) or pick a new --out")
+            raise NerfkitError(f"{self.run_dir}: holds an earlier run's files ({', '.join(p.name for p in old[:4])}"
+                               f"{', ...' if len(old) > 4 else ''}) but no checkpoint; pass --overwrite to remove "
+                               f"them and start again, or pick a new --out")
+        self.overwrite = bool(old)
+        d = cfg.data
+        spec_train, spec_val = default_splits(cfg)
+        self.capture = read_capture(self.data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
+        refuse_unused(cfg, given, where, self.capture)
+        spec_train, spec_val = default_splits(cfg, list(self.capture.splits))
+        load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
+        self.train_data = load_frames(self.capture, spec_train, **load)
+        self.val_data = load_frames(self.capture, spec_val, **load)
+        if not self.capture.levels and ((self.val_data.height, self.val_data.width)
+                                          != (self.train_data.height, self.train_data.width)):
+            raise NerfkitError(f"{self.data_dir}: validation images ({self.val_data.width}x{self.val_data.height}) "
+                               f"differ in size from training images ({self.train_data.width}x{self.train_data.height})")
+        td = self.train_data
+        say = tqdm.write if progress else (lambda *_: None)
+        say(f"data: {self.capture.format} capture {self.data_dir}: {len(td)} training ({spec_train}) and "
+            f"{len(self.val_data)} validation ({spec_val}) images at {td.width}x{td.height}"
+            f"{', masks on' if td.has_masks else ''}")
+        cfg = resolve_config(cfg, self.capture, td, log=say)
+        cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
+        self.cfg = cfg
+        self.model = build_model(cfg)
+        split = self.model.supports.parallel  # what the devices split (make_train_step)
+        self.mesh = None if split == "views" else parallel.data_mesh(parallel.mesh_devices(cfg.train.devices))
+        self.primary = parallel.is_primary()  # process 0 of a multi-process run writes the run folder
+        if split == "rays":
+            parallel.check_batch(cfg.train.batch_rays, self.mesh)
+        elif split == "samples":
+            parallel.check_batch(cfg.sampler.max_samples, self.mesh, "--max-samples")
+        say(f"model: {describe_model(cfg)}")
+        if split == "views":  # whole views, one per step, on one device (Gaussian splats)
+            self.model.bind_data(self.capture, td, log=say)
+        else:
+            say(parallel.describe(cfg.train.batch_rays, self.mesh, split, cfg.sampler.max_samples))
+        self.optimizer, self.schedule = make_optimizer(cfg, self.model)
+        self.renderer = make_renderer(self.model, cfg.train.chunk)
+        self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
+        whole = "" if len(self.val_ids) == len(self.val_data) else (
+            f"; nerfkit eval {shlex.quote(str(self.run_dir))} --split {shlex.quote(spec_val)} scores all "
+            f"{len(self.val_data)}")
+        say(f"validation: {validation_views(self.val_ids, len(self.val_data), spec_val)}{whole}")
+        default = "" if given.keys() & {"train.max_minutes", "train.max_steps"} or resume else \
+            f" (the {preset or 'preset'} default; --max-minutes M or --max-steps N changes it)"
+        say(f"budget: {describe_budget(cfg)}{default}")
+        self.viewer = None  # a nerfkit.viewer.server.Viewer, served between steps (nerfkit train --viewer)
+
+    # -- run folder -------------------------------------------------------------------
+    def _write_run_files(self):
+        if not self.primary:
+            return
+        if self.overwrite:
+            clear_run(self.run_dir)
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        (self.run_dir / "config.json").write_text(self.cfg.to_json())
+        td = self.train_data
+        scene = {"data_dir": str(self.data_dir.resolve()), "format": td.format, "height": td.height, "width": td.width,
+                 "focal": td.focal, "camera": td.cameras[0].to_json(), "n_train": len(td), "n_val": len(self.val_data),
+                 "masks": td.has_masks, "transform": td.transform.tolist(), "scale": td.scale,
+                 "train_poses": td.poses.tolist()}
+        (self.run_dir / "scene.json").write_text(json.dumps(scene, indent=2))
+
+    def _append(self, name: str, row: dict):
+        if not self.primary:
+            return
+        with open(self.run_dir / name, "a") as f:
+            f.write(json.dumps(row) + "\n")
+
+    def _truncate_logs(self, step: int):
+        """After a resume, drop log rows past the restored step (written after the checkpoint)."""
+        if not self.primary:
+            return
+        for name in ("metrics.jsonl", "val_metrics.jsonl"):
+            rows = [r for r in read_jsonl(self.run_dir / name) if r.get("step", 0) <= step]
+            (self.run_dir / name).write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+    def plot(self):
+        rows = read_jsonl(self.run_dir / "metrics.jsonl")
+        vrows = read_jsonl(self.run_dir / "val_metrics.jsonl")
+        plots = self.run_dir / "plots"
+        steps = [r["step"] for r in rows]
+        g = self.cfg.splat
+        what = f"{1 - g.ssim_lambda:g} L1 + {g.ssim_lambda:g} D-SSIM" if self.cfg.field.kind == "splat" else "MSE"
+        plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", f"loss ({what})",
+                    "Training loss", logy=True)
+        plot_curves({"train": (steps, [r["psnr"] for r in rows])}, plots / "train_psnr.png", "step", "PSNR (dB)",
+                    "Training PSNR", min_span=1.0)
+        plot_curves({"val": ([r["step"] for r in vrows], [r["psnr"] for r in vrows])}, plots / "val_psnr.png", "step",
+                    "PSNR (dB)", f"Validation PSNR ({len(vrows[-1]['views']) if vrows else 0} views)", min_span=1.0)
+
+    def validate(self, state, step: int, elapsed: float) -> float:
+        """Render the validation views, save them beside ground truth, log mean PSNR (process 0 only)."""
+        state = parallel.host_copy(state)
+        out_dir = self.run_dir / "val" / f"step_{step:07d}"
+        vd = self.val_data
+        scores, renders = [], []
+        for k in self.val_ids:
+            r = self.renderer.render_camera(state["params"], state["aux"], vd.poses[k], vd.cameras[k])
+            scores.append(psnr_np(r["rgb"], vd.image(k)))
+            renders.append(r)
+        bg = background_rgb(self.cfg.data.background)
+        depth_imgs, (lo, hi) = colorize_renders(renders, bg)
+        for k, r, depth_img, score in zip(self.val_ids, renders, depth_imgs, scores):
+            save_png(out_dir / f"view_{k:03d}.png", comparison(vd.image(k), r["rgb"], depth_img, lo / vd.scale,
+                                                               hi / vd.scale, score, background=bg))
+            np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
+        mean = float(np.mean(scores))
+        self._append("val_metrics.jsonl", {"step": step, "psnr": mean, "elapsed": round(elapsed, 2),
+                                           "views": self.val_ids, "per_view": [round(s, 3) for s in scores]})
+        self.plot()
+        return mean
+
+    def save(self, state, step: int, elapsed: float):
+        if not self.primary:
+            return
+        full = dict(parallel.host_copy(state), elapsed=np.float64(elapsed))
+        ckpt_lib.save_checkpoint(self.ckpt_dir, step, full, self.cfg.to_dict()["field"], self.cfg.train.keep_ckpts)
+
+    # -- the loop ---------------------------------------------------------------------
+    def _restore(self, state):
+        """(step, elapsed, state) from the newest checkpoint when resuming (before anything in the run folder is
+        written: a bad checkpoint changes nothing), else (0, 0.0, state)."""
+        path = ckpt_lib.latest_checkpoint(self.ckpt_dir) if self.resume else None
+        if path is None:
+            return 0, 0.0, state, None
+        target = dict(state, elapsed=np.float64(0))
+        step, restored = ckpt_lib.restore_checkpoint(path, target, self.cfg.to_dict()["field"])
+        elapsed = float(restored.pop("elapsed"))
+        return step, elapsed, jax.tree_util.tree_map(jnp.asarray, restored), path
+
+    def _log(self, pending: list, elapsed: float) -> dict:
+        """Check the pending steps' metrics for non-finite ones (NerfkitError after max_bad_steps in a row) and
+        append the last one's row to metrics.jsonl (loss and PSNR: of its batch; a model that trains on one
+        view per step: the mean over the pending steps); returns that row."""
+        t = self.cfg.train
+        for s, mm in pending:
+            if bool(mm["finite"]):
+                self._bad_streak = 0
+                continue
+            self._bad_streak += 1
+            tqdm.write(f"step {s}: non-finite loss or gradient ({float(mm['loss'])}); update skipped")
+            if self._bad_streak >= t.max_bad_steps:
+                raise NerfkitError(f"stopping: {self._bad_streak} non-finite steps in a row (last at step {s}); the "
+                                   f"last good checkpoint in {self.ckpt_dir} is intact. Try a lower --lr.")
+        s, mm = pending[-1]
+        loss, mse = float(mm["loss"]), float(mm["mse"])
+        if self.model.supports.parallel == "views":  # one view per step: the mean over the logged steps
+            good = [m for _, m in pending if bool(m["finite"])] or [mm]
+            loss, mse = (float(np.mean([float(m[k]) for m in good])) for k in ("loss", "mse"))
+        row = {"step": s, "loss": loss, "psnr": float(mse_to_psnr(mse)),
+               "lr": float(self.schedule(s)), "elapsed": round(elapsed, 3)}
+        row.update({k: float(v) for k, v in mm.items() if k not in ("loss", "mse", "finite")})
+        self._append("metrics.jsonl", row)
+        pending.clear()
+        return row
+
+    def run(self) -> TrainResult:
+        cfg, t = self.cfg, self.cfg.train
+        step, elapsed0, state, path = self._restore(init_state(self.model, self.optimizer, t.seed))
+        self._write_run_files()
+        if path is not None:
+            self._truncate_logs(step)
+            tqdm.write(f"resumed from {path} at step {step}")
+        elif self.resume:
+            self._truncate_logs(0)  # rows of a run that died before its first checkpoint
+            tqdm.write(f"no checkpoint in {self.ckpt_dir}: starting from step 0")
+        images, poses, state = parallel.replicate(
+            (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)
+        step_fn = make_train_step(self.model, self.optimizer, self.train_data, cfg, self.mesh)
+        if self.viewer is not None:
+            self.viewer.set_params(state["params"], state["aux"], step)
+
+        start = time.perf_counter()
+        deadline = start + 60 * t.max_minutes if t.max_minutes else math.inf
+        self._bad_streak, last_val, last_val_step, rays = 0, None, -1, []
+        val_gate = 0.0  # no periodic validation before this clock time (keeps validation <= val_max_fraction)
+        pending = []  # device metrics not yet logged
+        first_step, compiled_at = step, None
+        bar = None  # made after the first step: its rate and ETA leave the compilation out
+        if step < t.max_steps and self.progress:
+            tqdm.write("compiling the training step (a one-off; the next run of this model starts faster)...")
+        interrupted, reason = False, f"--max-steps {t.max_steps} reached"
+        with StopFlag() as stop:
+            while step < t.max_steps:
+                if parallel.agree(time.perf_counter() >= deadline):
+                    reason = f"--max-minutes {t.max_minutes:g} reached"
+                    break
+                state, m = step_fn(state, jnp.int32(step), images, poses)
+                jax.block_until_ready(m)  # keeps the bar's rate and ETA honest (steps are compute-bound)
+                step += 1
+                pending.append((step, m))
+                if bar is None:
+                    compiled_at = time.perf_counter()
+                    bar = tqdm(total=t.max_steps, initial=step, disable=not self.progress, dynamic_ncols=True,
+                               desc="train", unit="step", file=sys.stderr, mininterval=1.0)
+                else:
+                    bar.update(1)
+                if self.viewer is not None:  # renders only when its duty-cycle gate is open
+                    self.viewer.set_params(state["params"], state["aux"], step)
+                    self.viewer.render_pending()
+                if step % t.log_every == 0 or step == t.max_steps or stop.signal_name:
+                    row = self._log(pending, elapsed0 + time.perf_counter() - start)
+                    rays += [row["rays"]] if "rays" in row else []
+                    now = time.perf_counter()
+                    if math.isfinite(deadline) and step > first_step + 1:  # the bar ends where time runs out
+                        rate = (step - first_step - 1) / max(now - compiled_at, 1e-9)
+                        bar.total = min(t.max_steps, step + int(rate * max(deadline - now, 0.0)))
+                    bar.set_postfix(loss=f"{row['loss']:.4f}", psnr=f"{row['psnr']:.2f}",
+                                    val=f"{last_val:.2f}" if last_val is not None else "-")
+                if parallel.agree(bool(stop.signal_name)):
+                    interrupted = True
+                    break
+                if step % t.val_every == 0 and time.perf_counter() >= val_gate and self.primary:
+                    v0 = time.perf_counter()
+                    last_val = self.validate(state, step, elapsed0 + v0 - start)
+                    last_val_step = step
+                    took = time.perf_counter() - v0
+                    val_gate = time.perf_counter() + took * (1 - t.val_max_fraction) / t.val_max_fraction
+                    tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB ({took:.1f} s)")
+                if step % t.ckpt_every == 0:
+                    self.save(state, step, elapsed0 + time.perf_counter() - start)
+            if bar is not None:
+                bar.close()
+            elapsed = elapsed0 + time.perf_counter() - start
+            if pending:  # the last step is always in metrics.jsonl (summaries quote it)
+                row = self._log(pending, elapsed)
+                rays += [row["rays"]] if "rays" in row else []
+            if not interrupted:
+                tqdm.write(f"{reason} at step {step}")
+            if not interrupted and last_val_step != step and step > 0 and self.primary:
+                last_val = self.validate(state, step, elapsed)
+                tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB")
+            self.save(state, step, elapsed)
+        if self.primary and (not read_jsonl(self.run_dir / "val_metrics.jsonl") or interrupted):
+            self.plot()
+        run_time = time.perf_counter() - start
+        sps = (step - first_step) / run_time if run_time > 0 else 0.0
+        if rays:
+            tqdm.write(f"rays per step: {np.mean(rays):.0f} on average (the ngp batch takes as many of the "
+                       f"{t.batch_rays} drawn as fit {cfg.sampler.max_samples} samples)")
+        if interrupted:
+            tqdm.write(f"stopped at step {step}; checkpoint saved in {self.ckpt_dir}. Resume with:\n"
+                       f"  nerfkit train {shlex.quote(str(self.data_dir))} --out {shlex.quote(str(self.run_dir))} --resume")
+        return TrainResult(self.run_dir, step, last_val, sps, interrupted)

@@ -1,0 +1,185 @@
+"""`--preset splat` through the same command line as the radiance fields: train, resume, eval, render, the
+exports (splat .ply, cameras, point cloud) and the refusals; SfM-point initialisation."""
+
+import json
+
+import numpy as np
+import pytest
+from plyfile import PlyData
+
+from nerfkit.cli.main import main
+from nerfkit.data.formats.nerfstudio import write_nerfstudio
+from nerfkit.data.loader import load_scene, read_capture
+from nerfkit.data.procedural.scene import make_scene
+from nerfkit.models.splat.method import SplatModel, find_sfm_points
+from nerfkit.models.splat.model import render
+from nerfkit.models.splat.ply import import_ply
+from nerfkit.run.folder import RunFolder
+
+TRAIN = ["--preset", "splat", "--no-progress", "--capacity", "2000", "--max-steps", "40"]
+
+
+@pytest.fixture
+def run(splat_run, tmp_path):
+    """A copy of the shared run (tests here write evaluations and exports into it)."""
+    import shutil
+
+    scene, out = splat_run
+    shutil.copytree(out, tmp_path / "run")
+    return scene, tmp_path / "run"
+
+
+def test_run_folder_like_the_other_presets(run):
+    _, out = run
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["field"]["kind"] == "splat" and cfg["splat"]["capacity"] == 2000
+    rows = [json.loads(x) for x in (out / "metrics.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in rows] == [50, 100, 150, 200]
+    assert all({"loss", "psnr", "lr", "elapsed", "gaussians"} <= set(r) for r in rows)
+    assert rows[-1]["loss"] < rows[0]["loss"]  # the photometric loss falls
+    vals = [json.loads(x) for x in (out / "val_metrics.jsonl").read_text().splitlines()]
+    assert [v["step"] for v in vals] == [100, 200]
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["ckpt_00000100.msgpack",
+                                                                       "ckpt_00000200.msgpack"]
+    assert (out / "report.html").is_file() and (out / "scene.json").is_file()
+    run_ = RunFolder(out).load()
+    cfg2, model, params, aux, step = run_.cfg, run_.model, run_.params, run_.aux, run_.step
+    assert step == 200 and params["means"].shape == (2000, 3) and aux["active"].dtype == bool
+    assert 0 < float(aux["clock"]) < 600
+
+
+def test_resume_continues_to_the_total_steps(run, tmp_path):
+    scene, copy = run
+    assert main(["train", str(scene), "--out", str(copy), "--resume", "--no-progress", "--max-steps", "250",
+                 "--log-every", "50"]) == 0
+    rows = [json.loads(x) for x in (copy / "metrics.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in rows] == [50, 100, 150, 200, 250]
+    assert RunFolder(copy).load().step == 250
+
+
+def test_eval_and_render(run, tmp_path):
+    scene, out = run
+    assert main(["eval", str(out), "--split", "test"]) == 0
+    ev = json.loads((out / "eval_test.json").read_text())
+    assert ev["step"] == 200 and len(ev["per_view"]) == 2 and 8 < ev["psnr"] < 40
+    assert (out / "eval_test" / "view_000.png").is_file()
+    assert main(["render", str(out), "--split", "test", "--width", "48", "--out", str(tmp_path / "r")]) == 0
+    depth = np.load(tmp_path / "r" / "depth_0000.npy")
+    assert depth.shape == (48, 48) and np.isfinite(depth).all()
+    assert (tmp_path / "r" / "rgb.mp4").is_file() and (tmp_path / "r" / "rgb_0001.png").is_file()
+    assert main(["render", str(out), "--orbit", "3", "--out", str(tmp_path / "o")]) == 0
+    assert len(list((tmp_path / "o").glob("rgb_*.png"))) == 3
+    assert main(["eval", str(out), "--split", "test", "--chunk", "64", "--overwrite"]) == 1  # refused
+
+
+def test_export_splat_reads_back_and_renders_the_same_image(run, tmp_path, capsys):
+    scene, out = run
+    ply = tmp_path / "scene.ply"
+    assert main(["export", "splat", str(out), "--out", str(ply)]) == 0
+    v = PlyData.read(str(ply))["vertex"]
+    names = list(v.data.dtype.names)
+    assert names[:9] == ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"]
+    assert names[9:54] == [f"f_rest_{i}" for i in range(45)]
+    assert names[54:] == ["opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
+    run_ = RunFolder(out).load()
+    cfg, model, params, aux = run_.cfg, run_.model, run_.params, run_.aux
+    active = np.asarray(aux["active"], bool)
+    assert len(v.data) == active.sum()
+    # The file (capture coordinates) moved back by scene.json's transform renders the run's own image.
+    sc = json.loads((out / "scene.json").read_text())
+    back = import_ply(ply, transform=np.asarray(sc["transform"]))
+    test = load_scene(scene, "test")
+    mine = {k: np.asarray(params[k])[active] for k in back}
+    a = render(mine, test.poses[0], test.cameras[0])["rgb"]
+    b = render(back, test.poses[0], test.cameras[0])["rgb"]
+    np.testing.assert_allclose(a, b, atol=1e-4)
+    assert main(["export", "splat", str(out), "--out", str(ply)]) == 1  # never replaced without --overwrite
+    assert "--overwrite" in capsys.readouterr().err
+    assert main(["export", "splat", str(out), "--out", str(ply), "--overwrite"]) == 0
+    assert (out / "exports" / "splat.png").is_file()
+    assert main(["export", "mesh", str(out), "--out", str(tmp_path / "m.ply")]) == 1
+    assert "export splat" in capsys.readouterr().err
+    assert main(["export", "cameras", str(out), "--out", str(tmp_path / "c.json")]) == 0
+
+
+def test_pointcloud_is_the_centres(run, tmp_path, capsys):
+    import trimesh
+
+    scene, out = run
+    run_ = RunFolder(out).load()
+    cfg, model, params, aux = run_.cfg, run_.model, run_.params, run_.aux
+    active = np.asarray(aux["active"], bool)
+    opacity = 1 / (1 + np.exp(-np.asarray(params["opacity"])[active]))
+    assert main(["export", "pointcloud", str(out), "--out", str(tmp_path / "p.ply"), "--min-opacity", "0.05",
+                 "--voxel-size", "0"]) == 0
+    pts = np.asarray(trimesh.load(tmp_path / "p.ply").vertices)
+    assert len(pts) == (opacity >= 0.05).sum() > 0
+    sc = json.loads((out / "scene.json").read_text())
+    m = np.asarray(sc["transform"])
+    want = np.asarray(params["means"])[active][opacity >= 0.05]
+    np.testing.assert_allclose(pts @ m[:3, :3].T + m[:3, 3], want, atol=1e-4)  # capture coordinates
+    assert main(["export", "pointcloud", str(out), "--out", str(tmp_path / "q.ply"), "--split", "test"]) == 1
+    assert "--split" in capsys.readouterr().err and not (tmp_path / "q.ply").exists()
+
+
+def test_init_from_sfm_points(tmp_path):
+    """A nerfstudio capture with sparse_pc.ply: the Gaussians start at its points, in the normalised frame."""
+    import trimesh
+
+    scene = make_scene(tmp_path / "scene", size=16, n_train=6, n_val=1, n_test=1)
+    from nerfkit.data.formats.blender import read_blender
+
+    frames = read_blender(scene, "train").frames("train")
+    write_nerfstudio(scene / "transforms.json", [{"file_path": str(f.image.relative_to(scene)),
+                                                  "transform_matrix": f.c2w} for f in frames],
+                     [f.camera for f in frames])
+    pts = np.random.default_rng(0).uniform(-1, 1, (200, 3))
+    rgba = np.concatenate([np.full((200, 3), 200, np.uint8), np.full((200, 1), 255, np.uint8)], 1)
+    trimesh.PointCloud(pts, colors=rgba).export(scene / "sparse_pc.ply")
+    cap = read_capture(scene, "train", "nerfstudio")
+    assert find_sfm_points(cap) == scene / "sparse_pc.ply"
+    data = load_scene(scene, "train", format="nerfstudio")
+    from nerfkit.core.presets import preset
+
+    model = SplatModel(preset("splat"))
+    model.bind_data(cap, data, log=lambda *_: None)
+    params, aux = model.init()
+    m = np.asarray(data.transform)
+    np.testing.assert_allclose(params["means"][:200], pts @ m[:3, :3].T + m[:3, 3], atol=1e-5)
+    assert aux["active"].sum() == 200
+    colour = 0.28209479 * params["sh_dc"][:200, 0] + 0.5
+    np.testing.assert_allclose(colour, 200 / 255, atol=1e-5)
+
+
+def test_sfm_init_refused_without_points(run, tmp_path, capsys):
+    scene, _ = run
+    assert main(["train", str(scene), "--out", str(tmp_path / "x"), *TRAIN, "--init-points", "sfm"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "init-points" in err and err.count("\n") == 0 and not (tmp_path / "x").exists()
+
+
+def test_init_from_colmap_points(tmp_path):
+    """A COLMAP capture's points3D (with colours) seed the Gaussians, moved into the normalised frame."""
+    from nerfkit.core.presets import preset
+    from nerfkit.data.formats.colmap import read_colmap, write_colmap
+    from nerfkit.data.procedural.captures import make_capture
+
+    root = make_capture(tmp_path / "cap", "colmap", n_views=6, size=16)
+    cap = read_colmap(root, 8, True)
+    frames = cap.frames("all")
+    pts = np.random.default_rng(1).uniform(-1, 1, (50, 3))
+    cols = np.tile(np.uint8([[10, 200, 30]]), (50, 1))
+    write_colmap(root / "sparse" / "0", [f.image.name for f in frames], np.stack([f.c2w for f in frames]),
+                 [f.camera for f in frames], pts, cols)
+    cap = read_colmap(root, 8, True)
+    data = load_scene(root, "train", format="colmap")
+    assert not np.allclose(data.transform, np.eye(4))  # photo captures are normalised
+    model = SplatModel(preset("splat"))
+    model.bind_data(cap, data, log=lambda *_: None)
+    params, aux = model.init()
+    m = np.asarray(data.transform)
+    got = params["means"][:50][np.lexsort(params["means"][:50].T)]
+    want = (pts @ m[:3, :3].T + m[:3, 3])
+    np.testing.assert_allclose(got, want[np.lexsort(want.T)], atol=1e-4)
+    np.testing.assert_allclose(0.28209479 * params["sh_dc"][:50, 0] + 0.5, np.tile([10, 200, 30], (50, 1)) / 255,
+                               atol=1e-5)

@@ -1,0 +1,79 @@
+"""Gaussian parameters: initialisation from points / at random, point-cloud reading, render() outputs."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import trimesh
+
+from nerfkit.models.splat.model import (
+    INIT_OPACITY,
+    N_REST,
+    init_from_points,
+    init_random,
+    knn_log_scales,
+    read_points,
+    render,
+)
+from nerfkit.models.splat.project import sh_colors
+from nerfkit.rays.cameras import Camera, look_at
+
+CAM = Camera.pinhole(40, 32, 45.0)
+C2W = look_at(np.array([0.0, -4.0, 0.0]), np.zeros(3))
+
+
+def test_init_from_points_grid():
+    # a grid of spacing h: every inner point has 6 neighbours at distance h, so the 3-NN mean is h
+    h = 0.1
+    g = np.stack(np.meshgrid(*[np.arange(5) * h] * 3, indexing="ij"), -1).reshape(-1, 3)
+    colors = np.random.default_rng(0).uniform(size=(len(g), 3)).astype(np.float32)
+    p = init_from_points(g, colors)
+    assert {k: v.shape for k, v in p.items()} == {
+        "means": (125, 3), "log_scales": (125, 3), "quats": (125, 4), "opacity": (125,), "sh_dc": (125, 1, 3),
+        "sh_rest": (125, N_REST, 3)}
+    np.testing.assert_allclose(np.exp(p["log_scales"]), h, rtol=1e-5)
+    np.testing.assert_array_equal(p["quats"], np.tile([1, 0, 0, 0], (125, 1)))
+    np.testing.assert_allclose(1 / (1 + np.exp(-p["opacity"])), INIT_OPACITY, rtol=1e-6)
+    sh = jnp.concatenate([jnp.asarray(p["sh_dc"]), jnp.asarray(p["sh_rest"])], 1)
+    col = sh_colors(sh, jnp.asarray(p["means"]), jnp.array([0.0, 0.0, 5.0]), 3)  # bands >= 1 are zero
+    np.testing.assert_allclose(col, colors, atol=1e-6)
+    # uint8 colours are divided by 255; a duplicated point gets the floor, not log(0)
+    q = init_from_points(np.zeros((4, 3)), np.full((4, 3), 255, np.uint8))
+    assert np.all(np.isfinite(q["log_scales"]))
+    assert knn_log_scales(np.zeros((1, 3))).shape == (1, 3)
+
+
+def test_init_random_in_box():
+    p = init_random(500, box=1.5, seed=3)
+    assert p["means"].shape == (500, 3) and np.abs(p["means"]).max() <= 1.5
+    assert np.all(np.isfinite(p["log_scales"])) and p["means"].dtype == np.float32
+
+
+def test_read_points_ply_with_transform(tmp_path):
+    pts = np.random.default_rng(1).normal(size=(30, 3))
+    rgba = np.concatenate([np.random.default_rng(2).integers(0, 256, (30, 3)), np.full((30, 1), 255)], 1)
+    trimesh.PointCloud(pts, colors=rgba.astype(np.uint8)).export(tmp_path / "sparse_pc.ply")
+    m = np.diag([2.0, 2.0, 2.0, 1.0])
+    m[:3, 3] = [1, 2, 3]
+    xyz, col = read_points(tmp_path / "sparse_pc.ply", transform=m)
+    np.testing.assert_allclose(xyz, 2 * pts + [1, 2, 3], atol=2e-6)  # float32 in the file
+    np.testing.assert_allclose(col, rgba[:, :3] / 255.0, atol=1e-6)
+
+
+def test_render_outputs_and_depth():
+    # one opaque-ish Gaussian at the origin, 4 units in front of the camera
+    p = init_from_points(np.zeros((1, 3)), np.array([[0.2, 0.4, 0.6]]), opacity=0.9)
+    p["log_scales"][:] = np.log(0.3)
+    out = render(p, C2W, CAM, background=(1.0, 1.0, 1.0))
+    assert out["rgb"].shape == (32, 40, 3) and out["depth"].shape == (32, 40) and out["alpha"].shape == (32, 40)
+    a = out["alpha"][16, 20]
+    assert 0.85 < a <= 0.9  # the centre pixel is 0.5 px off the mean
+    np.testing.assert_allclose(out["rgb"][16, 20], a * np.array([0.2, 0.4, 0.6]) + (1 - a), atol=1e-5)
+    np.testing.assert_allclose(out["depth"], 4.0 * out["alpha"], atol=1e-5)  # sum_k w_k z_k, z = 4
+    assert out["alpha"][0, 0] == 0.0 and np.allclose(out["rgb"][0, 0], 1.0)
+    assert "depth" not in render(p, C2W, CAM, depth=False)
+
+
+def test_distorted_camera_refused():
+    cam = Camera(40, 32, 45.0, 45.0, 20.0, 16.0, "OPENCV", (45.0, 45.0, 20.0, 16.0, 0.1, 0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="pinhole"):
+        render(init_random(3), C2W, cam)
