@@ -115,7 +115,8 @@ def test_readme_and_help_agree_on_the_numbers_they_share():
     from nerfkit.cli.help import train_help
     from nerfkit.viewer.run import TRAINING_FRACTION
 
-    readme, helptext = (" ".join(t.split()) for t in (README.read_text(), train_help("ngp")))
+    docs = "\n".join(p.read_text() for p in [README, *sorted(README.with_name("docs").rglob("*.md"))])
+    readme, helptext = (" ".join(t.split()) for t in (docs, train_help("ngp")))
     share = f"{TRAINING_FRACTION:.0%}"
     assert f"at most {share} of the wall time" in helptext
     assert f"below {share} of" in readme  # the viewer section

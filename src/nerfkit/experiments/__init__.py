@@ -4,6 +4,8 @@ in one folder (results table, overlaid curves, image grids, HTML report).
     pe_ablation.py   what positional encoding buys (the reference report's question)
     antialias.py     nerf vs mipnerf, ngp vs ngp --antialias on multiscale data (mip-NeRF's protocol)
     common.py        what they share: budgets, overlaid curves, labelled image grids
+    benchmark.py     `nerfkit benchmark`: every scene under a folder, one table
+    report.py        the HTML page of an experiment
 """
 
 from nerfkit.experiments.antialias import ANTIALIAS_MODELS, antialias_experiment
