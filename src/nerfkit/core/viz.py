@@ -11,6 +11,7 @@ import imageio.v2 as imageio_v2
 import imageio.v3 as iio
 import matplotlib
 import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
 matplotlib.use("Agg")
 
@@ -75,8 +76,6 @@ MIN_PANEL_PX = 112  # narrower images are enlarged (nearest neighbour) in compar
 
 def _text_image(width: int, height: int, lines: list[tuple[int, str]], background=255) -> np.ndarray:
     """A [height, width, 3] float image with text drawn at the given rows (Pillow's built-in font)."""
-    from PIL import Image, ImageDraw, ImageFont
-
     im = Image.new("RGB", (max(width, 1), max(height, 1)), (background,) * 3)
     draw = ImageDraw.Draw(im)
     font = ImageFont.load_default()

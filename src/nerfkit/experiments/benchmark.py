@@ -27,6 +27,9 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable
 
+import jax
+import numpy as np
+
 from nerfkit.core.errors import ConfigError, DataError, NerfkitError
 from nerfkit.core.presets import preset as make_preset
 from nerfkit.core.presets import set_budget
@@ -156,8 +159,6 @@ def failed_row(scene: Path, error: str) -> dict:
 
 
 def _gpu_count() -> int:
-    import jax
-
     return len([d for d in jax.devices() if d.platform == "gpu"])
 
 
@@ -197,8 +198,6 @@ def write_table(out: Path, rows: list[dict], preset: str, budget_text: str) -> d
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
-
     done = [r for r in rows if r.get("status", "finished") == "finished"]
     failed = [r["scene"] for r in rows if r not in done]
     mean = {k: float(np.mean([r[k] for r in done])) if done else None for k in ("psnr", "ssim")}

@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 from scipy import ndimage
 
 from nerfkit.export.files import write_atomic
@@ -84,8 +85,6 @@ def write_textured(out: Path, verts: np.ndarray, faces: np.ndarray, uv: np.ndarr
     """Write a textured mesh with trimesh: .glb (binary glTF, texture embedded) or .obj + .mtl + .png.
     Returns the files written."""
     import trimesh
-    from PIL import Image
-
     out = Path(out)
     material = trimesh.visual.material.SimpleMaterial(image=Image.fromarray(image))
     visual = trimesh.visual.TextureVisuals(uv=uv, material=material)

@@ -27,6 +27,7 @@ import time
 import jax
 import jax.numpy as jnp
 import numpy as np
+from tqdm.auto import tqdm
 
 from nerfkit.core.errors import NerfkitError
 from nerfkit.export.carve import pixel_footprint
@@ -151,8 +152,6 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     """The fused surface in the normalised frame: (verts [V, 3], faces [F, 3], record fields). Renders
     every `every`-th training view (default: about FUSION_VIEWS; PIXELS_PER_CELL x resolution pixels
     wide), fuses their depth on the grid of [-bound, bound]^3 and takes F = 0."""
-    from tqdm.auto import tqdm
-
     t0 = time.perf_counter()
     views = render_views(run, every=every, data=data, pinhole=True, progress=progress, target=FUSION_VIEWS,
                          width=PIXELS_PER_CELL * resolution)

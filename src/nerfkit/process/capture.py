@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import tempfile
 import time
 from pathlib import Path
 
@@ -232,8 +233,6 @@ def process_video(video: Path, out: Path, n_frames: int = 120, masks: Path | Non
                   progress: bool = True, log=print) -> dict:
     """Sample `n_frames` sharp frames of a video (process/video.py), then as process_images
     (matching "auto" is sequential: video frames come in order)."""
-    import tempfile
-
     video, out = Path(video), Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())) and not overwrite:
         raise DataError(f"{out}: already exists; choose a new --out or pass --overwrite")

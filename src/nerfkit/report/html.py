@@ -11,6 +11,8 @@ import os
 from pathlib import Path
 from urllib.parse import quote
 
+from PIL import Image
+
 CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0; color: #1d2330;
        background: #f4f5f7; line-height: 1.45; }
@@ -61,8 +63,6 @@ def rel_url(path: Path, base: Path) -> str:
 
 def image_size(path: Path) -> tuple[int, int] | None:
     try:
-        from PIL import Image
-
         with Image.open(path) as im:
             return im.size
     except Exception:  # unreadable or not an image: no size hint

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import ipaddress
+import signal
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
 from nerfkit.core.errors import ConfigError, DataError
 from nerfkit.core.viz import background_rgb, to_uint8
@@ -51,8 +53,6 @@ def thumbnails(images: np.ndarray | list, side: int = THUMB) -> list[np.ndarray]
 
 
 def _photo_thumbnails(data_dir: Path, names: list[str]) -> list[np.ndarray] | None:
-    from PIL import Image
-
     out = []
     for name in names:
         path = Path(name) if Path(name).is_absolute() else data_dir / name
@@ -111,8 +111,6 @@ def serve_until_interrupted(viewer: Viewer, message: str) -> None:
     (the caller closes the viewer). The handler is in place before the message appears, so a Ctrl-C right
     after it stops cleanly. SIGINT raises KeyboardInterrupt here even when the process started with it
     ignored (a background job of a script), as `nerfkit train` stops on it (stopping.StopFlag)."""
-    import signal
-
     old = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         print(message, flush=True)
