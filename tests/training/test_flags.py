@@ -26,7 +26,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from nerfkit.cli.main import main, parse_train_args
+from nerfkit.cli.main import main
+from nerfkit.cli.train import parse_train_args
 from nerfkit.core.errors import NerfkitError
 from nerfkit.core.presets import PRESETS, preset
 from nerfkit.data.formats.nerfstudio import write_nerfstudio
