@@ -3,7 +3,7 @@
     python benchmarks/render_speed.py RUN_DIR [--data DIR] [--split "val[50:100]"] [--profile]
 
 Renders view 0 of the split (the run's own data folder unless --data) at 800x800 and 256x256 with the
-renderer `nerfkit render` uses (inference.make_renderer), once to compile, then times the median of
+renderer `nerfkit render` uses (render.images.make_renderer), once to compile, then times the median of
 3 (800) / 5 (256) renders. Also prints the rounds and the samples the wavefront renderer shaded. With
 --profile, one more 800x800 render runs under jax.profiler and the time per XLA operation kind (summed
 over the render) is printed.

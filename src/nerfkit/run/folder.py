@@ -23,7 +23,7 @@ import numpy as np
 
 from nerfkit.core.config import Config
 from nerfkit.core.errors import ConfigError, NerfkitError
-from nerfkit.models.registry import build_model
+from nerfkit.models.registry import METHODS, build_model
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.step import init_state, make_optimizer
 
@@ -70,11 +70,15 @@ class RunFolder:
         if not path.is_file():
             raise ConfigError(f"{path}: missing; is {self.path} a nerfkit run folder?")
         try:
-            return Config.from_dict(json.loads(path.read_text(encoding="utf-8")))
+            cfg = Config.from_dict(json.loads(path.read_text(encoding="utf-8")))
         except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
             raise ConfigError(f"{path}: not valid JSON ({e}); restore it or start a new run") from None
         except ConfigError as e:
             raise ConfigError(f"{path}: {e}") from None
+        if cfg.field.kind not in METHODS:
+            raise ConfigError(f"{path}: field.kind must be one of {', '.join(METHODS)} (got {cfg.field.kind!r}); "
+                              f"restore it or start a new run")
+        return cfg
 
     def scene(self) -> dict:
         """RUN/scene.json (what the run was trained on: data folder, image size, camera, capture
