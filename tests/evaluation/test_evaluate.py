@@ -4,7 +4,13 @@ import pytest
 
 from nerfkit.core.errors import ConfigError
 from nerfkit.core.presets import preset
-from nerfkit.evaluation.evaluate import OUTLIER_DB, format_eval_table, refuse_chunk, split_slug, worst_views
+from nerfkit.evaluation.evaluate import (
+    OUTLIER_DB,
+    format_eval_table,
+    refuse_chunk,
+    split_slug,
+    worst_views,
+)
 
 
 def test_split_slug_is_file_name_safe():
