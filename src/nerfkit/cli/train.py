@@ -25,11 +25,17 @@ from nerfkit.core.presets import (
 from nerfkit.training.flags import explicit_settings
 
 
-def parse_train_args(argv: list[str]) -> TrainArgs:
-    """`nerfkit train` arguments: the preset's config (or, with --resume, the run's own) with the flags on top."""
+def preset_of(argv: list[str]) -> str:
+    """The --preset of argv (read before tyro parses, so help and defaults follow it), or ConfigError."""
     name = flag_value(argv, "--preset") or DEFAULT_PRESET
     if name not in PRESETS:
         raise ConfigError(f"--preset {name}: no such preset; pick one of {', '.join(PRESETS)}")
+    return name
+
+
+def parse_train_args(argv: list[str]) -> TrainArgs:
+    """`nerfkit train` arguments: the preset's config (or, with --resume, the run's own) with the flags on top."""
+    name = preset_of(argv)
     base = preset(name)
     out = flag_value(argv, "--out")
     if "--resume" in argv and out and (Path(out) / "config.json").is_file():
@@ -54,10 +60,7 @@ def cmd_train(argv: list[str]) -> int:
     if any(a in ("-h", "--help", "--help-all") for a in argv):
         from nerfkit.cli.help import train_help
 
-        name = flag_value(argv, "--preset") or DEFAULT_PRESET
-        if name not in PRESETS:
-            raise ConfigError(f"--preset {name}: no such preset; pick one of {', '.join(PRESETS)}")
-        print(train_help(name, full="--help-all" in argv))
+        print(train_help(preset_of(argv), full="--help-all" in argv))
         return 0
     args = parse_train_args(argv)
     from nerfkit.training.parallel import init_distributed, is_primary

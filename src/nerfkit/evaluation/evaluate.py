@@ -64,14 +64,15 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
         raise ConfigError(f"--every must be >= 1 (got {every})")
     check_chunk(chunk)
     run_dir = Path(run_dir)
-    trained = RunFolder(run_dir).load(checkpoint, scene=False)
+    folder = RunFolder(run_dir)
+    trained = folder.load(checkpoint, scene=False)
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
     refuse_chunk(cfg, chunk)
     if baked is not None:
         scene = load_baked(baked)
         model = BakedModel(scene)
         (params, aux), step = model.params_and_aux(scene), scene.meta.get("step_trained", step)
-    data_dir = RunFolder(run_dir).data_dir(data_dir)
+    data_dir = folder.data_dir(data_dir)
     d = cfg.data
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
@@ -203,11 +204,12 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
         if v is not None and v < 1:
             raise ConfigError(f"{name} must be positive (got {v})")
     run_dir = Path(run_dir)
-    trained = RunFolder(run_dir).load(scene=False)
+    folder = RunFolder(run_dir)
+    trained = folder.load()
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
     refuse_chunk(cfg, chunk)
-    data_dir = RunFolder(run_dir).data_dir(data_dir)
-    scene = RunFolder(run_dir).scene()
+    data_dir = folder.data_dir(data_dir)
+    scene = trained.scene
     d = cfg.data
     cap = read_capture(data_dir, cfg.data.train_split if split is None else split, d.format, d.masks, d.holdout_every)
     path = read_camera_path(camera_path) if camera_path is not None else None

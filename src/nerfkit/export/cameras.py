@@ -51,9 +51,10 @@ def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = N
         raise ConfigError(f"{run_dir}: not a run folder (no config.json); pass a folder written by nerfkit train")
     out = check_out(Path(out) if out is not None else run_dir / "exports" / "cameras.json", (".json",), overwrite)
     t0 = time.perf_counter()
-    cfg = RunFolder(run_dir).config()
+    folder = RunFolder(run_dir)
+    cfg = folder.config()
     d = cfg.data
-    root = RunFolder(run_dir).data_dir(data)
+    root = folder.data_dir(data)
     spec = f"{d.train_split},{d.val_split},{every_split(root)}" + (f",{split}" if split else "")
     cap = read_capture(root, spec, d.format, d.masks, d.holdout_every)
     tagged = frame_splits(cap, d.train_split, d.val_split)
@@ -71,12 +72,12 @@ def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = N
     write_atomic(out, lambda tmp: write_nerfstudio(tmp, rows, [f.camera for f in frames], extra=extra))
     c2ws = np.stack([f.c2w for f in frames]).astype(np.float64)
     what = split or ", ".join(f"{n} {s}" for s, n in counts.items())
-    picture = plot_cameras(RunFolder(run_dir).exports / "cameras.png", c2ws, [f.camera for f in frames],
+    picture = plot_cameras(folder.exports / "cameras.png", c2ws, [f.camera for f in frames],
                            title=f"{out.name}: {len(frames)} cameras ({what})")
     log(f"cameras: {len(frames)} frames ({what}; {cap.format} capture) in nerfstudio's transforms.json layout")
     record = {"kind": "cameras", "file": str(out.resolve()), "split": split or "all", "splits": counts,
               "frames": len(frames), "format": "nerfstudio transforms.json",
               "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (OpenGL camera-to-world)"}
-    RunFolder(run_dir).write_record("cameras", record)
+    folder.write_record("cameras", record)
     return record

@@ -47,7 +47,8 @@ def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False
         raise ConfigError(f"{run_dir}: not a run folder (no config.json); pass a folder written by nerfkit train")
     out = check_out(Path(out) if out is not None else run_dir / "exports" / "splat.ply", (".ply",), overwrite)
     t0 = time.perf_counter()
-    run = RunFolder(run_dir).load()
+    folder = RunFolder(run_dir)
+    run = folder.load()
     if not is_splat_run(run):
         raise ConfigError(f"{run_dir}: a {run.cfg.field.kind} radiance field, not Gaussian splats; export splat "
                           f"needs a run of --preset splat (for this run: nerfkit export mesh or pointcloud)")
@@ -58,12 +59,12 @@ def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False
     back = import_ply(out, transform=run.transform)
     pose = np.asarray(run.scene["train_poses"][0], np.float64)
     background = run.model.background
-    picture = RunFolder(run_dir).exports / "splat.png"
+    picture = folder.exports / "splat.png"
     save_png(picture, np.clip(render(back, pose, Camera.from_json(run.scene["camera"]), background, degree)["rgb"], 0, 1))
     log(f"splat: {len(gaussians['means'])} Gaussians, SH degree {degree}, Inria .ply layout, capture coordinates")
     record = {"kind": "splat", "file": str(out.resolve()), "gaussians": int(len(gaussians["means"])),
               "sh_degree": degree, "coordinates": "capture (scene.json transform undone)",
               "layout": "Inria 3DGS .ply (x y z nx ny nz f_dc_* f_rest_* opacity scale_* rot_*)",
               "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name, "step": run.step}
-    RunFolder(run_dir).write_record("splat", record)
+    folder.write_record("splat", record)
     return record
