@@ -147,8 +147,9 @@ def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
 
     for renderer in (WavefrontRenderer(model, chunk=64), OneSamplePerSlot(model, chunk=64)):
         fast = renderer.render_rays(params, aux, o, d)
-        for k in ("rgb", "depth", "depth_normalized", "opacity"):
+        for k in ("rgb", "depth", "depth_normalized", "depth_median", "opacity"):
             np.testing.assert_allclose(fast[k], ref[k], rtol=1e-5, atol=1e-5, err_msg=k)
+    assert 0.1 < np.mean(ref["opacity"] >= 0.5) < 0.9  # medians of hits and the far end of misses compared
     assert ref["opacity"].max() > 0.99  # rays do end: the comparison covers early termination
     if scene_type == "bounded":
         assert ref["opacity"].min() < 0.01  # and rays that cross empty space only

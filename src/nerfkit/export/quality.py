@@ -7,8 +7,10 @@ centre a triangle covers, raster.py):
 
 (an empty mesh scores 0, a mesh filling the image scores |S_k| / image: neither passes). Depth:
 on the pixels both the mesh and the field cover (field opacity >= 1/2), the share where the mesh's
-z-depth is within `tol` of the field's rendered z-depth (or of the exact depth, where known); and the
-same share on the "interior" pixels only: more than EDGE_PX pixels from the silhouette's edge and
+z-depth is within `tol` of the field's rendered z-depth (the expected depth given a hit; and its
+median depth, where the ray turns half opaque, render/volume.py: the expected depth of a ray that
+grazes a soft edge and goes on to the floor lies on no surface, so no mesh can match it there; or
+the exact depth, where known); and the same share on the "interior" pixels only: more than EDGE_PX pixels from the silhouette's edge and
 from a jump of the field's depth by more than `tol` between neighbours (where a sub-pixel shift of
 an edge swaps a foreground depth for a background one).
 """
@@ -56,9 +58,10 @@ def interior_pixels(silhouette: np.ndarray, depth: np.ndarray, tol: float) -> np
 
 def mesh_against_views(verts: np.ndarray, faces: np.ndarray, poses: np.ndarray, cameras: list, silhouettes: list,
                        field_depth: list | None = None, field_opacity: list | None = None,
-                       tol: float | None = None) -> dict:
+                       tol: float | None = None, field_median: list | None = None) -> dict:
     """Per-view IoU / precision / recall (and depth agreement within tol with the field's depth, when
-    given) of a mesh (normalised frame: verts [V, 3], faces [F, 3]) in views (poses [V, 4, 4], cameras,
+    given: depth_within_tol, depth_within_tol_interior, and depth_within_tol_median with its median
+    depth) of a mesh (normalised frame: verts [V, 3], faces [F, 3]) in views (poses [V, 4, 4], cameras,
     silhouettes bool [H, W]); with their means and minima."""
     rows = []
     for k, (pose, cam, sil) in enumerate(zip(poses, cameras, silhouettes)):
@@ -69,6 +72,8 @@ def mesh_against_views(verts: np.ndarray, faces: np.ndarray, poses: np.ndarray, 
             row["depth_within_tol"], row["depth_pixels"] = depth_agreement(d, field_depth[k], valid, tol)
             inner = valid & interior_pixels(sil, field_depth[k], tol)
             row["depth_within_tol_interior"], row["interior_pixels"] = depth_agreement(d, field_depth[k], inner, tol)
+            if field_median is not None:
+                row["depth_within_tol_median"], _ = depth_agreement(d, field_median[k], valid, tol)
         rows.append(row)
     out = {"views": rows}
     for key in rows[0] if rows else ():

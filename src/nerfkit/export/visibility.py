@@ -34,11 +34,13 @@ DEFAULT_VIEWS = 32  # when no --every is given: about this many views, evenly sp
 @dataclass
 class Views:
     """Rendered views (normalised frame): c2w [V, 4, 4], intrinsics [V, 4] = (fx, fy, cx, cy),
-    depth / opacity [V, H, W], rgb [V, H, W, 3], and the pinhole cameras."""
+    depth (expected, given a hit) / median depth (where the ray turns half opaque, volume.py) / opacity
+    [V, H, W], rgb [V, H, W, 3], and the pinhole cameras."""
 
     c2w: np.ndarray
     intrinsics: np.ndarray
     depth: np.ndarray
+    median: np.ndarray
     opacity: np.ndarray
     rgb: np.ndarray
     cameras: list[Camera]
@@ -67,7 +69,8 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
             for k, cam in zip(tqdm(ids, desc="render views", unit="view", disable=not progress), cams)]
     return Views(np.stack([sel.poses[k] for k in ids]).astype(np.float32),
                  np.array([[c.fx, c.fy, c.cx, c.cy] for c in cams], np.float32),
-                 np.stack([o["depth_normalized"] for o in outs]), np.stack([o["opacity"] for o in outs]),
+                 np.stack([o["depth_normalized"] for o in outs]), np.stack([o["depth_median"] for o in outs]),
+                 np.stack([o["opacity"] for o in outs]),
                  np.stack([o["rgb"] for o in outs]), cams, split, every)
 
 

@@ -20,6 +20,7 @@ from nerfkit.rays.frustum import pixel_base_radius
 from nerfkit.sampling import occupancy
 
 OUTPUT_KEYS = ("rgb", "depth", "depth_normalized", "opacity")
+OPTIONAL_KEYS = ("depth_median",)  # kept where the model's render_rays gives it (the volume renderers do)
 
 
 @dataclass
@@ -34,7 +35,7 @@ class Renderer:
 
         def render_chunk(params, aux, o, d, radii):
             out = model.render_rays(params, aux, o, d, jax.random.PRNGKey(0), train=False, radii=radii)
-            res = {k: out[k] for k in OUTPUT_KEYS}
+            res = {k: out[k] for k in OUTPUT_KEYS + OPTIONAL_KEYS if k in out}
             res["complete"] = out.get("complete", jnp.ones(o.shape[0], bool))
             return res
 
@@ -62,17 +63,18 @@ class Renderer:
             done = np.asarray(res["complete"])[:m]
             if not done[0]:
                 raise RuntimeError("a single ray needs more samples than the render budget")
-            for k in OUTPUT_KEYS:
-                outs[k][idx[:m][done]] = np.asarray(res[k])[:m][done]
+            for k, v in res.items():
+                if k != "complete":
+                    outs.setdefault(k, np.zeros((n, *v.shape[1:]), np.float32))[idx[:m][done]] = np.asarray(v)[:m][done]
             pending = np.concatenate([pending[:m][~done], pending[m:]])
         return outs
 
     def render_image(self, params, aux, c2w: np.ndarray, height: int, width: int, focal: float) -> dict:
-        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of an ideal pinhole camera at c2w."""
+        """rgb [H, W, 3], depth / depth_normalized / depth_median / opacity [H, W] of an ideal pinhole camera at c2w."""
         return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
 
     def render_camera(self, params, aux, c2w: np.ndarray, camera: Camera) -> dict:
-        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of `camera` (lens model included) at c2w.
+        """rgb [H, W, 3], depth / depth_normalized / depth_median / opacity [H, W] of `camera` (lens model included) at c2w.
         Appearance embeddings, where the model has them, are the mean over training images; the
         anti-aliased models see cones of the camera's pixel size (frustum.pixel_base_radius)."""
         o, d = camera_rays(c2w, camera)
@@ -234,7 +236,11 @@ class WavefrontRenderer(Renderer):
             tau = jnp.where(ok, sigma[back] * (t1 - t0) * norm[:, None], 0.0)
             t_i = trans[:, None] * jnp.exp(-(jnp.cumsum(tau, axis=1) - tau))
             wgt = jnp.where(ok & (t_i >= model.MIN_TRANSMITTANCE), t_i * (1.0 - jnp.exp(-tau)), 0.0)
+            # The median depth (volume.py): the sample where T crosses 1/2, T_i > 1/2 >= T_i e^-tau (once
+            # per ray over all rounds, so it adds up like the depth).
+            cross = ok & (t_i > 0.5) & (t_i * jnp.exp(-tau) <= 0.5)
             return {"rgb": jnp.sum(wgt[..., None] * rgb[back], axis=1), "depth": jnp.sum(wgt * t_mid, axis=1),
+                    "depth_median": jnp.sum(jnp.where(cross, t_mid, 0.0), axis=1),
                     "opacity": jnp.sum(wgt, axis=1), "trans": trans * jnp.exp(-jnp.sum(tau, axis=1)),
                     "k_next": jnp.where(take < count, k0 + jnp.take_along_axis(pos, jnp.minimum(take, cap - 1)[:, None],
                                                                               axis=1)[:, 0],
@@ -273,11 +279,11 @@ class WavefrontRenderer(Renderer):
     def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
                     radii: np.ndarray | None = None) -> dict:
         """Render rays [N, 3] (cones of radii [N], see Renderer.render_rays); returns numpy arrays rgb [N, 3],
-        depth, depth_normalized, opacity [N]."""
+        depth, depth_normalized, depth_median, opacity [N]."""
         n, r = origins.shape[0], self.chunk
         radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
         acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32),
-               "opacity": np.zeros(n, np.float32)}
+               "depth_median": np.zeros(n, np.float32), "opacity": np.zeros(n, np.float32)}
         slot_ray = np.full(r, -1)
         o, d, rad, k0, trans = self._free_slots()
         dist = self.empty_distance(aux)
@@ -315,8 +321,9 @@ class WavefrontRenderer(Renderer):
         opacity = acc["opacity"]
         rgb = acc["rgb"] + (1.0 - opacity[:, None]) * np.asarray(self.model.background)
         depth_norm = np.where(opacity > 1e-6, acc["depth"] / np.maximum(opacity, 1e-6), self.model.far)
+        median = np.where(opacity >= 0.5, acc["depth_median"], self.model.far).astype(np.float32)
         return {"rgb": rgb.astype(np.float32), "depth": acc["depth"], "depth_normalized": depth_norm.astype(np.float32),
-                "opacity": opacity}
+                "depth_median": median, "opacity": opacity}
 
 
 class CoarseMarch:
