@@ -68,7 +68,7 @@ def main() -> None:
     poses, cams, silhouettes = sil
     renderer = make_renderer(run.model, run.cfg.train.chunk)
     t0 = time.perf_counter()
-    field = [renderer.render_camera(run.params, run.aux, p, c) for p, c in zip(poses, cams)]
+    field = [renderer.render_camera(run.params, run.aux, p, c, median=True) for p, c in zip(poses, cams)]
     print(f"rendered {len(field)} views of {a.split} in {time.perf_counter() - t0:.0f} s")
     tol = 0.01 * 2 * run.bound
     results = {"provenance": provenance(), "run": str(a.run), "split": a.split, "views": len(poses),

@@ -226,20 +226,22 @@ def test_packed_composite_equals_dense_composite():
 
 
 def test_median_depth_is_the_surface_behind_a_soft_veil_where_the_expected_depth_is_neither():
-    """A ray through a veil of opacity 0.4 at t = 3 onto an opaque wall at t = 5: the running opacity
-    crosses 1/2 at the wall, so the median depth is 5, while the expected depth, 0.4 * 3 + 0.6 * 5 = 4.2,
-    lies on neither; a ray that only meets the veil is never half opaque: median = far."""
+    """A ray through a veil of opacity 0.4 at t = 3 onto an opaque wall at t = 5: its running opacity
+    reaches half its opacity (1/2) at the wall, so the median depth is 5, while the expected depth,
+    0.4 * 3 + 0.6 * 5 = 4.2, lies on neither. A ray through a soft surface spread over t = 3, 3.5, 4
+    (opacity 0.2 each, 0.6 in all) has its median in the middle, 3.5, not at the far end where it
+    turns half opaque; a ray that hits nothing gets the far end."""
     t = jnp.asarray(np.linspace(2.0, 6.0, 9, dtype=np.float32))  # 2, 2.5, ..., 6
-    w = np.zeros((2, 9), np.float32)
-    w[:, 2] = 0.4  # the veil at t = 3
-    w[0, 6] = 0.6  # the wall at t = 5 takes what is left
-    out = composite(jnp.asarray(w), jnp.ones((2, 9, 3)), jnp.broadcast_to(t, (2, 9)), jnp.zeros(3))
-    np.testing.assert_allclose(np.asarray(out["depth_median"]), [5.0, 6.0], atol=1e-6)
+    w = np.zeros((3, 9), np.float32)
+    w[0, 2], w[0, 6] = 0.4, 0.6  # the veil at t = 3, the wall at t = 5 takes what is left
+    w[1, 2:5] = 0.2  # the soft surface
+    out = composite(jnp.asarray(w), jnp.ones((3, 9, 3)), jnp.broadcast_to(t, (3, 9)), jnp.zeros(3))
+    np.testing.assert_allclose(np.asarray(out["depth_median"]), [5.0, 3.5, 6.0], atol=1e-6)
     np.testing.assert_allclose(np.asarray(out["depth_normalized"])[0], 4.2, atol=1e-5)
-    ray = jnp.repeat(jnp.arange(2, dtype=jnp.int32), 9)
-    packed = packed_composite(jnp.asarray(w).reshape(-1), jnp.ones((18, 3)), jnp.tile(t, 2), ray, 2,
+    ray = jnp.repeat(jnp.arange(3, dtype=jnp.int32), 9)
+    packed = packed_composite(jnp.asarray(w).reshape(-1), jnp.ones((27, 3)), jnp.tile(t, 3), ray, 3,
                               jnp.zeros(3), 6.0)
-    np.testing.assert_allclose(np.asarray(packed["depth_median"]), [5.0, 6.0], atol=1e-6)
+    np.testing.assert_allclose(np.asarray(packed["depth_median"]), [5.0, 3.5, 6.0], atol=1e-6)
 
 
 def test_packed_median_depth_equals_dense():
@@ -248,14 +250,15 @@ def test_packed_median_depth_equals_dense():
     dense = composite(jnp.asarray(w_dense), jnp.asarray(rgb), jnp.asarray(t), jnp.zeros(3))
     packed = packed_composite(jnp.asarray(w_packed), jnp.asarray(flat["rgb"]), jnp.asarray(flat["t"]),
                               jnp.asarray(flat["ray"]), r, jnp.zeros(3), 6.0)
-    half = np.asarray(dense["opacity"]) >= 0.5
-    assert half.sum() >= 3  # rays that do turn half opaque, and the empty ray 0 that does not
-    np.testing.assert_allclose(np.asarray(packed["depth_median"])[half], np.asarray(dense["depth_median"])[half])
-    # the median is a sample's own t: the first at which the running opacity reaches 1/2
+    hit = np.asarray(dense["opacity"]) > 1e-6
+    assert hit.sum() == r - 1  # every ray but the empty ray 0
+    np.testing.assert_allclose(np.asarray(packed["depth_median"])[hit], np.asarray(dense["depth_median"])[hit])
+    # the median is a sample's own t: the first at which the running opacity reaches half the ray's
     cum = np.cumsum(w_dense, axis=1)
-    for k in np.flatnonzero(half):
-        assert np.asarray(dense["depth_median"])[k] == t[k, np.argmax(cum[k] >= 0.5)]
-    np.testing.assert_array_equal(np.asarray(packed["depth_median"])[~half], 6.0)
+    for k in np.flatnonzero(hit):
+        j = np.argmax(cum[k] >= 0.5 * cum[k, -1])
+        assert np.asarray(dense["depth_median"])[k] == t[k, j]
+    np.testing.assert_array_equal(np.asarray(packed["depth_median"])[~hit], 6.0)
 
 
 def test_packed_depth_normalized_of_empty_ray_matches_dense():

@@ -211,7 +211,7 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     wide), fuses their depth on the grid of [-bound, bound]^3 and takes F = 0."""
     t0 = time.perf_counter()
     views = render_views(run, every=every, data=data, pinhole=True, progress=progress, target=FUSION_VIEWS,
-                         width=PIXELS_PER_CELL * resolution)
+                         width=PIXELS_PER_CELL * resolution, median=True)
     t_render = time.perf_counter() - t0
     axis = grid_axis(bound, resolution)
     h = float(axis[1] - axis[0])

@@ -35,12 +35,12 @@ DEFAULT_VIEWS = 32  # when no --every is given: about this many views, evenly sp
 class Views:
     """Rendered views (normalised frame): c2w [V, 4, 4], intrinsics [V, 4] = (fx, fy, cx, cy),
     depth (expected, given a hit) / median depth (where the ray turns half opaque, volume.py) / opacity
-    [V, H, W], rgb [V, H, W, 3], and the pinhole cameras."""
+    [V, H, W] (median: None unless asked for), rgb [V, H, W, 3], and the pinhole cameras."""
 
     c2w: np.ndarray
     intrinsics: np.ndarray
     depth: np.ndarray
-    median: np.ndarray
+    median: np.ndarray | None
     opacity: np.ndarray
     rgb: np.ndarray
     cameras: list[Camera]
@@ -50,10 +50,10 @@ class Views:
 
 def render_views(run, split: str | None = None, every: int | None = None, data=None, chunk: int | None = None,
                  pinhole: bool = False, progress: bool = False, target: int = DEFAULT_VIEWS,
-                 width: int | None = None) -> Views:
+                 width: int | None = None, median: bool = False) -> Views:
     """Render every `every`-th view of `split` (default: the run's training split; about
     `target` views) at the training resolution, or `width` pixels wide (the same field of view).
-    pinhole: drop the lens model (for projecting points with K alone)."""
+    pinhole: drop the lens model (for projecting points with K alone); median: also the median depth."""
     d = run.cfg.data
     split = split or d.train_split
     cap = read_capture(RunFolder(run.run_dir).data_dir(data), split, d.format, d.masks, d.holdout_every)
@@ -65,11 +65,12 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
     if width is not None and cams and cams[0].width != width:
         cams = [c.scaled(width / c.width, width, round(c.height * width / c.width)) for c in cams]
     renderer = make_renderer(run.model, run.cfg.train.chunk if chunk is None else chunk)
-    outs = [renderer.render_camera(run.params, run.aux, sel.poses[k], cam)
+    outs = [renderer.render_camera(run.params, run.aux, sel.poses[k], cam, median=median)
             for k, cam in zip(tqdm(ids, desc="render views", unit="view", disable=not progress), cams)]
     return Views(np.stack([sel.poses[k] for k in ids]).astype(np.float32),
                  np.array([[c.fx, c.fy, c.cx, c.cy] for c in cams], np.float32),
-                 np.stack([o["depth_normalized"] for o in outs]), np.stack([o["depth_median"] for o in outs]),
+                 np.stack([o["depth_normalized"] for o in outs]),
+                 np.stack([o["depth_median"] for o in outs]) if median else None,
                  np.stack([o["opacity"] for o in outs]),
                  np.stack([o["rgb"] for o in outs]), cams, split, every)
 

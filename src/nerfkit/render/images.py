@@ -20,7 +20,6 @@ from nerfkit.rays.frustum import pixel_base_radius
 from nerfkit.sampling import occupancy
 
 OUTPUT_KEYS = ("rgb", "depth", "depth_normalized", "opacity")
-OPTIONAL_KEYS = ("depth_median",)  # kept where the model's render_rays gives it (the volume renderers do)
 
 
 @dataclass
@@ -33,25 +32,27 @@ class Renderer:
     def __post_init__(self):
         model = self.model
 
-        def render_chunk(params, aux, o, d, radii):
+        def render_chunk(params, aux, o, d, radii, median):
             out = model.render_rays(params, aux, o, d, jax.random.PRNGKey(0), train=False, radii=radii)
-            res = {k: out[k] for k in OUTPUT_KEYS + OPTIONAL_KEYS if k in out}
+            res = {k: out[k] for k in OUTPUT_KEYS + (("depth_median",) if median else ())}
             res["complete"] = out.get("complete", jnp.ones(o.shape[0], bool))
             return res
 
-        self._render_chunk = jax.jit(render_chunk)
+        self._render_chunk = jax.jit(render_chunk, static_argnums=5)
 
     def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
-                    radii: np.ndarray | None = None) -> dict:
+                    radii: np.ndarray | None = None, median: bool = False) -> dict:
         """Render rays [N, 3] (cones of radii [N] per unit z-depth for the anti-aliased models; None: thin
-        rays) chunk by chunk; returns numpy arrays rgb [N, 3], depth [N], ...
+        rays) chunk by chunk; returns numpy arrays rgb [N, 3], depth, depth_normalized, opacity [N], and
+        with `median` depth_median [N] (render/volume.py; the volume-rendered models give it).
 
         Models with a per-chunk sample budget mark rays that did not fit as incomplete;
         those rays go to the front of the next chunk (the first ray of a chunk always fits).
         """
         n = origins.shape[0]
         radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
-        outs = {k: np.zeros((n, 3) if k == "rgb" else (n,), np.float32) for k in OUTPUT_KEYS}
+        outs = {k: np.zeros((n, 3) if k == "rgb" else (n,), np.float32)
+                for k in OUTPUT_KEYS + (("depth_median",) if median else ())}
         pending = np.arange(n)
         while pending.size:
             idx = pending[:self.chunk]
@@ -59,27 +60,27 @@ class Renderer:
             if m < self.chunk:  # pad to the compiled size with copies of the last ray
                 idx = np.concatenate([idx, np.full(self.chunk - m, idx[-1])])
             res = self._render_chunk(params, aux, jnp.asarray(origins[idx]), jnp.asarray(directions[idx]),
-                                     jnp.asarray(radii[idx]))
+                                     jnp.asarray(radii[idx]), median)
             done = np.asarray(res["complete"])[:m]
             if not done[0]:
                 raise RuntimeError("a single ray needs more samples than the render budget")
-            for k, v in res.items():
-                if k != "complete":
-                    outs.setdefault(k, np.zeros((n, *v.shape[1:]), np.float32))[idx[:m][done]] = np.asarray(v)[:m][done]
+            for k in outs:
+                outs[k][idx[:m][done]] = np.asarray(res[k])[:m][done]
             pending = np.concatenate([pending[:m][~done], pending[m:]])
         return outs
 
     def render_image(self, params, aux, c2w: np.ndarray, height: int, width: int, focal: float) -> dict:
-        """rgb [H, W, 3], depth / depth_normalized / depth_median / opacity [H, W] of an ideal pinhole camera at c2w."""
+        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] of an ideal pinhole camera at c2w."""
         return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
 
-    def render_camera(self, params, aux, c2w: np.ndarray, camera: Camera) -> dict:
-        """rgb [H, W, 3], depth / depth_normalized / depth_median / opacity [H, W] of `camera` (lens model included) at c2w.
-        Appearance embeddings, where the model has them, are the mean over training images; the
-        anti-aliased models see cones of the camera's pixel size (frustum.pixel_base_radius)."""
+    def render_camera(self, params, aux, c2w: np.ndarray, camera: Camera, median: bool = False) -> dict:
+        """rgb [H, W, 3], depth / depth_normalized / opacity [H, W] (and with `median` depth_median) of
+        `camera` (lens model included) at c2w. Appearance embeddings, where the model has them, are the
+        mean over training images; the anti-aliased models see cones of the camera's pixel size
+        (frustum.pixel_base_radius)."""
         o, d = camera_rays(c2w, camera)
         radii = np.full(o.shape[0] * o.shape[1], float(pixel_base_radius(camera.fx, camera.fy)), np.float32)
-        out = self.render_rays(params, aux, o.reshape(-1, 3), d.reshape(-1, 3), radii)
+        out = self.render_rays(params, aux, o.reshape(-1, 3), d.reshape(-1, 3), radii, median)
         return {k: v.reshape(camera.height, camera.width, *v.shape[1:]) for k, v in out.items()}
 
 
@@ -211,7 +212,7 @@ class WavefrontRenderer(Renderer):
             keep = cand & occ
             return pack_bits(keep), jnp.sum(jnp.minimum(jnp.sum(keep, axis=1), cap)), ~cand[:, -1], k0
 
-        def shade(params, o, d, rad, k0, bits, trans, first, budget):
+        def shade(params, o, d, rad, k0, bits, trans, half, first, budget):
             pos, ok, rest = first_set_bits(bits, cap)  # [r, cap]
             count = jnp.sum(ok, axis=1)
             # Packing order starts at slot `first` (round robin, so no slot waits for ever); rays past the
@@ -236,9 +237,10 @@ class WavefrontRenderer(Renderer):
             tau = jnp.where(ok, sigma[back] * (t1 - t0) * norm[:, None], 0.0)
             t_i = trans[:, None] * jnp.exp(-(jnp.cumsum(tau, axis=1) - tau))
             wgt = jnp.where(ok & (t_i >= model.MIN_TRANSMITTANCE), t_i * (1.0 - jnp.exp(-tau)), 0.0)
-            # The median depth (volume.py): the sample where T crosses 1/2, T_i > 1/2 >= T_i e^-tau (once
-            # per ray over all rounds, so it adds up like the depth).
-            cross = ok & (t_i > 0.5) & (t_i * jnp.exp(-tau) <= 0.5)
+            # The median depth (volume.py): the sample where T crosses `half` = 1 - A / 2 (A: the ray's
+            # opacity, from a first pass), T_i > half >= T_i e^-tau: once per ray over all rounds, so it
+            # adds up like the depth. half < 0 never crosses.
+            cross = ok & (t_i > half[:, None]) & (t_i * jnp.exp(-tau) <= half[:, None])
             return {"rgb": jnp.sum(wgt[..., None] * rgb[back], axis=1), "depth": jnp.sum(wgt * t_mid, axis=1),
                     "depth_median": jnp.sum(jnp.where(cross, t_mid, 0.0), axis=1),
                     "opacity": jnp.sum(wgt, axis=1), "trans": trans * jnp.exp(-jnp.sum(tau, axis=1)),
@@ -274,18 +276,37 @@ class WavefrontRenderer(Renderer):
         bits, _, _, k0 = self._window(aux, self.empty_distance(aux), o, d, k0)
         k0 = np.array(k0)
         for m in self.BUDGETS:
-            jax.block_until_ready(self._shade[m](params, o, d, rad, k0, bits, trans, 0))
+            jax.block_until_ready(self._shade[m](params, o, d, rad, k0, bits, trans, -trans, 0))
 
     def render_rays(self, params, aux, origins: np.ndarray, directions: np.ndarray,
-                    radii: np.ndarray | None = None) -> dict:
+                    radii: np.ndarray | None = None, median: bool = False) -> dict:
         """Render rays [N, 3] (cones of radii [N], see Renderer.render_rays); returns numpy arrays rgb [N, 3],
-        depth, depth_normalized, depth_median, opacity [N]."""
-        n, r = origins.shape[0], self.chunk
+        depth, depth_normalized, opacity [N], and with `median` depth_median [N] (volume.py: where the
+        running opacity reaches half the ray's opacity; a second march of the rays, since a ray's
+        opacity is known only once it is spent)."""
+        n = origins.shape[0]
         radii = np.zeros(n, np.float32) if radii is None else np.broadcast_to(np.asarray(radii, np.float32), (n,))
+        acc = self._march(params, aux, origins, directions, radii, np.full(n, -1.0, np.float32))
+        opacity = acc["opacity"]
+        rgb = acc["rgb"] + (1.0 - opacity[:, None]) * np.asarray(self.model.background)
+        depth_norm = np.where(opacity > 1e-6, acc["depth"] / np.maximum(opacity, 1e-6), self.model.far)
+        out = {"rgb": rgb.astype(np.float32), "depth": acc["depth"], "depth_normalized": depth_norm.astype(np.float32),
+               "opacity": opacity}
+        if median:
+            half = np.where(opacity > 1e-6, 1.0 - 0.5 * opacity, -1.0).astype(np.float32)
+            again = self._march(params, aux, origins, directions, radii, half)["depth_median"]
+            out["depth_median"] = np.where(opacity > 1e-6, again, self.model.far).astype(np.float32)
+        return out
+
+    def _march(self, params, aux, origins, directions, radii, half) -> dict:
+        """The rounds of the wavefront (class docstring) over rays [N, 3] with median thresholds half [N]
+        (-1: none): the sums rgb [N, 3], depth, depth_median, opacity [N] of the shaded samples."""
+        n, r = origins.shape[0], self.chunk
         acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32),
                "depth_median": np.zeros(n, np.float32), "opacity": np.zeros(n, np.float32)}
         slot_ray = np.full(r, -1)
         o, d, rad, k0, trans = self._free_slots()
+        slot_half = -np.ones(r, np.float32)
         dist = self.empty_distance(aux)
         nxt = first = 0
         while True:
@@ -295,7 +316,7 @@ class WavefrontRenderer(Renderer):
                 ids = np.arange(nxt, nxt + take.size)
                 nxt += take.size
                 slot_ray[take], o[take], d[take], k0[take], trans[take] = ids, origins[ids], directions[ids], 0, 1.0
-                rad[take] = radii[ids]
+                rad[take], slot_half[take] = radii[ids], half[ids]
             live = slot_ray >= 0
             if not live.any():
                 break
@@ -303,7 +324,7 @@ class WavefrontRenderer(Renderer):
             shaded, exhausted, k0 = int(shaded), np.asarray(exhausted), np.array(k0)
             if shaded:
                 m = min([m for m in self.BUDGETS if r * m >= shaded] or [max(self.BUDGETS)])
-                res = self._shade[m](params, o, d, rad, k0, bits, trans, first)
+                res = self._shade[m](params, o, d, rad, k0, bits, trans, slot_half, first)
                 first = int(res["next_first"])
                 ids = slot_ray[live]
                 for key in acc:
@@ -318,12 +339,7 @@ class WavefrontRenderer(Renderer):
             retire = live & done
             slot_ray[retire] = -1
             k0[retire] = 1 << 30
-        opacity = acc["opacity"]
-        rgb = acc["rgb"] + (1.0 - opacity[:, None]) * np.asarray(self.model.background)
-        depth_norm = np.where(opacity > 1e-6, acc["depth"] / np.maximum(opacity, 1e-6), self.model.far)
-        median = np.where(opacity >= 0.5, acc["depth_median"], self.model.far).astype(np.float32)
-        return {"rgb": rgb.astype(np.float32), "depth": acc["depth"], "depth_normalized": depth_norm.astype(np.float32),
-                "depth_median": median, "opacity": opacity}
+        return acc
 
 
 class CoarseMarch:

@@ -9,11 +9,13 @@ Samples t_1 < ... < t_N along a ray o + t d with densities sigma_i and colours c
     colour  = sum_i w_i c_i + (1 - sum_i w_i) * background
     depth   = sum_i w_i t_i                 (z-depth, see cameras.py)
     opacity = sum_i w_i  (= 1 - T_{N+1} <= 1)
-    median  = t_j, j the first sample with sum_{i<=j} w_i >= 1/2   (where the ray turns half opaque)
+    median  = t_j, j the first sample with sum_{i<=j} w_i >= opacity / 2
 
-The median depth is a surface's depth: the expected depth mixes the surfaces a ray meets (a ray that
-grazes a soft edge and goes on to the floor gets a depth between the two), the median picks the one
-that hides the rest. Rays that never turn half opaque get the far end, as depth_normalized does.
+The median depth is the median of where the ray ends, given that it ends (as depth / opacity is
+the mean): a surface's depth, where the expected depth mixes the surfaces a ray meets (a ray that
+grazes a soft edge and goes on to the floor gets a depth between the two); and, unlike the point
+where the ray turns half opaque, it stays inside a soft surface of opacity a little over 1/2 rather
+than at its far end. Rays with (almost) no opacity get the far end, as depth_normalized does.
 
 The last sample's interval is the nominal bin width (far - near) / N rather than the
 original NeRF's 1e10: with 1e10 every ray becomes opaque at its last sample, which
@@ -49,15 +51,15 @@ def composite(weights: jnp.ndarray, rgb: jnp.ndarray, t: jnp.ndarray, background
     Returns rgb [..., 3] (on `background` [3]), depth [...] (sum w t), opacity [...],
     depth_normalized [...] = depth / opacity (the expected depth given a hit; far
     where the ray hits nothing, which cannot be told apart from the opacity alone) and
-    depth_median [...] (module docstring; far where opacity < 1/2).
+    depth_median [...] (module docstring; far where the ray hits nothing).
     """
     opacity = jnp.sum(weights, axis=-1)
     color = jnp.sum(weights[..., None] * rgb, axis=-2) + (1.0 - opacity[..., None]) * background
     depth = jnp.sum(weights * t, axis=-1)
     depth_norm = jnp.where(opacity > 1e-6, depth / jnp.maximum(opacity, 1e-6), t[..., -1])
     cum = jnp.cumsum(weights, axis=-1)
-    j = jnp.argmax(cum >= 0.5, axis=-1)
-    median = jnp.where(opacity >= 0.5, jnp.take_along_axis(t, j[..., None], axis=-1)[..., 0], t[..., -1])
+    j = jnp.argmax(cum >= 0.5 * opacity[..., None], axis=-1)
+    median = jnp.where(opacity > 1e-6, jnp.take_along_axis(t, j[..., None], axis=-1)[..., 0], t[..., -1])
     return {"rgb": color, "depth": depth, "opacity": opacity, "depth_normalized": depth_norm, "depth_median": median}
 
 
@@ -115,16 +117,19 @@ def packed_composite(weights, rgb, t, ray_idx, n_rays: int, background, far) -> 
     """Per-ray rgb [n_rays, 3], depth, opacity, depth_normalized and depth_median from packed samples [S]
     sorted by ray then t.
 
-    As `composite`; depth_normalized and depth_median are `far` for rays with (almost) no opacity
-    (depth_median: opacity < 1/2). The median's sample is the one where the ray's running opacity
-    crosses 1/2: sum_{i<j} w_i < 1/2 <= sum_{i<=j} w_i (at most one per ray).
+    As `composite`; depth_normalized and depth_median are `far` for rays with (almost) no opacity.
+    The median's sample is the one where the ray's running opacity crosses half its opacity A:
+    sum_{i<j} w_i < A / 2 <= sum_{i<=j} w_i (one per ray).
     """
     opacity = jax.ops.segment_sum(weights, ray_idx, n_rays)
     color = jax.ops.segment_sum(weights[:, None] * rgb, ray_idx, n_rays) + (1.0 - opacity[:, None]) * background
     depth = jax.ops.segment_sum(weights * t, ray_idx, n_rays)
     depth_norm = jnp.where(opacity > 1e-6, depth / jnp.maximum(opacity, 1e-6), far)
-    cum = segmented_cumsum(weights, segment_starts(ray_idx))
-    crossing = (cum - weights < 0.5) & (cum >= 0.5)
+    starts = segment_starts(ray_idx)
+    cum = segmented_cumsum(weights, starts)
+    before = jnp.where(starts, 0.0, jnp.roll(cum, 1))  # the running sum before each sample, in its ray
+    half = 0.5 * opacity[ray_idx]
+    crossing = (before < half) & (cum >= half)
     median = jax.ops.segment_sum(jnp.where(crossing, t, 0.0), ray_idx, n_rays)
-    median = jnp.where(opacity >= 0.5, median, far)
+    median = jnp.where(opacity > 1e-6, median, far)
     return {"rgb": color, "depth": depth, "opacity": opacity, "depth_normalized": depth_norm, "depth_median": median}
