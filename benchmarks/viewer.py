@@ -28,8 +28,9 @@ from nerfkit.rays.cameras import orbit_poses
 from nerfkit.render.images import make_renderer
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.trainer import Trainer
+from nerfkit.viewer.frames import viser_from_c2w
 from nerfkit.viewer.run import attach_viewer, scene_view_of_run
-from nerfkit.viewer.server import Viewer, viser_from_c2w
+from nerfkit.viewer.server import Viewer
 
 
 def wait(cond, timeout=300.0):

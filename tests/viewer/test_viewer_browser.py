@@ -26,8 +26,9 @@ from nerfkit.rays.camera_path import read_camera_path
 from nerfkit.render.images import make_renderer
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.trainer import Trainer
+from nerfkit.viewer.frames import viser_from_c2w
 from nerfkit.viewer.run import attach_viewer, scene_view_of_run
-from nerfkit.viewer.server import Viewer, viser_from_c2w
+from nerfkit.viewer.server import Viewer
 
 pytest.importorskip("viser")
 
@@ -185,3 +186,59 @@ def test_viewer_during_training(trained):
     # first (which compiles the renderer) take at most f of the wall time, plus the last frame's overshoot.
     later = st["spent"][1:]
     assert sum(later) <= st["fraction"] * st["wall"] + max(later), st
+
+
+def test_the_browser_draws_a_splat_runs_gaussians(chromium, splat_run, tmp_path):
+    """A splat run: the browser draws the Gaussians itself (viser's splats, degree-0 colour), nerfkit renders
+    nothing but on request; its picture of a training camera matches nerfkit's rasteriser at degree 0; switched
+    to "nerfkit (server)", the viewer renders frames again and the browser's splats are hidden."""
+    from nerfkit.core.metrics import psnr
+    from nerfkit.models.splat.model import PARAM_NAMES, render
+    from nerfkit.rays.cameras import Camera
+    from nerfkit.viewer.frames import DRAWN_BY
+
+    _, run_dir = splat_run
+    run_ = RunFolder(run_dir).load()
+    viewer = Viewer(make_renderer(run_.model), scene_view_of_run(run_dir, run_.cfg), tmp_path, port=0, splats=True,
+                    show_cameras=False)  # (a training camera's frustum, photo and all, would fill the view)
+    viewer.set_params(run_.params, run_.aux, run_.step)
+    viewer.server.scene.remove_by_name("/scene_box")  # its lines would cross the picture compared below
+    loop = Loop(viewer)
+    browser = Chromium(chromium, tmp_path / "profile", 400, 400, webgl=True)
+    active = np.asarray(run_.aux["active"], bool)
+    try:
+        browser.open_page()
+        browser.navigate(viewer.url)
+        st = one_client(viewer)
+        wait_for(lambda: viewer.splats.count > 0, 60, "the splats handed to the browser")
+        assert viewer.splats.count == active.sum() and viewer.frames_rendered == 1
+        pose = viewer.scene.poses[0]
+        wxyz, pos = viser_from_c2w(pose)
+        cam_fy = viewer.scene.cameras[0].fy
+        with st.handle.atomic():
+            st.handle.camera.wxyz, st.handle.camera.position = wxyz, pos
+            st.handle.camera.fov = float(2 * np.arctan(0.5 * viewer.scene.cameras[0].height / cam_fy))
+        time.sleep(1.0)
+        cam = st.handle.camera
+        w, h = cam.image_width, cam.image_height
+        got = cam.get_render(height=h, width=w)[..., :3].astype(np.float32) / 255.0
+        assert st.shown is None  # nerfkit rendered no frame for it
+        viewer.drawn_by.value = DRAWN_BY[1]
+        wait_for(still_frame_of(st), 120, "a frame rendered by nerfkit")
+        assert not viewer.splats.handle.visible and st.last_image.std() > 5
+    finally:
+        loop.close()
+        browser.close()
+        viewer.close()
+    p = {k: np.asarray(run_.params[k])[active] for k in PARAM_NAMES}
+    want = np.clip(render(p, pose, Camera.pinhole(w, h, 0.5 * h / np.tan(0.5 * cam.fov)), run_.model.background,
+                          sh_degree=0)["rgb"], 0.0, 1.0)
+    assert want.std() > 0.05, "a blank reference image: a bad test camera"
+    score = float(psnr(got, want))
+    import imageio.v3 as iio
+
+    iio.imwrite(tmp_path / "browser_vs_nerfkit.png", (np.concatenate([want, got], 1) * 255).astype(np.uint8))
+    if os.environ.get("NERFKIT_VIEWER_SPLATS_SCREENSHOT"):
+        shutil.copy(tmp_path / "browser_vs_nerfkit.png", os.environ["NERFKIT_VIEWER_SPLATS_SCREENSHOT"])
+    print(f"viewer's browser splats vs nerfkit at degree 0: {score:.2f} dB at {w}x{h}")
+    assert score >= 35.0, score  # measured 44.4 dB (500 x 313; as viser draws the exported file, test_third_party)

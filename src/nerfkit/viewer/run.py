@@ -98,7 +98,7 @@ def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: in
     trained = RunFolder(run_dir).load(scene=False)
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
     viewer = Viewer(make_renderer(model, cfg.train.chunk if chunk is None else chunk), scene_view_of_run(run_dir, cfg),
-                    run_dir, host=host, port=port)
+                    run_dir, host=host, port=port, splats=cfg.field.kind == "splat")
     viewer.set_params(params, aux, step)
     try:
         serve_until_interrupted(viewer, f"viewer for {run_dir} (step {step}) at {viewer.url}  (Ctrl-C to stop)")
@@ -133,7 +133,7 @@ def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
     # Training cameras start hidden (one click shows them): drawn with their photos, they cost a headless
     # or GPU-less browser on the same 2 cores 0.19 cores, against 0.02 hidden (measured on lego).
     trainer.viewer = Viewer(trainer.renderer, scene, trainer.run_dir, host=host, port=port,
-                            max_fraction=TRAINING_FRACTION, show_cameras=False)
+                            max_fraction=TRAINING_FRACTION, show_cameras=False, splats=trainer.cfg.field.kind == "splat")
     print(f"viewer at {trainer.viewer.url} (live while training)", flush=True)
     return trainer.viewer
 

@@ -3,7 +3,10 @@
 viser (the viewer library nerfstudio uses) owns the web page, the 3D scene (training cameras
 as frustums with their photos, the scene box, camera-path keyframes), the GUI and the
 browser's camera. nerfkit only renders: for every client whose camera or view settings
-changed, one frame, sent as the page's background image.
+changed, one frame, sent as the page's background image. A splat run's Gaussians can instead be
+drawn by the browser itself (viser's splats, splats.py: "Drawn by", the default for splats): then
+nothing is rendered here but saved views, and new parameters are handed over at most every few
+seconds while training.
 
 Progressive rendering. While a camera moves (its last update is younger than STILL_AFTER s),
 frames are previews that adapt to keep TARGET_FPS (preview_quality): first the march coarsens
@@ -19,9 +22,7 @@ viewer's share of the wall time at most `max_fraction`: after a frame that took 
 the next is not started before s (1 - f) / f seconds have passed (the first frame, which
 compiles the renderer, is not gated).
 
-Cameras. viser reports a camera as position + wxyz quaternion of an OpenCV frame (x right,
-y down, z forward) in world coordinates; nerfkit's c2w is OpenGL (x right, y up, camera looks
-down -z), so c2w[:3, :3] = R_viser diag(1, -1, -1). `fov` is vertical, in radians.
+Cameras: frames.py (viser's OpenCV frames, nerfkit's OpenGL c2w).
 """
 
 from __future__ import annotations
@@ -34,76 +35,20 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.core.viz import colorize_depth, depth_range, save_png, to_uint8
+from nerfkit.core.viz import save_png, to_uint8
 from nerfkit.rays.camera_path import write_camera_path
-from nerfkit.rays.cameras import Camera, look_at
+from nerfkit.rays.cameras import look_at
 from nerfkit.render.images import coarser
-
-FLIP_YZ = np.diag([1.0, -1.0, -1.0])
-MODES = ("RGB", "Depth", "Opacity")
-
-
-def c2w_from_viser(wxyz, position) -> np.ndarray:
-    """OpenGL camera-to-world [4, 4] of a viser camera (wxyz quaternion of an OpenCV frame, position [3])."""
-    from scipy.spatial.transform import Rotation
-
-    w, x, y, z = np.asarray(wxyz, np.float64)
-    c2w = np.eye(4)
-    c2w[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix() @ FLIP_YZ
-    c2w[:3, 3] = np.asarray(position, np.float64)
-    return c2w
-
-
-def viser_from_c2w(c2w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(wxyz [4], position [3]) of the OpenCV frame of an OpenGL camera-to-world [4, 4] (or [3, 4])."""
-    from scipy.spatial.transform import Rotation
-
-    c2w = np.asarray(c2w, np.float64)
-    x, y, z, w = Rotation.from_matrix(c2w[:3, :3] @ FLIP_YZ).as_quat()
-    return np.array([w, x, y, z]), c2w[:3, 3].copy()
-
-
-def view_camera(fov_y: float, aspect: float, max_side: int) -> Camera:
-    """A pinhole camera of vertical field of view fov_y (radians), aspect W / H, longest side max_side."""
-    if aspect >= 1.0:
-        w, h = max_side, max(1, round(max_side / aspect))
-    else:
-        w, h = max(1, round(max_side * aspect)), max_side
-    return Camera.pinhole(w, h, 0.5 * h / math.tan(0.5 * fov_y))
-
-
-def shade_output(out: dict, mode: str, background) -> np.ndarray:
-    """The [H, W, 3] image a view mode shows: RGB, turbo-coloured depth (this frame's range), or opacity."""
-    if mode == "Depth":
-        lo, hi = depth_range([out["depth_normalized"]], [out["opacity"]])
-        return colorize_depth(out["depth_normalized"], out["opacity"], lo, hi, background)
-    if mode == "Opacity":
-        return np.repeat(out["opacity"][..., None], 3, axis=-1)
-    return out["rgb"]
-
-
-def preview_size(side: int, seconds: float, target: float, full: int, lo: int = 16) -> int:
-    """The next preview's longer side after one of `side` px took `seconds`: render time ~ pixels ~ side^2,
-    so side * sqrt(target / seconds), at most doubled or halved per frame, within [lo, full]."""
-    scale = min(2.0, max(0.5, math.sqrt(target / max(seconds, 1e-6))))
-    return int(min(full, max(lo, round(side * scale))))
-
-
-def preview_quality(stride: int, side: int, seconds: float, target: float, full: int,
-                    max_stride: int) -> tuple[int, int]:
-    """The next preview's (march stride, side) after one at (stride, side) took `seconds`, for `target`
-    seconds a frame. Resolution matters more than the march: a frame that is too slow (> 1.2 target)
-    or smaller than `full` first coarsens the march, up to max_stride; at the coarsest march the side
-    follows the target (preview_size, both ways); at full resolution, a fast frame (< 0.6 target)
-    refines the march. One stride changes the time by less than 2x, so the band between the two
-    thresholds keeps the march from flapping."""
-    if stride < max_stride and (seconds > 1.2 * target or side < full):
-        return stride + 1, side
-    if stride == max_stride and (side < full or seconds > target):
-        return stride, preview_size(side, seconds, target, full)
-    if side == full and seconds < 0.6 * target:
-        return max(1, stride - 1), side
-    return stride, side
+from nerfkit.viewer.frames import (
+    DRAWN_BY,
+    MODES,
+    c2w_from_viser,
+    preview_quality,
+    shade_output,
+    view_camera,
+    viser_from_c2w,
+)
+from nerfkit.viewer.splats import SplatLayer
 
 
 def _unused_path(folder: Path, pattern: str) -> Path:
@@ -153,7 +98,9 @@ class Viewer:
     STILL_AFTER = 0.2
 
     def __init__(self, renderer, scene: SceneView, out_dir: Path, host: str = "127.0.0.1", port: int = 7007,
-                 max_fraction: float = 1.0, verbose: bool = True, show_cameras: bool = True):
+                 max_fraction: float = 1.0, verbose: bool = True, show_cameras: bool = True, splats: bool = False):
+        """splats: the model is Gaussian splats, which the browser can draw itself (splats.py): a "Drawn by"
+        choice, the browser by default."""
         import viser
 
         self.renderer, self.scene, self.out_dir = renderer, scene, Path(out_dir)
@@ -177,6 +124,7 @@ class Viewer:
         self.server.scene.set_up_direction("+z")
         self.show_cameras = show_cameras
         self._draw_scene()
+        self.splats = SplatLayer(self.server.scene) if splats else None
         self._build_gui()
         self.server.on_client_connect(self._on_connect)
         self.server.on_client_disconnect(lambda c: self._clients.pop(c.client_id, None))
@@ -226,6 +174,13 @@ class Viewer:
     def _build_gui(self) -> None:
         gui = self.server.gui
         self.info = gui.add_markdown("waiting for the first frame...")
+        self.drawn_by = None
+        if self.splats is not None:
+            self.drawn_by = gui.add_dropdown("Drawn by", DRAWN_BY, initial_value=DRAWN_BY[0],
+                                             hint="the browser draws the Gaussians itself (viser's splats, degree-0 "
+                                                  "colour) at its own frame rate; nerfkit renders every frame with "
+                                                  "its rasteriser (view-dependent colour, depth, opacity)")
+            self.drawn_by.on_update(lambda _e: self._switch_drawing())
         self.mode = gui.add_dropdown("Output", MODES, initial_value="RGB")
         self.resolution = gui.add_number("Max resolution", 256, min=32, max=2048, step=16,
                                          hint="longest side of the live view (moving: previews keep 6 frames/s)")
@@ -250,6 +205,28 @@ class Viewer:
             gui.add_button("Save camera path", hint="RUN/camera_paths/*.json; render it with "
                                                     "nerfkit render RUN --camera-path FILE").on_click(
                 lambda e: self._request(e.client, "path"))
+
+    @property
+    def browser_draws(self) -> bool:
+        """The browser draws the Gaussians (no frames are rendered here, but saved views are)."""
+        return self.drawn_by is not None and self.drawn_by.value == DRAWN_BY[0]
+
+    def _switch_drawing(self) -> None:
+        self.splats.set_visible(self.browser_draws)
+        for st in list(self._clients.values()):
+            st.shown = None  # nerfkit renders afresh; the browser gets its background back clear
+            if self.browser_draws:
+                st.handle.scene.set_background_image(None)
+
+    def _show_splats(self, now: float) -> float:
+        """Hand new parameters to the browser's splats when the throttle lets them through."""
+        if self._clients and self.splats.due(self._params_version, now):
+            self.splats.show(*self._params, self._params_version, now, visible=True)
+            self.frames_rendered += 1
+            self.info.content = (f"**step {self.step}** · {self.splats.count:,} Gaussians drawn by the browser "
+                                 f"(viser's splats, degree-0 colour)")
+            return self._spend(now)
+        return 0.0
 
     def _request(self, client, kind: str) -> None:
         with self._lock:
@@ -351,6 +328,8 @@ class Viewer:
             return time.perf_counter() - now
         if now < self._gate:
             return 0.0
+        if self.browser_draws:
+            return self._show_splats(now)
         side, mode = int(self.resolution.value), self.mode.value
         todo = []
         for st in list(self._clients.values()):
