@@ -42,14 +42,16 @@ from nerfkit.data.loader import load_scene, read_capture
 from nerfkit.evaluation.evaluate import split_slug, train_and_evaluate
 from nerfkit.experiments.common import (
     apply_settings,
-    budget_text,
+    budget_record,
+    check_at_least_one,
     check_budget,
     labelled_grid,
     overlay_plots,
+    refuse_taken,
+    write_results,
 )
 from nerfkit.report import html as h
 from nerfkit.report.run import write_report
-from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.trainer import evenly_spaced
 
 MLP_SIZES = ("small", "paper")
@@ -166,74 +168,30 @@ def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: 
     check_budget(budget_minutes, max_steps)
     if mlp_size not in MLP_SIZES:
         raise ConfigError(f"--mlp-size must be one of {', '.join(MLP_SIZES)} (got {mlp_size!r})")
-    for name, v in (("--eval-every", eval_every), ("--grid-views", grid_views)):
-        if v < 1:
-            raise ConfigError(f"{name} must be >= 1 (got {v})")
-    known = [m.run_dir for m in ANTIALIAS_MODELS]
-    chosen = known if not models else list(dict.fromkeys(models))
-    bad = [m for m in chosen if m not in known]
-    if bad:
-        raise ConfigError(f"--models: unknown model(s) {', '.join(bad)}; choose from {', '.join(known)}")
+    check_at_least_one((("--eval-every", eval_every), ("--grid-views", grid_views)))
+    chosen = chosen_models(models)
     specs = [m for m in ANTIALIAS_MODELS if m.run_dir in chosen]
     if not read_capture(data_dir, train_split or "train").levels:
         raise NerfkitError(f"{data_dir}: not multiscale data (no metadata.json); make it first with "
                            f"nerfkit make-multiscale {data_dir} --out {data_dir}_ms")
-    taken = [m.run_dir for m in specs if ckpt_lib.list_checkpoints(out / m.run_dir / "checkpoints")]
-    if taken:
-        raise NerfkitError(f"{out}: already holds model runs ({', '.join(taken)}); pick a new --out")
+    refuse_taken(out, [m.run_dir for m in specs])
     cfgs = [model_config(m, mlp_size, budget_minutes, max_steps, seed, train_split, val_split, val_every)
             for m in specs]
-    budget = {"max_minutes": budget_minutes, "max_steps": max_steps, "text": budget_text(budget_minutes, max_steps)}
+    budget = budget_record(budget_minutes, max_steps)
     log(f"anti-aliasing on {data_dir}: {len(specs)} models ({', '.join(chosen)}), {budget['text']} each; writing {out}")
 
     rows = []
     for k, (m, cfg) in enumerate(zip(specs, cfgs), 1):
-        run = out / m.run_dir
-        log(f"[{k}/{len(specs)}] {m.label} ({m.description}): training into {run}, then evaluating every scale")
-        res, rc, ev = train_and_evaluate(data_dir, run, cfg, eval_every, progress)
-        val_split = rc.data.val_split
-        write_report(run)
-        metrics = read_jsonl(run / "metrics.jsonl")
-        per_scale = ", ".join(f"{s['width']} px {s['psnr']:.2f}" for s in ev["scales"])
-        log(f"[{k}/{len(specs)}] {m.label}: step {res.step}; {per_scale}; mean {ev['psnr']:.2f} dB")
-        rows.append({"label": m.label, "description": m.description, "run_dir": m.run_dir, "preset": m.preset,
-                     "antialias": m.antialias, "depth": rc.field.depth, "width": rc.field.width,
-                     "samples": [rc.sampler.n_samples, rc.sampler.n_importance], "steps": res.step,
-                     "train_seconds": metrics[-1]["elapsed"] if metrics else None,
-                     "psnr": ev["psnr"], "ssim": ev["ssim"],
-                     "scales": [{k2: s[k2] for k2 in ("level", "width", "height", "psnr", "ssim", "n_views")}
-                                for s in ev["scales"]],
-                     "eval_json": Path(ev["written"]).relative_to(out).as_posix()})
-        train_split = rc.data.train_split
+        row, rc = _train_model(f"[{k}/{len(specs)}]", m, cfg, data_dir, out, eval_every, progress, log)
+        rows.append(row)
+        val_split, train_split = rc.data.val_split, rc.data.train_split
 
     log("writing the results table, curves, per-scale grids and report")
     plots = overlay_plots(out, [m["label"] for m in rows], [out / m["run_dir"] for m in rows])
-    levels = level_specs(read_capture(data_dir, val_split), val_split)
-    slug = split_slug(val_split) + "_multiscale"
     first = json.loads((out / rows[0]["eval_json"]).read_text())
     ids = sorted({v["view"] for v in first["per_view"]})
-    grids = []
-    d = cfgs[0].data
-    gts = [load_scene(data_dir, spec, background=d.background) for _, spec in levels]
-    for j in evenly_spaced(len(ids), grid_views):
-        k = ids[j]
-        window = detail_window(gts[0].images[k])
-        full, crops, labels = [], [], []
-        for (lvl, _), gt in zip(levels, gts):
-            imgs = [gt.images[k]] + [imread(out / m["run_dir"] / f"eval_{slug}" / f"d{lvl}" / f"view_{k:03d}_rgb.png")
-                                     [..., :3] / 255.0 for m in rows]
-            full.append(imgs)
-            crops.append([crop(im, window) for im in imgs])
-            labels.append(f"{gt.width} px")
-        cols = ["ground truth"] + [m["label"] for m in rows]
-        psnrs = {m["run_dir"]: {(p["level"], p["view"]): p["psnr"]
-                                for p in json.loads((out / m["eval_json"]).read_text())["per_view"]} for m in rows}
-        notes = [[""] + [f"{psnrs[m['run_dir']][(lvl, k)]:.2f} dB" for m in rows] for lvl, _ in levels]
-        labelled_grid(out / f"scales_view_{k:03d}.png", full, labels, cols, notes, cell_px=200)
-        labelled_grid(out / f"crops_view_{k:03d}.png", crops, labels, cols, notes, cell_px=160)
-        grids.append({"view": k, "name": gts[0].names[k], "scales": f"scales_view_{k:03d}.png",
-                      "crops": f"crops_view_{k:03d}.png", "window": list(window)})
-
+    grids = scale_grids(data_dir, out, rows, val_split, cfgs[0].data.background, [ids[j] for j in
+                                                                                  evenly_spaced(len(ids), grid_views)])
     results = {
         "experiment": "antialias", "title": "Anti-aliasing: rays vs cones on multiscale data",
         "subtitle": f"{data_dir.resolve().name} · {budget['text']} per model · MLP size {mlp_size}",
@@ -242,11 +200,72 @@ def antialias_experiment(data_dir: str | Path, out: str | Path, budget_minutes: 
         "eval": {"split": val_split, "every": eval_every, "n_views": first["n_views"]},
         "models": rows, "verdicts": verdicts(rows), "plots": plots, "grids": grids,
     }
-    (out / "results.json").write_text(json.dumps(results, indent=2))
-    (out / "results.md").write_text(_markdown(results))
+    write_results(out, results, _markdown(results))
     report = write_antialias_report(out, results)
     log(f"done: {out / 'results.md'}, {report}")
     return results
+
+
+def chosen_models(models: list[str] | None) -> list[str]:
+    """The run_dirs of ANTIALIAS_MODELS that --models names, in its order without repeats (None or empty: all);
+    ConfigError naming any unknown one."""
+    known = [m.run_dir for m in ANTIALIAS_MODELS]
+    chosen = known if not models else list(dict.fromkeys(models))
+    bad = [m for m in chosen if m not in known]
+    if bad:
+        raise ConfigError(f"--models: unknown model(s) {', '.join(bad)}; choose from {', '.join(known)}")
+    return chosen
+
+
+def _train_model(tag: str, m: AAModel, cfg: Config, data_dir: Path, out: Path, eval_every: int, progress: bool,
+                 log: Callable[[str], None]) -> tuple[dict, Config]:
+    """Train model m into OUT/<run_dir>, evaluate it at every scale and write its run report (tag: "[k/n]" in
+    the log lines). Returns (its row of results["models"], the run's resolved config)."""
+    run = out / m.run_dir
+    log(f"{tag} {m.label} ({m.description}): training into {run}, then evaluating every scale")
+    res, rc, ev = train_and_evaluate(data_dir, run, cfg, eval_every, progress)
+    write_report(run)
+    metrics = read_jsonl(run / "metrics.jsonl")
+    per_scale = ", ".join(f"{s['width']} px {s['psnr']:.2f}" for s in ev["scales"])
+    log(f"{tag} {m.label}: step {res.step}; {per_scale}; mean {ev['psnr']:.2f} dB")
+    row = {"label": m.label, "description": m.description, "run_dir": m.run_dir, "preset": m.preset,
+           "antialias": m.antialias, "depth": rc.field.depth, "width": rc.field.width,
+           "samples": [rc.sampler.n_samples, rc.sampler.n_importance], "steps": res.step,
+           "train_seconds": metrics[-1]["elapsed"] if metrics else None,
+           "psnr": ev["psnr"], "ssim": ev["ssim"],
+           "scales": [{k2: s[k2] for k2 in ("level", "width", "height", "psnr", "ssim", "n_views")}
+                      for s in ev["scales"]],
+           "eval_json": Path(ev["written"]).relative_to(out).as_posix()}
+    return row, rc
+
+
+def scale_grids(data_dir: Path, out: Path, rows: list[dict], val_split: str, background: str,
+                views: list[int]) -> list[dict]:
+    """OUT/scales_view_K.png and OUT/crops_view_K.png of each view K in views: a row per scale of the val split
+    (ground truth, then each model's render; the crop: detail_window of the full-size ground truth), each
+    render's PSNR under it. Returns [{"view", "name", "scales", "crops", "window"}]."""
+    levels = level_specs(read_capture(data_dir, val_split), val_split)
+    slug = split_slug(val_split) + "_multiscale"
+    gts = [load_scene(data_dir, spec, background=background) for _, spec in levels]
+    psnrs = {m["run_dir"]: {(p["level"], p["view"]): p["psnr"]
+                            for p in json.loads((out / m["eval_json"]).read_text())["per_view"]} for m in rows}
+    cols = ["ground truth"] + [m["label"] for m in rows]
+    grids = []
+    for k in views:
+        window = detail_window(gts[0].images[k])
+        full, crops, labels = [], [], []
+        for (lvl, _), gt in zip(levels, gts):
+            imgs = [gt.images[k]] + [imread(out / m["run_dir"] / f"eval_{slug}" / f"d{lvl}" / f"view_{k:03d}_rgb.png")
+                                     [..., :3] / 255.0 for m in rows]
+            full.append(imgs)
+            crops.append([crop(im, window) for im in imgs])
+            labels.append(f"{gt.width} px")
+        notes = [[""] + [f"{psnrs[m['run_dir']][(lvl, k)]:.2f} dB" for m in rows] for lvl, _ in levels]
+        labelled_grid(out / f"scales_view_{k:03d}.png", full, labels, cols, notes, cell_px=200)
+        labelled_grid(out / f"crops_view_{k:03d}.png", crops, labels, cols, notes, cell_px=160)
+        grids.append({"view": k, "name": gts[0].names[k], "scales": f"scales_view_{k:03d}.png",
+                      "crops": f"crops_view_{k:03d}.png", "window": list(window)})
+    return grids
 
 
 def write_antialias_report(exp: Path, results: dict) -> Path:

@@ -1,16 +1,18 @@
-"""What the experiments share: the budget sentence, overlaid curves of several runs, and labelled
-image grids (ground truth, then each model's render; depth maps below)."""
+"""What the experiments share: the argument checks, the budget sentence, the results files, overlaid curves
+of several runs, and labelled image grids (ground truth, then each model's render; depth maps below)."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from nerfkit.core.errors import ConfigError
+from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.core.presets import set_budget
 from nerfkit.core.viz import colorize_depth, depth_range, plot_curves, read_jsonl
+from nerfkit.training import checkpoint as ckpt_lib
 
 
 def budget_text(budget_minutes: float | None, max_steps: int | None) -> str:
@@ -30,6 +32,32 @@ def check_budget(budget_minutes: float | None, max_steps: int | None) -> None:
         raise ConfigError(f"--budget-minutes must be positive (got {budget_minutes})")
     if max_steps is not None and max_steps < 1:
         raise ConfigError(f"--max-steps must be >= 1 (got {max_steps})")
+
+
+def check_at_least_one(counts: tuple[tuple[str, int], ...]) -> None:
+    """ConfigError naming the first (flag, value) of counts whose value is below 1."""
+    for name, v in counts:
+        if v < 1:
+            raise ConfigError(f"{name} must be >= 1 (got {v})")
+
+
+def refuse_taken(out: Path, run_dirs: list[str]) -> None:
+    """NerfkitError when out already holds a checkpointed run in any of run_dirs (an experiment never
+    trains over an earlier one)."""
+    taken = [r for r in run_dirs if ckpt_lib.list_checkpoints(out / r / "checkpoints")]
+    if taken:
+        raise NerfkitError(f"{out}: already holds model runs ({', '.join(taken)}); pick a new --out")
+
+
+def budget_record(budget_minutes: float | None, max_steps: int | None) -> dict:
+    """The budget as results.json keeps it: {"max_minutes", "max_steps", "text"}."""
+    return {"max_minutes": budget_minutes, "max_steps": max_steps, "text": budget_text(budget_minutes, max_steps)}
+
+
+def write_results(out: Path, results: dict, markdown: str) -> None:
+    """OUT/results.json (the results dict) and OUT/results.md (its table)."""
+    (out / "results.json").write_text(json.dumps(results, indent=2))
+    (out / "results.md").write_text(markdown)
 
 
 def apply_settings(cfg, budget_minutes: float | None, max_steps: int | None, seed: int | None,

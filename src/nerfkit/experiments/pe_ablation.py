@@ -26,7 +26,8 @@ from typing import Callable
 
 from imageio.v3 import imread
 
-from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.config import Config
+from nerfkit.core.errors import ConfigError
 from nerfkit.core.presets import PRESETS
 from nerfkit.core.presets import preset as make_preset
 from nerfkit.core.viz import read_jsonl
@@ -34,17 +35,19 @@ from nerfkit.data.loader import load_scene
 from nerfkit.evaluation.evaluate import render_run, split_slug, train_and_evaluate
 from nerfkit.experiments.common import (
     apply_settings,
-    budget_text,
+    budget_record,
+    check_at_least_one,
     check_budget,
     gt_depth,
     image_grid,
     num_text,
     overlay_plots,
+    refuse_taken,
+    write_results,
 )
 from nerfkit.experiments.report import write_experiment_report
 from nerfkit.report.run import write_report
 from nerfkit.run.folder import RunFolder
-from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.trainer import evenly_spaced
 
 
@@ -105,69 +108,106 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
     train_split, val_split, target_width, downscale: the data settings (default: the data's)."""
     data_dir, out = Path(data_dir), Path(out)
     check_budget(budget_minutes, max_steps)
-    for name, v in (("--eval-every", eval_every), ("--orbit-frames", orbit_frames), ("--grid-views", grid_views)):
-        if v < 1:
-            raise ConfigError(f"{name} must be >= 1 (got {v})")
-    taken = [v.run_dir for v in PE_ABLATION if ckpt_lib.list_checkpoints(out / v.run_dir / "checkpoints")]
-    if taken:
-        raise NerfkitError(f"{out}: already holds model runs ({', '.join(taken)}); pick a new --out")
-
-    if make_preset(preset).field.kind != "mlp":
-        mlp = [p for p in PRESETS if make_preset(p).field.kind == "mlp"]
-        raise ConfigError(f"pe-ablation compares positional encodings of the MLP field; preset {preset!r} uses the "
-                          f"{make_preset(preset).field.kind!r} field. Pick an MLP preset ({', '.join(mlp)}).")
-    cfgs = []
-    for v in PE_ABLATION:
-        cfg = make_preset(preset)
-        cfg.field.pe = v.pe
-        if v.l_xyz is not None:
-            cfg.field.l_xyz = v.l_xyz
-        if v.l_dir is not None:
-            cfg.field.l_dir = v.l_dir
-        apply_settings(cfg, budget_minutes, max_steps, seed, val_every, train_split, val_split)
-        cfg.data.target_width, cfg.data.downscale = target_width, downscale
-        cfgs.append(cfg)
-    budget = {"max_minutes": budget_minutes, "max_steps": max_steps,
-              "text": budget_text(budget_minutes, max_steps)}
+    check_at_least_one((("--eval-every", eval_every), ("--orbit-frames", orbit_frames), ("--grid-views", grid_views)))
+    refuse_taken(out, [v.run_dir for v in PE_ABLATION])
+    check_mlp_preset(preset)
+    cfgs = [variant_config(v, preset, budget_minutes, max_steps, seed, val_every, train_split, val_split,
+                           target_width, downscale) for v in PE_ABLATION]
+    budget = budget_record(budget_minutes, max_steps)
     log(f"PE ablation on {data_dir}: 3 models, preset {preset}, {budget['text']} each; writing {out}")
 
     models = []
     for k, (v, cfg) in enumerate(zip(PE_ABLATION, cfgs), 1):
-        run = out / v.run_dir
-        log(f"[{k}/3] {v.label} ({v.description}): training into {run}, then evaluating (every {eval_every} "
-            f"view(s) of its val split)")
-        res, run_cfg, ev = train_and_evaluate(data_dir, run, cfg, eval_every, progress)
-        val_split = run_cfg.data.val_split  # the split the run validated on (data default or given)
-        log(f"[{k}/3] {v.label}: step {res.step}, val PSNR {ev['psnr']:.2f} dB, SSIM {ev['ssim']:.4f}; "
-            f"rendering a {orbit_frames}-frame orbit")
-        info = render_run(run, data_dir, orbit=orbit_frames, progress=progress)
-        write_report(run)
-        rows, vrows = read_jsonl(run / "metrics.jsonl"), read_jsonl(run / "val_metrics.jsonl")
-        vid = Path(info["out"])
-        models.append({
-            "label": v.label, "description": v.description, "run_dir": v.run_dir,
-            "pe": cfg.field.pe, "l_xyz": cfg.field.l_xyz if cfg.field.pe else None,
-            "l_dir": cfg.field.l_dir if cfg.field.pe else None,
-            "steps": res.step, "train_seconds": rows[-1]["elapsed"] if rows else None,
-            "steps_per_second": round(res.steps_per_second, 3),
-            "final_train_loss": rows[-1]["loss"] if rows else None,
-            "final_train_psnr": rows[-1]["psnr"] if rows else None,
-            "val_psnr_training": vrows[-1]["psnr"] if vrows else None,
-            "psnr": ev["psnr"], "ssim": ev["ssim"], "eval_json": f"{v.run_dir}/eval_{split_slug(val_split)}.json",
-            "orbit_video": (vid / "rgb.mp4").relative_to(out).as_posix(),
-            "depth_video": (vid / "depth.mp4").relative_to(out).as_posix(),
-            "video_width": info["width"],
-        })
+        row, val_split = _train_variant(k, v, cfg, data_dir, out, eval_every, orbit_frames, progress, log)
+        models.append(row)
 
     log("writing the results table, curves, image grids and report")
     ev0 = json.loads((out / models[0]["eval_json"]).read_text())
     plots = overlay_plots(out, [m["label"] for m in models], [out / m["run_dir"] for m in models])
+    grids = _grids(data_dir, out, models, val_split, [v["view"] for v in ev0["per_view"]], grid_views)
+    results = {
+        "experiment": "pe-ablation", "title": "PE ablation: what positional encoding buys",
+        "subtitle": f"{data_dir.resolve().name} · preset {preset} · {budget['text']} per model",
+        "question": PE_QUESTION,
+        "data_dir": str(data_dir.resolve()), "preset": preset, "seed": cfgs[0].train.seed, "budget": budget,
+        "eval": {"split": val_split, "every": eval_every, "n_views": ev0["n_views"]},
+        "orbit_frames": orbit_frames, "models": models, "plots": plots, "grids": grids,
+    }
+    write_results(out, results, _markdown(results))
+    report = write_experiment_report(out, results)
+    log(f"done: {out / 'results.md'}, {report}")
+    return results
 
+
+def check_mlp_preset(preset: str) -> None:
+    """ConfigError unless `preset` uses the MLP field (the only one with a positional encoding to ablate)."""
+    if make_preset(preset).field.kind != "mlp":
+        mlp = [p for p in PRESETS if make_preset(p).field.kind == "mlp"]
+        raise ConfigError(f"pe-ablation compares positional encodings of the MLP field; preset {preset!r} uses the "
+                          f"{make_preset(preset).field.kind!r} field. Pick an MLP preset ({', '.join(mlp)}).")
+
+
+def variant_config(v: Variant, preset: str, budget_minutes: float | None, max_steps: int | None, seed: int | None,
+                   val_every: int | None, train_split: str | None, val_split: str | None, target_width: int | None,
+                   downscale: int | None) -> Config:
+    """The config of variant v: `preset` with v's encoding (pe, and L_xyz / L_dir where v sets them), the
+    experiment's shared settings (common.apply_settings) and the data size."""
+    cfg = make_preset(preset)
+    cfg.field.pe = v.pe
+    if v.l_xyz is not None:
+        cfg.field.l_xyz = v.l_xyz
+    if v.l_dir is not None:
+        cfg.field.l_dir = v.l_dir
+    apply_settings(cfg, budget_minutes, max_steps, seed, val_every, train_split, val_split)
+    cfg.data.target_width, cfg.data.downscale = target_width, downscale
+    return cfg
+
+
+def _train_variant(k: int, v: Variant, cfg: Config, data_dir: Path, out: Path, eval_every: int, orbit_frames: int,
+                   progress: bool, log: Callable[[str], None]) -> tuple[dict, str]:
+    """Train variant v (the k-th of 3) into OUT/<run_dir>, evaluate it, render its orbit and write its run
+    report. Returns (its row of results["models"], the split it validated on)."""
+    run = out / v.run_dir
+    log(f"[{k}/3] {v.label} ({v.description}): training into {run}, then evaluating (every {eval_every} "
+        f"view(s) of its val split)")
+    res, run_cfg, ev = train_and_evaluate(data_dir, run, cfg, eval_every, progress)
+    val_split = run_cfg.data.val_split  # the split the run validated on (data default or given)
+    log(f"[{k}/3] {v.label}: step {res.step}, val PSNR {ev['psnr']:.2f} dB, SSIM {ev['ssim']:.4f}; "
+        f"rendering a {orbit_frames}-frame orbit")
+    info = render_run(run, data_dir, orbit=orbit_frames, progress=progress)
+    write_report(run)
+    return _model_row(v, cfg, res, ev, info, out, val_split), val_split
+
+
+def _model_row(v: Variant, cfg: Config, res, ev: dict, info: dict, out: Path, val_split: str) -> dict:
+    """One model's row of results["models"]: its encoding, steps and time, the last logged training and
+    validation metrics, the evaluation (res: TrainResult, ev: evaluate_run's, info: render_run's)."""
+    run = out / v.run_dir
+    rows, vrows = read_jsonl(run / "metrics.jsonl"), read_jsonl(run / "val_metrics.jsonl")
+    vid = Path(info["out"])
+    return {
+        "label": v.label, "description": v.description, "run_dir": v.run_dir,
+        "pe": cfg.field.pe, "l_xyz": cfg.field.l_xyz if cfg.field.pe else None,
+        "l_dir": cfg.field.l_dir if cfg.field.pe else None,
+        "steps": res.step, "train_seconds": rows[-1]["elapsed"] if rows else None,
+        "steps_per_second": round(res.steps_per_second, 3),
+        "final_train_loss": rows[-1]["loss"] if rows else None,
+        "final_train_psnr": rows[-1]["psnr"] if rows else None,
+        "val_psnr_training": vrows[-1]["psnr"] if vrows else None,
+        "psnr": ev["psnr"], "ssim": ev["ssim"], "eval_json": f"{v.run_dir}/eval_{split_slug(val_split)}.json",
+        "orbit_video": (vid / "rgb.mp4").relative_to(out).as_posix(),
+        "depth_video": (vid / "depth.mp4").relative_to(out).as_posix(),
+        "video_width": info["width"],
+    }
+
+
+def _grids(data_dir: Path, out: Path, models: list[dict], val_split: str, ids: list[int], grid_views: int) -> list:
+    """OUT/grid_view_K.png for `grid_views` evenly spaced views of the evaluated ids (image_grid: ground truth,
+    then each model's render, its depth below); returns [{"view", "name", "path"}]."""
     d = RunFolder(out / models[0]["run_dir"]).config().data
     val = load_scene(data_dir, val_split, format=d.format, downscale=d.downscale, target_width=d.target_width,
                      background=d.background, masks=d.masks, holdout_every=d.holdout_every)
     bg = (1.0, 1.0, 1.0) if d.background == "white" else (0.0, 0.0, 0.0)
-    ids = [v["view"] for v in ev0["per_view"]]
     grids = []
     for j in evenly_spaced(len(ids), grid_views):
         k = ids[j]
@@ -181,17 +221,4 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
         rel = f"grid_view_{k:03d}.png"
         image_grid(out / rel, val.images[k], renders, depths, titles, gt_depth(data_dir, val.names[k]), bg)
         grids.append({"view": k, "name": val.names[k], "path": rel})
-
-    results = {
-        "experiment": "pe-ablation", "title": "PE ablation: what positional encoding buys",
-        "subtitle": f"{data_dir.resolve().name} · preset {preset} · {budget['text']} per model",
-        "question": PE_QUESTION,
-        "data_dir": str(data_dir.resolve()), "preset": preset, "seed": cfgs[0].train.seed, "budget": budget,
-        "eval": {"split": val_split, "every": eval_every, "n_views": ev0["n_views"]},
-        "orbit_frames": orbit_frames, "models": models, "plots": plots, "grids": grids,
-    }
-    (out / "results.json").write_text(json.dumps(results, indent=2))
-    (out / "results.md").write_text(_markdown(results))
-    report = write_experiment_report(out, results)
-    log(f"done: {out / 'results.md'}, {report}")
-    return results
+    return grids

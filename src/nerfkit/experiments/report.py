@@ -25,8 +25,21 @@ def write_experiment_report(exp_dir: str | Path, results: dict | None = None) ->
         return write_antialias_report(exp, results)
     models = results.get("models", [])
     title = results.get("title", "nerfkit experiment")
+    subtitle = h.e(results.get("subtitle", ""))
+    sections = [
+        ("results", "Results", results_section(exp, results)),
+        ("curves", "Curves", curves_section(exp, results.get("plots", {}))),
+        ("views", "Validation views", grids_section(exp, results.get("grids", []))),
+        ("videos", "Orbit videos", videos_section(exp, models)),
+        ("depth", "Depth", f'<p class="note">{DEPTH_NOTE}</p>'),
+        ("runs", "Run folders", runs_section(exp, models)),
+    ]
+    return h.write(exp / "report.html", h.page(title, subtitle, sections))
 
-    # Setup and results table.
+
+def results_section(exp: Path, results: dict) -> str:
+    """The question, the setup table and the results table (one row per model, the best val PSNR in bold)."""
+    models = results.get("models", [])
     best = max((m.get("psnr") for m in models if m.get("psnr") is not None), default=None)
     rows, classes = [], []
     for m in models:
@@ -50,33 +63,38 @@ def write_experiment_report(exp_dir: str | Path, results: dict | None = None) ->
     ])
     table = h.table(["model", "encoding", "steps", "train time", "train PSNR (dB)", "val PSNR, training (dB)",
                     "val PSNR (dB)", "val SSIM"], rows, numeric={2, 4, 5, 6, 7}, row_classes=classes)
-    results_html = (intro + setup + table +
-                    '<p class="note">val PSNR / SSIM: every view of the evaluation set above, after training. '
-                    "val PSNR, training: the last in-training validation (the run's <code>--val-views</code>). "
-                    "train PSNR: the last logged training batch. Bold: the best val PSNR.</p>")
+    return (intro + setup + table +
+            '<p class="note">val PSNR / SSIM: every view of the evaluation set above, after training. '
+            "val PSNR, training: the last in-training validation (the run's <code>--val-views</code>). "
+            "train PSNR: the last logged training batch. Bold: the best val PSNR.</p>")
 
-    # Curves: one row per metric, step and time side by side.
-    plots = results.get("plots", {})
+
+def curves_section(exp: Path, plots: dict) -> str:
+    """The overlaid curves: one row per metric, against step and against time side by side ("" without any)."""
     figs = []
     for key in ("loss", "train_psnr", "val_psnr"):
         for axis in ("step", "time"):
             p = plots.get(f"{key}_vs_{axis}")
             if p and (exp / p).is_file():
                 figs.append(h.img(exp / p, exp, f"{key} vs {axis}", h.e(f"{key.replace('_', ' ')} against {axis}")))
-    curves = (f'<p class="note">Left: against training step; right: against wall time (compile and validation '
-              f'included).</p><div class="plots two">{"".join(figs)}</div>') if figs else ""
+    return (f'<p class="note">Left: against training step; right: against wall time (compile and validation '
+            f'included).</p><div class="plots two">{"".join(figs)}</div>') if figs else ""
 
-    # Validation grids.
+
+def grids_section(exp: Path, grids: list[dict]) -> str:
+    """The validation image grids that exist, as a gallery ("" without any)."""
     gfigs = []
-    for g in results.get("grids", []):
+    for g in grids:
         p = exp / g["path"]
         if p.is_file():
             cap = h.e(f"val view {g['view']} ({g.get('name', '')}): ground truth, then each model's render (top) "
                      "and depth map (bottom)")
             gfigs.append(h.img(p, exp, f"grid of val view {g['view']}", cap))
-    grids = f'<div class="gallery">{"".join(gfigs)}</div>' if gfigs else ""
+    return f'<div class="gallery">{"".join(gfigs)}</div>' if gfigs else ""
 
-    # Videos: each model's orbit, RGB and depth.
+
+def videos_section(exp: Path, models: list[dict]) -> str:
+    """Each model's orbit videos (RGB and depth) under its name."""
     vids = []
     for m in models:
         figs = []
@@ -86,9 +104,11 @@ def write_experiment_report(exp_dir: str | Path, results: dict | None = None) ->
         if figs:
             vids.append(f"<h3>{h.e(m['label'])}: {h.e(m.get('description', ''))}</h3>"
                         f'<div class="gallery">{"".join(figs)}</div>')
-    videos = "".join(vids)
+    return "".join(vids)
 
-    # Per-model configs (links) and the run folders.
+
+def runs_section(exp: Path, models: list[dict]) -> str:
+    """A table of each model's run folder and the files in it (report, config, logs)."""
     links = []
     for m in models:
         run = exp / m["run_dir"]
@@ -97,15 +117,4 @@ def write_experiment_report(exp_dir: str | Path, results: dict | None = None) ->
             if (run / n).is_file():
                 items.append(h.link(run / n, exp, n))
         links.append([h.e(m["label"]), " ".join(items)])
-    runs = h.table(["model", "files"], links) if links else ""
-
-    subtitle = h.e(results.get("subtitle", ""))
-    sections = [
-        ("results", "Results", results_html),
-        ("curves", "Curves", curves),
-        ("views", "Validation views", grids),
-        ("videos", "Orbit videos", videos),
-        ("depth", "Depth", f'<p class="note">{DEPTH_NOTE}</p>'),
-        ("runs", "Run folders", runs),
-    ]
-    return h.write(exp / "report.html", h.page(title, subtitle, sections))
+    return h.table(["model", "files"], links) if links else ""
