@@ -35,48 +35,30 @@ Gaussians with others are skipped.
    sums over a tile's pixels go into one float64 buffer per worker (no races); the worker
    buffers are added at the end.
 
-The kernels take float64 arrays (the host functions convert: one compiled variant, and the
-float32 and float64 paths are the same code); outputs take the input dtype. Kernels are
-compiled on first use and cached on disk (cache=True).
+The kernels (tiles_kernels.py) take float64 arrays (the host functions here convert: one compiled
+variant, and the float32 and float64 paths are the same code); outputs take the input dtype. Kernels
+are compiled on first use and cached on disk (cache=True).
 """
 
 from __future__ import annotations
 
-import math
 import os
 import queue
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from numba import njit
 
-from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
+from nerfkit.models.splat.tiles_kernels import (
+    TILE,
+    backward_tiles,
+    bin_tiles,
+    forward_tiles,
+    tile_rects,
+)
 
-TILE = 16
 THREADS: int | None = None  # worker threads; None: every CPU in os.sched_getaffinity
 CHUNKS_PER_WORKER = 8
 _POOL: ThreadPoolExecutor | None = None
-
-
-@njit(cache=True)
-def _bin(rects, order, n_tiles, tiles_x):
-    """offsets [n_tiles + 1], ids [M]: tile t's Gaussians are ids[offsets[t]:offsets[t + 1]],
-    in the order of `order` (depth order)."""
-    counts = np.zeros(n_tiles + 1, np.int64)
-    for g in order:
-        for ty in range(rects[g, 2], rects[g, 3]):
-            for tx in range(rects[g, 0], rects[g, 1]):
-                counts[ty * tiles_x + tx + 1] += 1
-    offsets = np.cumsum(counts)
-    ids = np.empty(offsets[-1], np.int32)
-    fill = offsets[:-1].copy()
-    for g in order:
-        for ty in range(rects[g, 2], rects[g, 3]):
-            for tx in range(rects[g, 0], rects[g, 1]):
-                t = ty * tiles_x + tx
-                ids[fill[t]] = g
-                fill[t] += 1
-    return offsets, ids
 
 
 def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height: int):
@@ -85,249 +67,10 @@ def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height:
     Tiles are numbered row-major, tiles_x = ceil(width / 16) per row."""
     tiles_x = -(-width // TILE)
     tiles_y = -(-height // TILE)
-    rects = _tile_rects(means2d, conics, opacities, radii, width, height)
+    rects = tile_rects(means2d, conics, opacities, radii, width, height)
     live = np.flatnonzero(radii > 0)
     order = live[np.argsort(depths[live], kind="stable")].astype(np.int32)
-    return _bin(rects, order, tiles_x * tiles_y, tiles_x)
-
-
-_LOG_ALPHA_MIN = math.log(ALPHA_MIN)
-_A_RECUR = 25.0  # conic a (px^-2) up to which e^{-sigma} is advanced by products along rows
-
-
-@njit(cache=True, inline="always")
-def _span(o):
-    """Bound on d^T Q d = 2 sigma where Gaussian of opacity o can pass the alpha test, with rounding slack:
-    sigma <= SIGMA_MAX and o e^{-sigma} >= ALPHA_MIN, i.e. sigma <= log(o / ALPHA_MIN). Negative: never."""
-    if not o >= ALPHA_MIN:
-        return -1.0
-    return 2.0 * min(SIGMA_MAX, math.log(o) - _LOG_ALPHA_MIN) * (1.0 + 1e-6) + 1e-9
-
-
-@njit(cache=True, inline="always")
-def _rows(my, a, det, span, y0, ny):
-    """Tile rows [ys, ye] (relative to y0) that the ellipse d^T Q d <= span may reach."""
-    sy = math.sqrt(span * a / det)  # Sigma'_yy = a / det
-    return max(0, int(math.floor(my - sy - 0.5)) - y0), min(ny - 1, int(math.floor(my + sy - 0.5)) + 1 - y0)
-
-
-@njit(cache=True, inline="always")
-def _cols(mx, dy, a, b, c, span, x0, nx):
-    """Tile columns [xs, xe] (relative to x0) of the ellipse's span in the row at offset dy = m_y - p_y."""
-    disc = b * b * dy * dy - a * (c * dy * dy - span)
-    if disc < 0.0:
-        return 0, -1
-    sq = math.sqrt(disc)
-    hi = (-b * dy + sq) / a  # d_x = m_x - p_x, so p_x spans [m_x - hi, m_x - lo]
-    lo = (-b * dy - sq) / a
-    return max(0, int(math.floor(mx - hi - 0.5)) - x0), min(nx - 1, int(math.floor(mx - lo - 0.5)) + 1 - x0)
-
-
-@njit(cache=True, inline="always")
-def _row_exp(dx, dy, a, b, c):
-    """(e^{-sigma}, e^{-(sigma' - sigma)}) at the first pixel of a scanline, sigma' the next pixel's.
-
-    Along a row, d_x drops by 1 per pixel and sigma(d_x - 1) - sigma(d_x) = -(a d_x + b d_y) + a/2,
-    whose own step is +a: e^{-sigma} advances as e <- e r, r <- r e^{-a}, two products per pixel
-    instead of an exp (relative drift ~1e-15 over a tile row; both passes use the same sequence).
-    With Sigma' >= 0.3 I (project.py's dilation), a <= 1 / 0.3 and |log r| stays below ~10 over the
-    span and its slack; sharper conics (a > _A_RECUR) take an exp per pixel instead (no overflow)."""
-    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-    return math.exp(-sigma), math.exp(a * dx + b * dy - 0.5 * a)
-
-
-@njit(cache=True)
-def _tile_rects(means2d, conics, opacities, radii, width, height):
-    """Tile rectangles [N, 4] (tx0, tx1, ty0, ty1), ends exclusive, of the pixel boxes that hold each
-    Gaussian's ellipse d^T Q d <= _span(o) (at most its radius square); empty when it cannot show."""
-    n = means2d.shape[0]
-    tiles_x = (width + TILE - 1) // TILE
-    tiles_y = (height + TILE - 1) // TILE
-    rects = np.zeros((n, 4), np.int32)
-    for g in range(n):
-        a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
-        mx, my = float(means2d[g, 0]), float(means2d[g, 1])
-        det = a * c - b * b
-        span = _span(float(opacities[g]))
-        if radii[g] <= 0 or not (a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(mx) and math.isfinite(my)):
-            continue
-        hx = min(radii[g] + 1.0, math.sqrt(span * c / det))  # Sigma'_xx = c / det
-        hy = min(radii[g] + 1.0, math.sqrt(span * a / det))
-        # pixels j with |j + 0.5 - m| <= h, one pixel of slack for rounding
-        j0 = max(0.0, math.floor(mx - hx - 0.5))
-        j1 = min(width - 1.0, math.floor(mx + hx - 0.5) + 1.0)
-        i0 = max(0.0, math.floor(my - hy - 0.5))
-        i1 = min(height - 1.0, math.floor(my + hy - 0.5) + 1.0)
-        if j0 > j1 or i0 > i1:
-            continue
-        rects[g, 0] = int(j0) // TILE
-        rects[g, 1] = min(tiles_x, int(j1) // TILE + 1)
-        rects[g, 2] = int(i0) // TILE
-        rects[g, 3] = min(tiles_y, int(i1) // TILE + 1)
-    return rects
-
-
-@njit(cache=True, nogil=True)
-def _forward(means2d, conics, colors, opacities, background, offsets, ids, width, height, image, t_final, n_contrib,
-             first, stride):
-    """Tiles first, first + stride, ... (one worker's share)."""
-    n_ch = colors.shape[1]
-    tiles_x = (width + TILE - 1) // TILE
-    for t in range(first, offsets.size - 1, stride):
-        start = offsets[t]
-        x0 = (t % tiles_x) * TILE
-        y0 = (t // tiles_x) * TILE
-        nx = min(TILE, width - x0)
-        ny = min(TILE, height - y0)
-        trans = np.ones((TILE, TILE))
-        done = np.zeros((TILE, TILE), np.bool_)
-        last = np.zeros((TILE, TILE), np.int32)
-        acc = np.zeros((TILE, TILE, n_ch))
-        col = np.empty(n_ch)
-        n_live = nx * ny
-        for k in range(offsets[t + 1] - start):
-            g = ids[start + k]
-            mx, my = float(means2d[g, 0]), float(means2d[g, 1])
-            a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
-            o = float(opacities[g])
-            det = a * c - b * b
-            span = _span(o)
-            if not (a > 0.0 and det > 0.0 and span > 0.0):
-                continue
-            for ch in range(n_ch):
-                col[ch] = colors[g, ch]
-            q = math.exp(-a)
-            ys, ye = _rows(my, a, det, span, y0, ny)
-            for y in range(ys, ye + 1):
-                dy = my - (y0 + y + 0.5)
-                xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
-                e, r = _row_exp(mx - (x0 + xs + 0.5), dy, a, b, c)
-                for x in range(xs, xe + 1):
-                    if x > xs:
-                        e *= r
-                        r *= q
-                    if done[y, x]:
-                        continue
-                    dx = mx - (x0 + x + 0.5)
-                    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-                    if sigma < 0.0 or sigma > SIGMA_MAX:
-                        continue
-                    if a > _A_RECUR:
-                        e = math.exp(-sigma)
-                    alpha = min(ALPHA_MAX, o * e)
-                    if alpha < ALPHA_MIN:
-                        continue
-                    next_t = trans[y, x] * (1.0 - alpha)
-                    if next_t < T_MIN:
-                        done[y, x] = True
-                        n_live -= 1
-                        continue
-                    w = alpha * trans[y, x]
-                    for ch in range(n_ch):
-                        acc[y, x, ch] += w * col[ch]
-                    trans[y, x] = next_t
-                    last[y, x] = k + 1
-            if n_live == 0:
-                break
-        for y in range(ny):
-            for x in range(nx):
-                for ch in range(n_ch):
-                    image[y0 + y, x0 + x, ch] = acc[y, x, ch] + trans[y, x] * background[ch]
-                t_final[y0 + y, x0 + x] = trans[y, x]
-                n_contrib[y0 + y, x0 + x] = last[y, x]
-
-
-@njit(cache=True, nogil=True)
-def _backward(means2d, conics, colors, opacities, background, offsets, ids, width, height, t_final, n_contrib,
-              grad_image, grad_t, out, first, stride):
-    """Gradient sums over tiles first, first + stride, ... into out [N, 6 + C]: (m_x, m_y, a, b, c, o, colours)."""
-    n_ch = colors.shape[1]
-    tiles_x = (width + TILE - 1) // TILE
-    for t in range(first, offsets.size - 1, stride):
-        start = offsets[t]
-        x0 = (t % tiles_x) * TILE
-        y0 = (t // tiles_x) * TILE
-        nx = min(TILE, width - x0)
-        ny = min(TILE, height - y0)
-        trans = np.empty((TILE, TILE))  # T_k, recovered back to front from T_final
-        g_end = np.empty((TILE, TILE))  # (dL/dT_final + background . G) T_final
-        g_img = np.empty((TILE, TILE, n_ch))  # G
-        n_blend = np.zeros((TILE, TILE), np.int64)  # n_contrib
-        rec = np.zeros((TILE, TILE, n_ch))  # R_k
-        for y in range(ny):
-            for x in range(nx):
-                trans[y, x] = t_final[y0 + y, x0 + x]
-                n_blend[y, x] = n_contrib[y0 + y, x0 + x]
-                g_t = grad_t[y0 + y, x0 + x]
-                for ch in range(n_ch):
-                    g_img[y, x, ch] = grad_image[y0 + y, x0 + x, ch]
-                    g_t += background[ch] * g_img[y, x, ch]
-                g_end[y, x] = g_t * trans[y, x]
-        g_col = np.empty(n_ch)
-        col = np.empty(n_ch)
-        for k in range(n_blend.max() - 1, -1, -1):
-            g = ids[start + k]
-            mx, my = means2d[g, 0], means2d[g, 1]
-            a, b, c = conics[g, 0], conics[g, 1], conics[g, 2]
-            o = opacities[g]
-            det = a * c - b * b
-            span = _span(o)
-            if not (a > 0.0 and det > 0.0 and span > 0.0):
-                continue
-            for ch in range(n_ch):
-                col[ch] = colors[g, ch]
-            g_col[:] = 0.0
-            g_mx = g_my = g_a = g_b = g_c = g_o = 0.0
-            q = math.exp(-a)
-            ys, ye = _rows(my, a, det, span, y0, ny)
-            for y in range(ys, ye + 1):
-                dy = my - (y0 + y + 0.5)
-                xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
-                e, r = _row_exp(mx - (x0 + xs + 0.5), dy, a, b, c)
-                for x in range(xs, xe + 1):
-                    if x > xs:
-                        e *= r
-                        r *= q
-                    if k >= n_blend[y, x]:
-                        continue
-                    dx = mx - (x0 + x + 0.5)
-                    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-                    if sigma < 0.0 or sigma > SIGMA_MAX:
-                        continue
-                    if a > _A_RECUR:
-                        e = math.exp(-sigma)
-                    raw = o * e
-                    alpha = min(ALPHA_MAX, raw)
-                    if alpha < ALPHA_MIN:
-                        continue
-                    inv = 1.0 / (1.0 - alpha)
-                    t_k = trans[y, x] * inv
-                    trans[y, x] = t_k
-                    w = alpha * t_k
-                    d_alpha = 0.0
-                    for ch in range(n_ch):
-                        gc = g_img[y, x, ch]
-                        behind = rec[y, x, ch]
-                        g_col[ch] += w * gc
-                        d_alpha += (col[ch] - behind) * gc
-                        rec[y, x, ch] = behind + alpha * (col[ch] - behind)  # alpha c + (1 - alpha) R
-                    if raw < ALPHA_MAX:
-                        d_alpha = d_alpha * t_k - g_end[y, x] * inv
-                        g_o += e * d_alpha
-                        d_sigma = -alpha * d_alpha
-                        g_mx += d_sigma * (a * dx + b * dy)
-                        g_my += d_sigma * (b * dx + c * dy)
-                        g_a += d_sigma * dx * dx
-                        g_b += d_sigma * dx * dy
-                        g_c += d_sigma * dy * dy
-            out[g, 0] += g_mx
-            out[g, 1] += g_my
-            out[g, 2] += 0.5 * g_a
-            out[g, 3] += g_b
-            out[g, 4] += 0.5 * g_c
-            out[g, 5] += g_o
-            for ch in range(n_ch):
-                out[g, 6 + ch] += g_col[ch]
+    return bin_tiles(rects, order, tiles_x * tiles_y, tiles_x)
 
 
 def _f64(*arrays):
@@ -382,7 +125,7 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
     image = np.empty((height, width, colors.shape[1]))
     t_final = np.empty((height, width))
     n_contrib = np.empty((height, width), np.int32)
-    _run(_forward, threads, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width, height,
+    _run(forward_tiles, threads, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width, height,
                                        image, t_final, n_contrib))
     return image.astype(dtype, copy=False), t_final.astype(dtype, copy=False), n_contrib
 
@@ -402,7 +145,7 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
     n, n_ch = colors.shape
     workers = worker_count(threads)
     out = np.zeros((workers, n, 6 + n_ch))
-    _run(_backward, workers, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width, height,
+    _run(backward_tiles, workers, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width, height,
                                         t_final, n_contrib, grad_image, grad_t, out[w]))
     total = out.sum(0) if out.shape[0] > 1 else out[0]
     g_bg = np.einsum("hw,hwc->c", t_final, grad_image)
