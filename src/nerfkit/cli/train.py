@@ -96,7 +96,8 @@ def cmd_train(argv: list[str]) -> int:
 def cmd_demo(argv: list[str]) -> int:
     from nerfkit.data.procedural.scene import make_scene
     from nerfkit.evaluation.evaluate import evaluate_run, format_eval_table, render_run
-    from nerfkit.training.trainer import Trainer, run_files
+    from nerfkit.training.setup import run_files
+    from nerfkit.training.trainer import Trainer
 
     a = parse(DemoArgs, argv, "nerfkit demo")
     t0 = time.perf_counter()

@@ -195,14 +195,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     """Render a split's poses, an N-frame orbit or a camera path (nerfstudio's camera_path.json)
     at any resolution: RGB and colour-mapped depth PNGs, depth as float32 .npy (sum_i w_i t_i),
     and an MP4 of each."""
-    if sum(x is not None for x in (split, orbit, camera_path)) != 1:
-        raise ConfigError("pass exactly one of --split SPLIT, --orbit N or --camera-path FILE")
-    check_chunk(chunk)
-    if orbit is not None and orbit < 1:
-        raise ConfigError(f"--orbit must be >= 1 frames (got {orbit})")
-    for name, v in (("--width", width), ("--height", height)):
-        if v is not None and v < 1:
-            raise ConfigError(f"{name} must be positive (got {v})")
+    check_render_request(split, orbit, camera_path, chunk, width, height)
     run_dir = Path(run_dir)
     folder = RunFolder(run_dir)
     trained = folder.load()
@@ -213,42 +206,13 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     d = cfg.data
     cap = read_capture(data_dir, cfg.data.train_split if split is None else split, d.format, d.masks, d.holdout_every)
     path = read_camera_path(camera_path) if camera_path is not None else None
-    if split is not None:
-        sel = scene_cameras(cap, split, d.downscale, d.target_width)
-        name = split_slug(split)
-        poses = sel.poses
-    elif path is not None:
-        sel = scene_cameras(cap, cfg.data.train_split, d.downscale, d.target_width)
-        poses = path["c2w"].astype(np.float32)
-        name = f"path_{split_slug(Path(camera_path).stem)}"
-        if width is None and height is None:
-            width, height = path["width"], path["height"]
-    else:
-        train = scene_cameras(cap, cfg.data.train_split, d.downscale, d.target_width)
-        sel = train
-        poses = orbit_poses(train.poses, orbit) if cap.format == "blender" else ellipse_orbit_poses(
-            train.poses, orbit, center=np.zeros(3))
-        name = f"orbit{orbit}"
+    sel, poses, name = poses_to_render(cap, d, split, orbit, camera_path, path)
+    if path is not None and width is None and height is None:
+        width, height = path["width"], path["height"]
     cam0 = sel.cameras[0]
     aspect = cam0.height / cam0.width if path is None else path["height"] / path["width"]
-    capped = False
-    if width is None and height is None:
-        width, height = scene["width"], scene["height"]
-        if orbit is not None and width > ORBIT_MAX_WIDTH:  # a preview video: minutes, not an hour, on a CPU
-            width, height, capped = ORBIT_MAX_WIDTH, max(1, round(ORBIT_MAX_WIDTH * aspect)), True
-    elif width is None:
-        width = max(1, round(height / aspect))
-    elif height is None:
-        height = max(1, round(width * aspect))
-    native = split is not None and (width, height) == (cam0.width, cam0.height)
-    cams = sel.cameras if native else [c.with_size(width, height) for c in sel.cameras]
-    if path is not None:  # the path's own field of view (vertical, degrees), principal point at the centre
-        cams = [Camera(width, height, f, f, 0.5 * width, 0.5 * height)
-                for f in (focal_from_fov_y(v, height) for v in path["fov_y"])]
-        fps = fps or path["fps"]
-    elif split is None:
-        cams = [cams[0]] * len(poses)
-    fps = fps or 24
+    width, height, capped = output_size(width, height, aspect, scene, orbit)
+    cams, fps = render_cameras(sel, path, split, len(poses), width, height, fps)
     out = check_new_folder(Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}",
                            overwrite)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
@@ -257,20 +221,90 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     for k in tqdm(range(len(poses)), desc="render", disable=not progress, unit="view"):
         renders.append(renderer.render_camera(params, aux, poses[k], cams[k]))
     seconds = time.perf_counter() - t0
-    depth_frames, (lo, hi) = colorize_renders(renders, background_rgb(cfg.data.background))
-    for k, (r, depth_img) in enumerate(zip(renders, depth_frames)):
-        save_png(out / f"rgb_{k:04d}.png", r["rgb"])
-        save_png(out / f"depth_{k:04d}.png", depth_img)
-        np.save(out / f"depth_{k:04d}.npy", (r["depth"] / sel.scale).astype(np.float32), allow_pickle=False)
-    write_video(out / "rgb.mp4", [r["rgb"] for r in renders], fps=fps)
-    write_video(out / "depth.mp4", depth_frames, fps=fps)
-    # Camera-to-world of every frame in the capture's own coordinates (undoing the normalisation).
-    inv = np.linalg.inv(sel.transform)
-    capture_poses = [(inv @ p.astype(np.float64) @ np.diag([sel.scale] * 3 + [1.0])).tolist() for p in poses]
+    lo, hi = write_frames(out, renders, sel.scale, background_rgb(cfg.data.background), fps)
     info = {"out": str(out), "frames": len(poses), "width": width, "height": height, "step": step,
             "seconds_per_frame": seconds / len(poses), "depth_range": [lo / sel.scale, hi / sel.scale],
             "depth_units": "z-depth in the capture's own units", "camera": cams[0].to_json(),
             "width_capped_from": scene["width"] if capped else None,
-            "camera_to_world": capture_poses}
+            "camera_to_world": capture_poses(sel, poses)}
     (out / "render.json").write_text(json.dumps(info, indent=2))
     return info
+
+
+def check_render_request(split: str | None, orbit: int | None, camera_path: Path | None, chunk: int | None,
+                         width: int | None, height: int | None) -> None:
+    """ConfigError unless exactly one of split, orbit and camera_path is given, and the sizes are positive."""
+    if sum(x is not None for x in (split, orbit, camera_path)) != 1:
+        raise ConfigError("pass exactly one of --split SPLIT, --orbit N or --camera-path FILE")
+    check_chunk(chunk)
+    if orbit is not None and orbit < 1:
+        raise ConfigError(f"--orbit must be >= 1 frames (got {orbit})")
+    for name, v in (("--width", width), ("--height", height)):
+        if v is not None and v < 1:
+            raise ConfigError(f"{name} must be positive (got {v})")
+
+
+def poses_to_render(cap, d, split: str | None, orbit: int | None, camera_path: Path | None, path: dict | None):
+    """(the cameras of the split the poses come from, camera-to-world poses [F, 4, 4], the output's name): the
+    split's own poses, the camera path's, or an orbit around the training cameras (a circle for Blender
+    scenes, else an ellipse fitted to the camera centres). d: the run's DataConfig."""
+    if split is not None:
+        sel = scene_cameras(cap, split, d.downscale, d.target_width)
+        return sel, sel.poses, split_slug(split)
+    train = scene_cameras(cap, d.train_split, d.downscale, d.target_width)
+    if path is not None:
+        return train, path["c2w"].astype(np.float32), f"path_{split_slug(Path(camera_path).stem)}"
+    poses = orbit_poses(train.poses, orbit) if cap.format == "blender" else ellipse_orbit_poses(
+        train.poses, orbit, center=np.zeros(3))
+    return train, poses, f"orbit{orbit}"
+
+
+def output_size(width: int | None, height: int | None, aspect: float, scene: dict,
+                orbit: int | None) -> tuple[int, int, bool]:
+    """(width, height, capped): the size asked for, the missing side following the aspect ratio (height /
+    width); neither given: the run's training size, for an orbit at most ORBIT_MAX_WIDTH wide (capped)."""
+    if width is None and height is None:
+        width, height = scene["width"], scene["height"]
+        if orbit is not None and width > ORBIT_MAX_WIDTH:  # a preview video: minutes, not an hour, on a CPU
+            return ORBIT_MAX_WIDTH, max(1, round(ORBIT_MAX_WIDTH * aspect)), True
+    elif width is None:
+        width = max(1, round(height / aspect))
+    elif height is None:
+        height = max(1, round(width * aspect))
+    return width, height, False
+
+
+def render_cameras(sel, path: dict | None, split: str | None, n: int, width: int, height: int,
+                   fps: int | None) -> tuple[list[Camera], int]:
+    """(one camera per frame of n, the video's fps): a split's cameras (resized unless the size is theirs); a
+    camera path's own field of view per frame (vertical, principal point at the centre) and fps; or the first
+    training camera, resized, for every orbit frame. fps: given, else the path's, else 24."""
+    cam0 = sel.cameras[0]
+    native = split is not None and (width, height) == (cam0.width, cam0.height)
+    cams = sel.cameras if native else [c.with_size(width, height) for c in sel.cameras]
+    if path is not None:  # the path's own field of view (vertical, degrees), principal point at the centre
+        cams = [Camera(width, height, f, f, 0.5 * width, 0.5 * height)
+                for f in (focal_from_fov_y(v, height) for v in path["fov_y"])]
+        fps = fps or path["fps"]
+    elif split is None:
+        cams = [cams[0]] * n
+    return cams, fps or 24
+
+
+def write_frames(out: Path, renders: list[dict], scale: float, bg, fps: int) -> tuple[float, float]:
+    """OUT/rgb_K.png, depth_K.png (colour-mapped over the frames' common depth range), depth_K.npy (in the
+    capture's units: depth / scale) and rgb.mp4, depth.mp4; returns that depth range (lo, hi), normalised."""
+    depth_frames, (lo, hi) = colorize_renders(renders, bg)
+    for k, (r, depth_img) in enumerate(zip(renders, depth_frames)):
+        save_png(out / f"rgb_{k:04d}.png", r["rgb"])
+        save_png(out / f"depth_{k:04d}.png", depth_img)
+        np.save(out / f"depth_{k:04d}.npy", (r["depth"] / scale).astype(np.float32), allow_pickle=False)
+    write_video(out / "rgb.mp4", [r["rgb"] for r in renders], fps=fps)
+    write_video(out / "depth.mp4", depth_frames, fps=fps)
+    return lo, hi
+
+
+def capture_poses(sel, poses) -> list:
+    """Camera-to-world of every frame in the capture's own coordinates (undoing the normalisation of sel)."""
+    inv = np.linalg.inv(sel.transform)
+    return [(inv @ p.astype(np.float64) @ np.diag([sel.scale] * 3 + [1.0])).tolist() for p in poses]

@@ -38,7 +38,7 @@ from nerfkit.data.loader import detect_format
 from nerfkit.evaluation.evaluate import train_and_evaluate
 from nerfkit.report.run import write_report_or_warn
 from nerfkit.training import checkpoint as ckpt_lib
-from nerfkit.training.trainer import clear_run, run_files
+from nerfkit.training.setup import clear_run, run_files
 
 RESULT = "benchmark.json"
 

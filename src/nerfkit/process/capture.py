@@ -150,17 +150,7 @@ def process_images(src: Path, out: Path, masks: Path | None = None, opts: SfmOpt
     """Run the whole pipeline on the photos in `src` (or the given `photos`) and write DATA = out."""
     opts = opts or SfmOptions()
     src, out = Path(src), Path(out)
-    if photos is None:
-        if not src.is_dir():
-            raise DataError(f"{src}: no such folder of photos")
-        photos = list_images(src)
-    if len(photos) < 3:
-        raise DataError(f"{src}: {len(photos)} photos found (.jpg, .png, .tif, ...); SfM needs at least 3, "
-                        f"ideally 30-150 with plenty of overlap")
-    check_one_size([(p, image_size(p)) for p in photos], "photos", "one shared camera needs one size: rotate or "
-                   "crop them alike")  # from the headers, before any photo is copied
-    if masks is not None:
-        find_masks(photos, Path(masks))
+    photos = check_photos(src, photos, masks)
     if matching == "auto":
         matching = "exhaustive" if len(photos) <= EXHAUSTIVE_UP_TO else "sequential"
     opts.matching = matching
@@ -173,17 +163,7 @@ def process_images(src: Path, out: Path, masks: Path | None = None, opts: SfmOpt
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     names = [p.name for p in photos]
-    stages = tqdm(total=4 if opts.camera_model != "OPENCV" else 5, desc="sfm", unit="stage", disable=not progress,
-                  bar_format="{desc}: {n}/{total} stages |{bar}| {elapsed} {postfix}")
-
-    started = []
-
-    def stage(text):
-        if started:
-            stages.update(1)
-        started.append(text)
-        stages.set_postfix_str(text)
-
+    stages, stage = _stage_bar(4 if opts.camera_model != "OPENCV" else 5, progress)
     log_path = tmp / "colmap.log"
     rec, times, notes = run_sfm(tmp / "images", names, tmp / "colmap", opts, colmap_masks, log_path, stage)
     n_reg = 0 if rec is None else rec.num_reg_images()
@@ -206,18 +186,59 @@ def process_images(src: Path, out: Path, masks: Path | None = None, opts: SfmOpt
                "notes": notes}
     (tmp / "process.json").write_text(json.dumps(summary, indent=2))
     _finish(tmp, out)
-    for n in notes:
-        log(f"note: {n}")
-    frac = n_reg / len(photos)
-    log(f"registered {n_reg} of {len(photos)} photos ({100 * frac:.0f}%) in {summary['seconds']['total'] / 60:.1f} min"
-        f"; {info['points']} points; camera {info['camera']['model']} fx={info['camera']['fx']:.1f}")
+    _say_result(summary, out, masks, log)
+    return summary
+
+
+def check_photos(src: Path, photos: list[Path] | None, masks: Path | None) -> list[Path]:
+    """The photos to process (given, else those in the folder src), checked from their headers before any
+    work: DataError for fewer than 3, photos of several sizes, or a missing or mis-sized mask."""
+    if photos is None:
+        if not src.is_dir():
+            raise DataError(f"{src}: no such folder of photos")
+        photos = list_images(src)
+    if len(photos) < 3:
+        raise DataError(f"{src}: {len(photos)} photos found (.jpg, .png, .tif, ...); SfM needs at least 3, "
+                        f"ideally 30-150 with plenty of overlap")
+    check_one_size([(p, image_size(p)) for p in photos], "photos", "one shared camera needs one size: rotate or "
+                   "crop them alike")  # from the headers, before any photo is copied
+    if masks is not None:
+        find_masks(photos, Path(masks))
+    return photos
+
+
+def _stage_bar(n: int, progress: bool):
+    """(a progress bar of n SfM stages, stage(text)): each call to stage completes the stage before it and
+    shows text as the one running."""
+    stages = tqdm(total=n, desc="sfm", unit="stage", disable=not progress,
+                  bar_format="{desc}: {n}/{total} stages |{bar}| {elapsed} {postfix}")
+    started = []
+
+    def stage(text):
+        if started:
+            stages.update(1)
+        started.append(text)
+        stages.set_postfix_str(text)
+
+    return stages, stage
+
+
+def _say_result(summary: dict, out: Path, masks: Path | None, log) -> None:
+    """The closing lines of process-data: notes, how many photos registered (and advice when under 90%), the
+    camera, the photos left out, what was written."""
+    n_reg, n, cam = summary["registered"], summary["photos"], summary["camera"]
+    missing = summary["unregistered"]
+    for note in summary["notes"]:
+        log(f"note: {note}")
+    frac = n_reg / n
+    log(f"registered {n_reg} of {n} photos ({100 * frac:.0f}%) in {summary['seconds']['total'] / 60:.1f} min"
+        f"; {summary['points']} points; camera {cam['model']} fx={cam['fx']:.1f}")
     if missing:
         log(f"not registered ({len(missing)}): {', '.join(missing[:20])}{' ...' if len(missing) > 20 else ''}")
     if frac < 0.9:
-        log(f"only {100 * frac:.0f}% registered: {_advice(matching)}")
+        log(f"only {100 * frac:.0f}% registered: {_advice(summary['matching'])}")
     log(f"wrote {out}: transforms.json, images/, images_2/, images_4/{', masks/' if masks else ''}, sparse_pc.ply, "
         f"cameras.png (look at it), colmap.log")
-    return summary
 
 
 def _advice(matching: str) -> str:

@@ -95,60 +95,14 @@ def run_sfm(image_dir: Path, names: list[str], work: Path, opts: SfmOptions, mas
         db_path.unlink()  # extraction skips images already in a database
     times, notes = {}, []
     pycolmap.set_random_seed(opts.seed)
-    mapping_model = "SIMPLE_RADIAL" if opts.camera_model == "OPENCV" else opts.camera_model
-    reader = pycolmap.ImageReaderOptions()
-    reader.camera_model = mapping_model
-    if mask_dir is not None:
-        reader.mask_path = str(mask_dir)
-    extraction = pycolmap.FeatureExtractionOptions()
-    extraction.num_threads = opts.threads
-    extraction.max_image_size = opts.max_image_size
-
     stage(f"features: SIFT on {len(names)} photos")
-    t = time.perf_counter()
-    with colmap_log(log, opts.verbose):
-        pycolmap.extract_features(str(db_path), str(image_dir), image_names=names,
-                                  camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
-                                  extraction_options=extraction, device=pycolmap.Device.cpu)
-    times["extract"] = time.perf_counter() - t
-    db = pycolmap.Database.open(str(db_path))
-    n_db = db.num_images()
-    db.close()
-    if n_db != len(names):
-        raise RuntimeError(f"feature extraction kept {n_db} of {len(names)} photos (see {log})")
+    times["extract"] = extract(db_path, image_dir, names, opts, mask_dir, log)
     notes += _fix_focal_prior(db_path)
-
-    matching = pycolmap.FeatureMatchingOptions()
-    matching.num_threads = opts.threads
-    verification = pycolmap.TwoViewGeometryOptions()
-    verification.ransac.random_seed = opts.seed
     stage(f"matching: {opts.matching}" + (f" ({len(names) * (len(names) - 1) // 2} pairs)"
                                           if opts.matching == "exhaustive" else ""))
-    t = time.perf_counter()
-    with colmap_log(log, opts.verbose):
-        if opts.matching == "exhaustive":
-            pycolmap.match_exhaustive(str(db_path), matching_options=matching, verification_options=verification,
-                                      device=pycolmap.Device.cpu)
-        else:
-            pairing = pycolmap.SequentialPairingOptions(overlap=10, quadratic_overlap=True)
-            pairing.loop_detection = False  # needs a downloaded vocabulary tree
-            pycolmap.match_sequential(str(db_path), matching_options=matching, pairing_options=pairing,
-                                      verification_options=verification, device=pycolmap.Device.cpu)
-    times["match"] = time.perf_counter() - t
-
-    mapper = pycolmap.IncrementalPipelineOptions()
-    mapper.num_threads = opts.threads
-    mapper.multiple_models = True
-    mapper.min_model_size = 3
-    mapper.random_seed = opts.seed
-    sparse = work / "models"
-    shutil.rmtree(sparse, ignore_errors=True)
-    sparse.mkdir()
+    times["match"] = match(db_path, opts, log)
     stage("mapping: incremental")
-    t = time.perf_counter()
-    with colmap_log(log, opts.verbose):
-        recs = pycolmap.incremental_mapping(str(db_path), str(image_dir), str(sparse), options=mapper)
-    times["map"] = time.perf_counter() - t
+    recs, times["map"] = incremental_map(db_path, image_dir, work / "models", opts, log)
     if not recs:
         return None, times, notes
     rec = max(recs.values(), key=lambda r: r.num_reg_images())
@@ -160,6 +114,68 @@ def run_sfm(image_dir: Path, names: list[str], work: Path, opts: SfmOptions, mas
         to_opencv(rec, log, opts.verbose)
         times["opencv"] = time.perf_counter() - t
     return rec, times, notes
+
+
+def extract(db_path: Path, image_dir: Path, names: list[str], opts: SfmOptions, mask_dir: Path | None,
+            log: Path) -> float:
+    """SIFT features of photos `names` into the database (one shared camera of the mapping model: OPENCV is
+    mapped as SIMPLE_RADIAL; COLMAP feature masks from mask_dir); returns the seconds it took.
+    RuntimeError when the database did not keep every photo."""
+    reader = pycolmap.ImageReaderOptions()
+    reader.camera_model = "SIMPLE_RADIAL" if opts.camera_model == "OPENCV" else opts.camera_model
+    if mask_dir is not None:
+        reader.mask_path = str(mask_dir)
+    extraction = pycolmap.FeatureExtractionOptions()
+    extraction.num_threads = opts.threads
+    extraction.max_image_size = opts.max_image_size
+    t = time.perf_counter()
+    with colmap_log(log, opts.verbose):
+        pycolmap.extract_features(str(db_path), str(image_dir), image_names=names,
+                                  camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
+                                  extraction_options=extraction, device=pycolmap.Device.cpu)
+    seconds = time.perf_counter() - t
+    db = pycolmap.Database.open(str(db_path))
+    n_db = db.num_images()
+    db.close()
+    if n_db != len(names):
+        raise RuntimeError(f"feature extraction kept {n_db} of {len(names)} photos (see {log})")
+    return seconds
+
+
+def match(db_path: Path, opts: SfmOptions, log: Path) -> float:
+    """Match the database's features, exhaustive or sequential (opts.matching; no loop detection), with
+    seeded two-view verification; returns the seconds it took."""
+    matching = pycolmap.FeatureMatchingOptions()
+    matching.num_threads = opts.threads
+    verification = pycolmap.TwoViewGeometryOptions()
+    verification.ransac.random_seed = opts.seed
+    t = time.perf_counter()
+    with colmap_log(log, opts.verbose):
+        if opts.matching == "exhaustive":
+            pycolmap.match_exhaustive(str(db_path), matching_options=matching, verification_options=verification,
+                                      device=pycolmap.Device.cpu)
+        else:
+            pairing = pycolmap.SequentialPairingOptions(overlap=10, quadratic_overlap=True)
+            pairing.loop_detection = False  # needs a downloaded vocabulary tree
+            pycolmap.match_sequential(str(db_path), matching_options=matching, pairing_options=pairing,
+                                      verification_options=verification, device=pycolmap.Device.cpu)
+    return time.perf_counter() - t
+
+
+def incremental_map(db_path: Path, image_dir: Path, sparse: Path, opts: SfmOptions, log: Path):
+    """({index: Reconstruction} of every model of 3 photos or more, written under `sparse` (emptied first),
+    seconds it took): seeded incremental mapping of the matched database."""
+    mapper = pycolmap.IncrementalPipelineOptions()
+    mapper.num_threads = opts.threads
+    mapper.multiple_models = True
+    mapper.min_model_size = 3
+    mapper.random_seed = opts.seed
+    shutil.rmtree(sparse, ignore_errors=True)
+    sparse.mkdir()
+    t = time.perf_counter()
+    with colmap_log(log, opts.verbose):
+        recs = pycolmap.incremental_mapping(str(db_path), str(image_dir), str(sparse), options=mapper)
+    return recs, time.perf_counter() - t
 
 
 def to_opencv(rec, log: Path, verbose: bool) -> None:

@@ -89,33 +89,15 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
         key = jax.random.fold_in(base_key, step)
         k_draw, k_render, k_aux = jax.random.split(key, 3)
         img, i, j = draw_batch(k_draw, step, images.shape[0], h, w, t, sizes)
-        weights = None
         if split_rays:
             img, i, j = parallel.shard_rays((img, i, j), mesh)
-        if sizes is not None:
-            weights = lossmult[img]
+        weights = None if sizes is None else lossmult[img]
         o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
-        target = images[img, i, j]
-        params, aux = state["params"], state["aux"]
-        aux = model.update_aux(params, aux, step, k_aux)
-
-        def loss_fn(p):
-            out = model.render_rays(p, aux, o, d, k_render, train=True, image_idx=img, radii=table["radius"][img])
-            loss, parts = model.losses(out, target) if weights is None else model.losses(out, target, weights)
-            return loss, (parts, out)
-
+        params = state["params"]
+        aux = model.update_aux(params, state["aux"], step, k_aux)
+        loss_fn = ray_loss(model, aux, o, d, k_render, img, table["radius"][img], images[img, i, j], weights)
         (loss, (parts, out)), grads = jax.value_and_grad(loss_fn, has_aux=True)(params)
-        updates, opt_state = optimizer.update(grads, state["opt_state"], params)
-        new_params = optax.apply_updates(params, updates)
-        finite = jnp.isfinite(loss)
-        for g in jax.tree_util.tree_leaves(grads):
-            finite = finite & jnp.all(jnp.isfinite(g))
-        keep = lambda new, old: jnp.where(finite, new, old)  # noqa: E731
-        new_state = {
-            "params": jax.tree_util.tree_map(keep, new_params, params),
-            "opt_state": jax.tree_util.tree_map(keep, opt_state, state["opt_state"]),
-            "aux": aux,
-        }
+        new_state, finite = apply_if_finite(optimizer, state, grads, loss, aux)
         metrics = {"loss": loss, "mse": parts["mse"], "finite": finite}
         if model.supports.step_metrics:
             metrics.update(model.step_metrics(out))
@@ -123,6 +105,36 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
 
     jitted = jax.jit(step_fn, donate_argnums=(0,))
     return lambda state, step, images, poses: jitted(state, step, images, poses, table)
+
+
+def ray_loss(model, aux, o, d, key, image_idx, radii, target, weights=None):
+    """loss_fn(params) -> (loss, (parts, out)): the model's losses (model.losses, per-ray weights [R] when
+    given) of rendering rays o, d [R, 3] of images image_idx [R] (cones of radii [R]) against target [R, 3]."""
+
+    def loss_fn(p):
+        out = model.render_rays(p, aux, o, d, key, train=True, image_idx=image_idx, radii=radii)
+        loss, parts = model.losses(out, target) if weights is None else model.losses(out, target, weights)
+        return loss, (parts, out)
+
+    return loss_fn
+
+
+def apply_if_finite(optimizer, state, grads, loss, aux):
+    """(new state, finite): state with one optimiser update of its params by grads and the step's aux, where
+    the loss and every gradient are finite (finite: True); otherwise its params and optimiser state unchanged."""
+    params = state["params"]
+    updates, opt_state = optimizer.update(grads, state["opt_state"], params)
+    new_params = optax.apply_updates(params, updates)
+    finite = jnp.isfinite(loss)
+    for g in jax.tree_util.tree_leaves(grads):
+        finite = finite & jnp.all(jnp.isfinite(g))
+    keep = lambda new, old: jnp.where(finite, new, old)  # noqa: E731
+    new_state = {
+        "params": jax.tree_util.tree_map(keep, new_params, params),
+        "opt_state": jax.tree_util.tree_map(keep, opt_state, state["opt_state"]),
+        "aux": aux,
+    }
+    return new_state, finite
 
 
 def init_state(model, optimizer, seed: int):

@@ -15,10 +15,9 @@ from __future__ import annotations
 import json
 import math
 import shlex
-import shutil
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import jax
@@ -27,7 +26,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from nerfkit.core.config import Config, validate
-from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.errors import NerfkitError
 from nerfkit.core.metrics import mse_to_psnr
 from nerfkit.core.metrics import psnr as psnr_np
 from nerfkit.core.viz import (
@@ -38,7 +37,6 @@ from nerfkit.core.viz import (
     read_jsonl,
     save_png,
 )
-from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.models.registry import build_model
 from nerfkit.render.images import make_renderer
 from nerfkit.training import checkpoint as ckpt_lib
@@ -49,7 +47,7 @@ from nerfkit.training.flags import (
     refuse_family_switch,
     refuse_unused,
 )
-from nerfkit.training.resolve import default_splits, resolve_config
+from nerfkit.training.setup import clear_run, load_splits, refuse_earlier_run
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
 from nerfkit.training.stopping import StopFlag
 
@@ -63,6 +61,28 @@ class TrainResult:
     interrupted: bool
 
 
+@dataclass
+class Loop:
+    """What the training loop carries from step to step (Trainer.run)."""
+
+    step: int  # steps done
+    first_step: int  # the step this session started from (0, or the resumed checkpoint's)
+    elapsed0: float  # training seconds before this session (a resumed run's)
+    start: float  # time.perf_counter() when this session's loop started
+    deadline: float  # perf_counter time of --max-minutes (inf without)
+    pending: list = field(default_factory=list)  # (step, device metrics) not yet logged
+    rays: list = field(default_factory=list)  # rays per step of the logged rows (models that report them)
+    last_val: float | None = None  # the last validation's mean PSNR
+    last_val_step: int = -1
+    val_gate: float = 0.0  # no periodic validation before this clock time (keeps validation <= val_max_fraction)
+    bar: tqdm | None = None  # made after the first step: its rate and ETA leave the compilation out
+    compiled_at: float | None = None  # perf_counter time the first step (with its compilation) finished
+
+    def elapsed(self, now: float | None = None) -> float:
+        """Training seconds of the run at perf_counter time `now` (default: now)."""
+        return self.elapsed0 + (time.perf_counter() if now is None else now) - self.start
+
+
 def evenly_spaced(n: int, k: int) -> list[int]:
     k = min(k, n)
     return sorted({int(round(x)) for x in np.linspace(0, n - 1, k)})
@@ -73,24 +93,6 @@ def validation_views(ids: list[int], n: int, spec: str) -> str:
     shown = ", ".join(map(str, ids[:12])) + (", ..." if len(ids) > 12 else "")
     return (f"all {n} views of {spec}" if len(ids) == n else
             f"{len(ids)} of {n} views of {spec} ({shown}), evenly spaced")
-
-
-# What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
-# run refuses a folder holding any of them unless told to overwrite, and then removes exactly these.
-RUN_FILES = ("config.json", "scene.json", "metrics.jsonl", "val_metrics.jsonl", "plots", "val", "checkpoints",
-             "report.html", "renders", "exports", "eval_*")
-
-
-def run_files(run_dir: Path) -> list[Path]:
-    """The files and folders of an earlier run in run_dir (RUN_FILES), sorted."""
-    run_dir = Path(run_dir)
-    return sorted({p for pattern in RUN_FILES for p in run_dir.glob(pattern)})
-
-
-def clear_run(run_dir: Path) -> None:
-    """Remove an earlier run's files (run_files) from run_dir; anything else in it stays."""
-    for p in run_files(run_dir):
-        shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
 
 
 class Trainer:
@@ -111,37 +113,18 @@ class Trainer:
         where = f"--preset {preset}" if preset and not resume else "this run's model"
         refuse_family_switch(cfg, given, None if resume else preset)
         refuse_unused(cfg, given, where)
-        if resume and overwrite:
-            raise ConfigError("--resume and --overwrite: pick one (continue the run, or start it again from scratch)")
-        old = [] if resume else run_files(self.run_dir)
-        if old and not overwrite:
-            if ckpt_lib.list_checkpoints(self.ckpt_dir):
-                raise NerfkitError(f"{self.run_dir}: already holds a run; pass --resume to continue it, --overwrite "
-                                   f"to start it again (its files are removed) or pick a new --out")
-            raise NerfkitError(f"{self.run_dir}: holds an earlier run's files ({', '.join(p.name for p in old[:4])}"
-                               f"{', ...' if len(old) > 4 else ''}) but no checkpoint; pass --overwrite to remove "
-                               f"them and start again, or pick a new --out")
-        self.overwrite = bool(old)
-        d = cfg.data
-        spec_train, spec_val = default_splits(cfg)
-        self.capture = read_capture(self.data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
-        refuse_unused(cfg, given, where, self.capture)
-        spec_train, spec_val = default_splits(cfg, list(self.capture.splits))
-        load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
-        self.train_data = load_frames(self.capture, spec_train, **load)
-        self.val_data = load_frames(self.capture, spec_val, **load)
-        if not self.capture.levels and ((self.val_data.height, self.val_data.width)
-                                          != (self.train_data.height, self.train_data.width)):
-            raise NerfkitError(f"{self.data_dir}: validation images ({self.val_data.width}x{self.val_data.height}) "
-                               f"differ in size from training images ({self.train_data.width}x{self.train_data.height})")
-        td = self.train_data
+        self.overwrite = refuse_earlier_run(self.run_dir, resume, overwrite)
         say = tqdm.write if progress else (lambda *_: None)
-        say(f"data: {self.capture.format} capture {self.data_dir}: {len(td)} training ({spec_train}) and "
-            f"{len(self.val_data)} validation ({spec_val}) images at {td.width}x{td.height}"
-            f"{', masks on' if td.has_masks else ''}")
-        cfg = resolve_config(cfg, self.capture, td, log=say)
-        cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
-        self.cfg = cfg
+        self.capture, self.train_data, self.val_data, self.cfg = load_splits(self.data_dir, cfg, given, where,
+                                                                             progress, say)
+        self._set_up_model(say)
+        self._say_plan(given, preset, resume, say)
+        self.viewer = None  # a nerfkit.viewer.server.Viewer, served between steps (nerfkit train --viewer)
+
+    def _set_up_model(self, say) -> None:
+        """The model of self.cfg, the device mesh its data-parallel split runs on (none for whole views, which
+        train on one device), the optimiser and the image renderer; says what the model is and how it splits."""
+        cfg = self.cfg
         self.model = build_model(cfg)
         split = self.model.supports.parallel  # what the devices split (make_train_step)
         self.mesh = None if split == "views" else parallel.data_mesh(parallel.mesh_devices(cfg.train.devices))
@@ -152,11 +135,15 @@ class Trainer:
             parallel.check_batch(cfg.sampler.max_samples, self.mesh, "--max-samples")
         say(f"model: {describe_model(cfg)}")
         if split == "views":  # whole views, one per step, on one device (Gaussian splats)
-            self.model.bind_data(self.capture, td, log=say)
+            self.model.bind_data(self.capture, self.train_data, log=say)
         else:
             say(parallel.describe(cfg.train.batch_rays, self.mesh, split, cfg.sampler.max_samples))
         self.optimizer, self.schedule = make_optimizer(cfg, self.model)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
+
+    def _say_plan(self, given: dict[str, str], preset: str | None, resume: bool, say) -> None:
+        """Pick the views periodic validation renders (self.val_ids) and say them and the budget."""
+        cfg, spec_val = self.cfg, self.cfg.data.val_split
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
         whole = "" if len(self.val_ids) == len(self.val_data) else (
             f"; nerfkit eval {shlex.quote(str(self.run_dir))} --split {shlex.quote(spec_val)} scores all "
@@ -165,7 +152,6 @@ class Trainer:
         default = "" if given.keys() & {"train.max_minutes", "train.max_steps"} or resume else \
             f" (the {preset or 'preset'} default; --max-minutes M or --max-steps N changes it)"
         say(f"budget: {describe_budget(cfg)}{default}")
-        self.viewer = None  # a nerfkit.viewer.server.Viewer, served between steps (nerfkit train --viewer)
 
     # -- run folder -------------------------------------------------------------------
     def _write_run_files(self):
@@ -277,8 +263,29 @@ class Trainer:
         return row
 
     def run(self) -> TrainResult:
-        cfg, t = self.cfg, self.cfg.train
-        step, elapsed0, state, path = self._restore(init_state(self.model, self.optimizer, t.seed))
+        """Train from step 0, or from the newest checkpoint when resuming, until --max-steps, --max-minutes or a
+        stop signal (Ctrl-C: a checkpoint is saved); logs, validates and checkpoints on the way."""
+        step, elapsed0, state = self._begin()
+        images, poses, state = parallel.replicate(
+            (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)
+        step_fn = make_train_step(self.model, self.optimizer, self.train_data, self.cfg, self.mesh)
+        if self.viewer is not None:
+            self.viewer.set_params(state["params"], state["aux"], step)
+        t = self.cfg.train
+        start = time.perf_counter()
+        loop = Loop(step, step, elapsed0, start, start + 60 * t.max_minutes if t.max_minutes else math.inf)
+        self._bad_streak = 0
+        if step < t.max_steps and self.progress:
+            tqdm.write("compiling the training step (a one-off; the next run of this model starts faster)...")
+        with StopFlag() as stop:
+            state, interrupted, reason = self._loop(loop, state, step_fn, images, poses, stop)
+            self._end(loop, state, interrupted, reason)
+        return self._result(loop, interrupted)
+
+    def _begin(self):
+        """(step, elapsed, state) to start from (_restore), once the run folder's files are written and, when
+        resuming, its logs cut back to that step."""
+        step, elapsed0, state, path = self._restore(init_state(self.model, self.optimizer, self.cfg.train.seed))
         self._write_run_files()
         if path is not None:
             self._truncate_logs(step)
@@ -286,81 +293,94 @@ class Trainer:
         elif self.resume:
             self._truncate_logs(0)  # rows of a run that died before its first checkpoint
             tqdm.write(f"no checkpoint in {self.ckpt_dir}: starting from step 0")
-        images, poses, state = parallel.replicate(
-            (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)
-        step_fn = make_train_step(self.model, self.optimizer, self.train_data, cfg, self.mesh)
-        if self.viewer is not None:
-            self.viewer.set_params(state["params"], state["aux"], step)
+        return step, elapsed0, state
 
-        start = time.perf_counter()
-        deadline = start + 60 * t.max_minutes if t.max_minutes else math.inf
-        self._bad_streak, last_val, last_val_step, rays = 0, None, -1, []
-        val_gate = 0.0  # no periodic validation before this clock time (keeps validation <= val_max_fraction)
-        pending = []  # device metrics not yet logged
-        first_step, compiled_at = step, None
-        bar = None  # made after the first step: its rate and ETA leave the compilation out
-        if step < t.max_steps and self.progress:
-            tqdm.write("compiling the training step (a one-off; the next run of this model starts faster)...")
-        interrupted, reason = False, f"--max-steps {t.max_steps} reached"
-        with StopFlag() as stop:
-            while step < t.max_steps:
-                if parallel.agree(time.perf_counter() >= deadline):
-                    reason = f"--max-minutes {t.max_minutes:g} reached"
-                    break
-                state, m = step_fn(state, jnp.int32(step), images, poses)
-                jax.block_until_ready(m)  # keeps the bar's rate and ETA honest (steps are compute-bound)
-                step += 1
-                pending.append((step, m))
-                if bar is None:
-                    compiled_at = time.perf_counter()
-                    bar = tqdm(total=t.max_steps, initial=step, disable=not self.progress, dynamic_ncols=True,
-                               desc="train", unit="step", file=sys.stderr, mininterval=1.0)
-                else:
-                    bar.update(1)
-                if self.viewer is not None:  # renders only when its duty-cycle gate is open
-                    self.viewer.set_params(state["params"], state["aux"], step)
-                    self.viewer.render_pending()
-                if step % t.log_every == 0 or step == t.max_steps or stop.signal_name:
-                    row = self._log(pending, elapsed0 + time.perf_counter() - start)
-                    rays += [row["rays"]] if "rays" in row else []
-                    now = time.perf_counter()
-                    if math.isfinite(deadline) and step > first_step + 1:  # the bar ends where time runs out
-                        rate = (step - first_step - 1) / max(now - compiled_at, 1e-9)
-                        bar.total = min(t.max_steps, step + int(rate * max(deadline - now, 0.0)))
-                    bar.set_postfix(loss=f"{row['loss']:.4f}", psnr=f"{row['psnr']:.2f}",
-                                    val=f"{last_val:.2f}" if last_val is not None else "-")
-                if parallel.agree(bool(stop.signal_name)):
-                    interrupted = True
-                    break
-                if step % t.val_every == 0 and time.perf_counter() >= val_gate and self.primary:
-                    v0 = time.perf_counter()
-                    last_val = self.validate(state, step, elapsed0 + v0 - start)
-                    last_val_step = step
-                    took = time.perf_counter() - v0
-                    val_gate = time.perf_counter() + took * (1 - t.val_max_fraction) / t.val_max_fraction
-                    tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB ({took:.1f} s)")
-                if step % t.ckpt_every == 0:
-                    self.save(state, step, elapsed0 + time.perf_counter() - start)
-            if bar is not None:
-                bar.close()
-            elapsed = elapsed0 + time.perf_counter() - start
-            if pending:  # the last step is always in metrics.jsonl (summaries quote it)
-                row = self._log(pending, elapsed)
-                rays += [row["rays"]] if "rays" in row else []
-            if not interrupted:
-                tqdm.write(f"{reason} at step {step}")
-            if not interrupted and last_val_step != step and step > 0 and self.primary:
-                last_val = self.validate(state, step, elapsed)
-                tqdm.write(f"step {step}: val PSNR {last_val:.2f} dB")
-            self.save(state, step, elapsed)
+    def _loop(self, loop: Loop, state, step_fn, images, poses, stop: StopFlag):
+        """Run steps until a limit or a stop signal: (state, interrupted, the limit reached in words)."""
+        t = self.cfg.train
+        while loop.step < t.max_steps:
+            if parallel.agree(time.perf_counter() >= loop.deadline):
+                return state, False, f"--max-minutes {t.max_minutes:g} reached"
+            state, m = step_fn(state, jnp.int32(loop.step), images, poses)
+            jax.block_until_ready(m)  # keeps the bar's rate and ETA honest (steps are compute-bound)
+            loop.step += 1
+            loop.pending.append((loop.step, m))
+            self._advance_bar(loop)
+            if self.viewer is not None:  # renders only when its duty-cycle gate is open
+                self.viewer.set_params(state["params"], state["aux"], loop.step)
+                self.viewer.render_pending()
+            if loop.step % t.log_every == 0 or loop.step == t.max_steps or stop.signal_name:
+                self._log_and_show(loop)
+            if parallel.agree(bool(stop.signal_name)):
+                return state, True, f"--max-steps {t.max_steps} reached"
+            self._validate_on_schedule(loop, state)
+            if loop.step % t.ckpt_every == 0:
+                self.save(state, loop.step, loop.elapsed())
+        return state, False, f"--max-steps {t.max_steps} reached"
+
+    def _advance_bar(self, loop: Loop) -> None:
+        """Count a step on the progress bar, made at the first step (its rate and ETA leave the compilation out)."""
+        if loop.bar is None:
+            loop.compiled_at = time.perf_counter()
+            loop.bar = tqdm(total=self.cfg.train.max_steps, initial=loop.step, disable=not self.progress,
+                            dynamic_ncols=True, desc="train", unit="step", file=sys.stderr, mininterval=1.0)
+        else:
+            loop.bar.update(1)
+
+    def _log_and_show(self, loop: Loop) -> None:
+        """Log the pending steps (_log) and show the last row on the bar, whose end moves to where the time runs
+        out (at the measured step rate) under a time budget."""
+        t = self.cfg.train
+        row = self._log(loop.pending, loop.elapsed())
+        loop.rays += [row["rays"]] if "rays" in row else []
+        now = time.perf_counter()
+        if math.isfinite(loop.deadline) and loop.step > loop.first_step + 1:  # the bar ends where time runs out
+            rate = (loop.step - loop.first_step - 1) / max(now - loop.compiled_at, 1e-9)
+            loop.bar.total = min(t.max_steps, loop.step + int(rate * max(loop.deadline - now, 0.0)))
+        loop.bar.set_postfix(loss=f"{row['loss']:.4f}", psnr=f"{row['psnr']:.2f}",
+                             val=f"{loop.last_val:.2f}" if loop.last_val is not None else "-")
+
+    def _validate_on_schedule(self, loop: Loop, state) -> None:
+        """Validate every --val-every steps (process 0), but not before loop.val_gate: after a validation that
+        took v seconds, the next waits v (1 - f) / f seconds, so validation takes at most --val-max-fraction f
+        of the wall time."""
+        t = self.cfg.train
+        if loop.step % t.val_every == 0 and time.perf_counter() >= loop.val_gate and self.primary:
+            v0 = time.perf_counter()
+            loop.last_val = self.validate(state, loop.step, loop.elapsed(v0))
+            loop.last_val_step = loop.step
+            took = time.perf_counter() - v0
+            loop.val_gate = time.perf_counter() + took * (1 - t.val_max_fraction) / t.val_max_fraction
+            tqdm.write(f"step {loop.step}: val PSNR {loop.last_val:.2f} dB ({took:.1f} s)")
+
+    def _end(self, loop: Loop, state, interrupted: bool, reason: str) -> None:
+        """After the loop: log what is pending (the last step is always in metrics.jsonl), validate the last
+        step unless interrupted or just done, and save the checkpoint."""
+        step = loop.step
+        if loop.bar is not None:
+            loop.bar.close()
+        elapsed = loop.elapsed()
+        if loop.pending:  # the last step is always in metrics.jsonl (summaries quote it)
+            row = self._log(loop.pending, elapsed)
+            loop.rays += [row["rays"]] if "rays" in row else []
+        if not interrupted:
+            tqdm.write(f"{reason} at step {step}")
+        if not interrupted and loop.last_val_step != step and step > 0 and self.primary:
+            loop.last_val = self.validate(state, step, elapsed)
+            tqdm.write(f"step {step}: val PSNR {loop.last_val:.2f} dB")
+        self.save(state, step, elapsed)
+
+    def _result(self, loop: Loop, interrupted: bool) -> TrainResult:
+        """The plots (when no validation drew them), the closing lines, and the TrainResult."""
+        t, step = self.cfg.train, loop.step
         if self.primary and (not read_jsonl(self.run_dir / "val_metrics.jsonl") or interrupted):
             self.plot()
-        run_time = time.perf_counter() - start
-        sps = (step - first_step) / run_time if run_time > 0 else 0.0
-        if rays:
-            tqdm.write(f"rays per step: {np.mean(rays):.0f} on average (the ngp batch takes as many of the "
-                       f"{t.batch_rays} drawn as fit {cfg.sampler.max_samples} samples)")
+        run_time = time.perf_counter() - loop.start
+        sps = (step - loop.first_step) / run_time if run_time > 0 else 0.0
+        if loop.rays:
+            tqdm.write(f"rays per step: {np.mean(loop.rays):.0f} on average (the ngp batch takes as many of the "
+                       f"{t.batch_rays} drawn as fit {self.cfg.sampler.max_samples} samples)")
         if interrupted:
             tqdm.write(f"stopped at step {step}; checkpoint saved in {self.ckpt_dir}. Resume with:\n"
                        f"  nerfkit train {shlex.quote(str(self.data_dir))} --out {shlex.quote(str(self.run_dir))} --resume")
-        return TrainResult(self.run_dir, step, last_val, sps, interrupted)
+        return TrainResult(self.run_dir, step, loop.last_val, sps, interrupted)

@@ -215,33 +215,21 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
     Returns (params: numpy dict of the active Gaussians, log: [(step, elapsed_s, photometric loss)]
     every cfg.log_every steps).
     """
-    if minutes is None and steps is None:
-        raise ValueError("train_splats needs minutes= or steps=")
-    sizes = {(c.width, c.height) for c in cameras}
-    if len(sizes) != 1:
-        raise ValueError(f"train_splats needs cameras of one size, got {sorted(sizes)}")
-    width, height = sizes.pop()
+    width, height = _image_size(minutes, steps, cameras)
     budget = None if minutes is None else 60.0 * minutes
     extent = scene_extent(poses)
-    rng = np.random.default_rng(cfg.seed)
-    p0, active = initial_params(cfg, init)
-    params = {k: jnp.asarray(v) for k, v in p0.items()}
-    opts = make_optimizers(cfg.lrs, extent)
-    opt_state = init_state(opts, params)
-    stats = classic.zero_stats(cfg.capacity)
+    rng, base_key = np.random.default_rng(cfg.seed), jax.random.PRNGKey(cfg.seed)
+    params, active, opts, opt_state, stats = _initial_state(cfg, init, extent)
     step_fn = make_step(cfg, opts, width, height)
     data = (jnp.asarray(train_images, jnp.float32), jnp.asarray(poses, jnp.float32),
             jnp.asarray([intrinsics_of(c) for c in cameras], jnp.float32), jnp.asarray(background, jnp.float32))
-    base_key = jax.random.PRNGKey(cfg.seed)
     order, records, losses = np.zeros(0, int), [], []
-    paused, t0, step, next_cb, next_log, last_cb = 0.0, time.perf_counter(), 0, callback_every_s, 10.0, -1
+    clock, step, next_cb, next_log, last_cb = _Clock(time.perf_counter()), 0, callback_every_s, 10.0, -1
     while True:
-        elapsed = time.perf_counter() - t0 - paused
+        elapsed = clock.elapsed()
         progress = max(step / steps if steps else 0.0, elapsed / budget if budget else 0.0)
         if callback and next_cb is not None and elapsed >= next_cb:
-            c0 = time.perf_counter()
-            callback(step, elapsed, params, active)
-            paused += time.perf_counter() - c0
+            clock.call_paused(callback, step, elapsed, params, active)
             next_cb += callback_every_s
             last_cb = step
         if progress >= 1.0:
@@ -256,7 +244,7 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
         step += 1
         losses.append(photo)
         if step % cfg.log_every == 0:
-            records.append((step, time.perf_counter() - t0 - paused, float(np.mean([float(x) for x in losses]))))
+            records.append((step, clock.elapsed(), _mean_loss(losses)))
             losses = []
         params, opt_state, stats, active, _ = host_control(cfg, step, progress, params, opt_state, stats, active, rng,
                                                           extent, width)
@@ -265,10 +253,51 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
                 f"active {int(active.sum())}")
             next_log += 10.0
     if losses:  # the last partial logging interval
-        records.append((step, time.perf_counter() - t0 - paused, float(np.mean([float(x) for x in losses]))))
+        records.append((step, clock.elapsed(), _mean_loss(losses)))
     if callback and last_cb != step:
-        callback(step, time.perf_counter() - t0 - paused, params, active)
+        callback(step, clock.elapsed(), params, active)
     return {k: np.asarray(v)[active] for k, v in params.items()}, records
+
+
+def _image_size(minutes: float | None, steps: int | None, cameras) -> tuple[int, int]:
+    """(width, height) shared by all cameras; ValueError without a budget or for cameras of several sizes."""
+    if minutes is None and steps is None:
+        raise ValueError("train_splats needs minutes= or steps=")
+    sizes = {(c.width, c.height) for c in cameras}
+    if len(sizes) != 1:
+        raise ValueError(f"train_splats needs cameras of one size, got {sorted(sizes)}")
+    return sizes.pop()
+
+
+def _initial_state(cfg: SplatConfig, init: dict | None, extent: float):
+    """(params on the device, active mask [capacity], the Adam optimisers, their state, zeroed classic
+    statistics) at the start of a run (initial_params; optim.make_optimizers scaled by the scene extent)."""
+    p0, active = initial_params(cfg, init)
+    params = {k: jnp.asarray(v) for k, v in p0.items()}
+    opts = make_optimizers(cfg.lrs, extent)
+    return params, active, opts, init_state(opts, params), classic.zero_stats(cfg.capacity)
+
+
+def _mean_loss(losses: list) -> float:
+    """The mean of the logged steps' photometric losses (device scalars)."""
+    return float(np.mean([float(x) for x in losses]))
+
+
+@dataclass
+class _Clock:
+    """Training time: wall time since t0, less the time spent in callbacks (call_paused)."""
+
+    t0: float
+    paused: float = 0.0
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.t0 - self.paused
+
+    def call_paused(self, fn, *args) -> None:
+        """fn(*args), its time not counted as training time."""
+        c0 = time.perf_counter()
+        fn(*args)
+        self.paused += time.perf_counter() - c0
 
 
 def evaluate(params: dict, images, poses, cameras, background=(1.0, 1.0, 1.0), sh_degree: int = 3,

@@ -1,0 +1,80 @@
+"""What a Trainer settles before its first step (trainer.py): whether the run folder may be written (an earlier
+run's files are refused unless resumed or overwritten), and the training and validation frames of the capture,
+with the config resolved from them (resolve.py).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from nerfkit.core.config import Config
+from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.data.capture import Capture, SceneData
+from nerfkit.data.loader import load_frames, read_capture
+from nerfkit.training import checkpoint as ckpt_lib
+from nerfkit.training.flags import refuse_unused
+from nerfkit.training.resolve import default_splits, resolve_config
+
+# What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
+# run refuses a folder holding any of them unless told to overwrite, and then removes exactly these.
+RUN_FILES = ("config.json", "scene.json", "metrics.jsonl", "val_metrics.jsonl", "plots", "val", "checkpoints",
+             "report.html", "renders", "exports", "eval_*")
+
+
+def run_files(run_dir: Path) -> list[Path]:
+    """The files and folders of an earlier run in run_dir (RUN_FILES), sorted."""
+    run_dir = Path(run_dir)
+    return sorted({p for pattern in RUN_FILES for p in run_dir.glob(pattern)})
+
+
+def clear_run(run_dir: Path) -> None:
+    """Remove an earlier run's files (run_files) from run_dir; anything else in it stays."""
+    for p in run_files(run_dir):
+        shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+
+
+def refuse_earlier_run(run_dir: Path, resume: bool, overwrite: bool) -> bool:
+    """Whether a fresh run must first remove an earlier run's files from run_dir (True only with `overwrite`).
+
+    ConfigError for --resume with --overwrite; NerfkitError when run_dir holds an earlier run's files and
+    neither --resume nor --overwrite says what to do with them."""
+    if resume and overwrite:
+        raise ConfigError("--resume and --overwrite: pick one (continue the run, or start it again from scratch)")
+    old = [] if resume else run_files(run_dir)
+    if old and not overwrite:
+        if ckpt_lib.list_checkpoints(run_dir / "checkpoints"):
+            raise NerfkitError(f"{run_dir}: already holds a run; pass --resume to continue it, --overwrite "
+                               f"to start it again (its files are removed) or pick a new --out")
+        raise NerfkitError(f"{run_dir}: holds an earlier run's files ({', '.join(p.name for p in old[:4])}"
+                           f"{', ...' if len(old) > 4 else ''}) but no checkpoint; pass --overwrite to remove "
+                           f"them and start again, or pick a new --out")
+    return bool(old)
+
+
+def load_splits(data_dir: Path, cfg: Config, given: dict[str, str], where: str, progress: bool,
+                say) -> tuple[Capture, SceneData, SceneData, Config]:
+    """(capture, training frames, validation frames, cfg resolved from them) of the capture in data_dir.
+
+    The splits are cfg's (default: the capture's train split, and val, else test); a setting the user
+    gave that this capture makes unused is refused (flags.refuse_unused, `where` names its origin).
+    Validation images must have the training images' size (except multiscale data). `say` gets a line
+    describing the data, and resolve_config's lines."""
+    d = cfg.data
+    spec_train, spec_val = default_splits(cfg)
+    capture = read_capture(data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
+    refuse_unused(cfg, given, where, capture)
+    spec_train, spec_val = default_splits(cfg, list(capture.splits))
+    load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
+    train_data = load_frames(capture, spec_train, **load)
+    val_data = load_frames(capture, spec_val, **load)
+    if not capture.levels and ((val_data.height, val_data.width) != (train_data.height, train_data.width)):
+        raise NerfkitError(f"{data_dir}: validation images ({val_data.width}x{val_data.height}) "
+                           f"differ in size from training images ({train_data.width}x{train_data.height})")
+    td = train_data
+    say(f"data: {capture.format} capture {data_dir}: {len(td)} training ({spec_train}) and "
+        f"{len(val_data)} validation ({spec_val}) images at {td.width}x{td.height}"
+        f"{', masks on' if td.has_masks else ''}")
+    cfg = resolve_config(cfg, capture, td, log=say)
+    cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
+    return capture, train_data, val_data, cfg
