@@ -1,6 +1,7 @@
 """The house's rules, checked: import-linter's contracts (pipeline layers, no cycles; pyproject.toml),
-modules of a readable size, and tests that mirror the source."""
+modules and functions of a readable size, and tests that mirror the source."""
 
+import ast
 import os
 import subprocess
 import sys
@@ -12,7 +13,35 @@ ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "nerfkit"
 MAX_LINES = 430  # "no module over ~400 lines"; the largest today is cli/args.py (the verbs' typed arguments)
 
+MAX_FUNCTION_LINES = 60  # "no function over ~60 lines": from `def` to the end of the body, docstring included
+# Functions allowed to be longer, each with its reason ("path:Class.function", relative to src/nerfkit).
+LONG_FUNCTIONS = {
+    # export/ is being reworked by its owner (the median-depth TSDF fusion) while this check arrives; the
+    # split of export_mesh (74 lines: parse, pick the method, fuse or level-set, texture, record) goes with it.
+    "export/mesh.py:export_mesh",
+}
+
 pytestmark = pytest.mark.smoke
+
+
+def function_lengths(root: Path) -> dict[str, int]:
+    """{"path:Class.function": lines from `def` to the end of its body} of every function and method (nested
+    ones too, named after their parents) in the modules under root."""
+    lengths = {}
+
+    def walk(node, path: str, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lengths[f"{path}:{prefix}{child.name}"] = child.end_lineno - child.lineno + 1
+                walk(child, path, f"{prefix}{child.name}.")
+            elif isinstance(child, ast.ClassDef):
+                walk(child, path, f"{prefix}{child.name}.")
+            else:
+                walk(child, path, prefix)
+
+    for p in sorted(root.rglob("*.py")):
+        walk(ast.parse(p.read_text()), p.relative_to(root).as_posix(), "")
+    return lengths
 
 
 def test_layers_and_no_cycles():
@@ -27,6 +56,14 @@ def test_no_module_is_long():
     sizes = {p.relative_to(SRC): len(p.read_text().splitlines()) for p in SRC.rglob("*.py")}
     assert max(sizes.values()) > 100  # the walk found the modules
     assert {str(p): n for p, n in sizes.items() if n > MAX_LINES} == {}
+
+
+def test_no_function_is_long():
+    lengths = function_lengths(SRC)
+    assert len(lengths) > 500  # the walk found the functions
+    long = {name for name, n in lengths.items() if n > MAX_FUNCTION_LINES}
+    assert {name: lengths[name] for name in sorted(long - LONG_FUNCTIONS)} == {}
+    assert sorted(LONG_FUNCTIONS - long) == []  # an exemption whose function is now short (or gone) is dropped
 
 
 def test_each_package_has_its_tests_folder():
