@@ -1,9 +1,9 @@
 """The `nerfkit` command line: a thin layer that parses each verb's arguments and calls the library.
 
-Each verb is a typed dataclass parsed by tyro (args.py) and one cmd_* function that parses, calls the
-library and prints; train and demo live in train.py, export in export.py, the rest here. Every import
-that loads JAX is deferred into the cmd_* functions, so `nerfkit --help` and refused flags answer in
-~0.1 s.
+Each verb is a typed dataclass parsed by tyro (args.py; the export kinds' in export.py) and one cmd_*
+function that parses, calls the library and prints; train and demo live in train.py, export in export.py,
+the rest here. Every import that loads JAX is deferred into the cmd_* functions, so `nerfkit --help` and
+refused flags answer in ~0.1 s.
 """
 
 from __future__ import annotations
