@@ -83,21 +83,8 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     the level set (levelset.levelset_surface). box: half-size of the exported box in normalised units
     (default: the field's box, or the inner ball of an unbounded scene). watertight: a closed manifold
     (tsdf only). texture: a UV atlas of texture_size^2 texels instead of vertex colours."""
-    check_options(resolution, method, box, max_faces, texture_size, threshold)
-    if method == "tsdf" and threshold is not None:
-        raise ConfigError("--threshold is the density level of --method levelset; the tsdf surface is where "
-                          "the rendered depth puts it")
-    if method == "levelset" and watertight:
-        raise ConfigError("--watertight closes the fused surface of --method tsdf; the level set drops unseen "
-                          "faces, so it is open: use --method tsdf --watertight")
-    out = Path(out) if out is not None else default_out(run_dir, texture)
-    suffixes = TEXTURE_SUFFIXES if texture else MESH_SUFFIXES
-    if texture and out.suffix.lower() == ".ply":
-        raise ConfigError(f"--out {out}: a textured mesh is written as .glb (texture inside) or .obj (+ .mtl + .png)")
-    out = check_out(out, suffixes, overwrite)
-    if texture and out.suffix.lower() == ".obj":
-        for side in textured_files(out)[1:]:
-            check_new_file(side, overwrite, "--out")
+    out = checked_out(run_dir, out, resolution, method, box, max_faces, texture, texture_size, threshold, watertight,
+                      overwrite)
     t0 = time.perf_counter()
     run = RunFolder(run_dir).load()
     if run.cfg.field.kind == "splat":
@@ -110,8 +97,46 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     else:
         verts, faces, info = levelset_surface(run, bound, resolution, threshold, visible_only, snap, every, data,
                                               carve, progress, log)
+    verts, faces, cleaned = clean_up(verts, faces, method, h, max_faces, texture, watertight, log)
+    record = {"kind": "mesh", "file": str(out.resolve()), "method": method, "step": run.step,
+              "resolution": resolution, "bound": bound, "box_rule": "--box" if box is not None else "the field's box",
+              "watertight_requested": watertight, **cleaned, **info}
+    colors = write_coloured(run, out, verts, faces, h, texture, texture_size, record, log)
+    picture = mesh_picture(run.run_dir / "exports" / "mesh.png", verts, faces, colors,
+                           f"{out.name}: {len(verts)} vertices, {len(faces)} faces ({method}, step {run.step})")
+    record.update({"vertices": len(verts), "faces": len(faces), "seconds": round(time.perf_counter() - t0, 2),
+                   "picture": picture.name, "coordinates": "the capture's own (pose normalisation undone)"})
+    RunFolder(run.run_dir).write_record("mesh", record)
+    return record
+
+
+def checked_out(run_dir, out, resolution, method, box, max_faces, texture, texture_size, threshold, watertight,
+                overwrite) -> Path:
+    """The file to write (every option checked, in one line each, before any work; nothing overwritten
+    without `overwrite`)."""
+    check_options(resolution, method, box, max_faces, texture_size, threshold)
+    if method == "tsdf" and threshold is not None:
+        raise ConfigError("--threshold is the density level of --method levelset; the tsdf surface is where "
+                          "the rendered depth puts it")
+    if method == "levelset" and watertight:
+        raise ConfigError("--watertight closes the fused surface of --method tsdf; the level set drops unseen "
+                          "faces, so it is open: use --method tsdf --watertight")
+    out = Path(out) if out is not None else default_out(run_dir, texture)
+    if texture and out.suffix.lower() == ".ply":
+        raise ConfigError(f"--out {out}: a textured mesh is written as .glb (texture inside) or .obj (+ .mtl + .png)")
+    out = check_out(out, TEXTURE_SUFFIXES if texture else MESH_SUFFIXES, overwrite)
+    if texture and out.suffix.lower() == ".obj":
+        for side in textured_files(out)[1:]:
+            check_new_file(side, overwrite, "--out")
+    return out
+
+
+def clean_up(verts, faces, method: str, h: float, max_faces: int | None, texture: bool, watertight: bool, log):
+    """(verts, faces, record fields): specks of the fused surface dropped (the level set keeps its pieces, as
+    in the exports of the last round), decimated to max_faces (TEXTURE_FACES with a texture), and checked to
+    be a closed manifold (an error when `watertight` asked for one)."""
     n_surface, dropped = len(faces), 0
-    if method == "tsdf":  # the level set keeps its pieces, as in the exports of the last round
+    if method == "tsdf":
         verts, faces, dropped = drop_specks(verts, faces, SPECK_CELLS * h)
         log(f"mesh: {len(faces)} faces; {dropped} specks under {SPECK_CELLS:g} grid cells across dropped "
             f"({n_surface - len(faces)} faces)")
@@ -123,14 +148,19 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     if watertight and not closed:
         raise NerfkitError("the closed surface came out with open or non-manifold edges after clean-up; try "
                            "without --max-faces or at another --resolution")
+    return verts, faces, {"faces_of_surface": n_surface, "pieces_dropped": dropped,
+                          "faces_before_simplification": n_faces, "closed_manifold": closed}
+
+
+def write_coloured(run, out: Path, verts, faces, h: float, texture: bool, texture_size: int, record: dict,
+                   log) -> np.ndarray:
+    """Colour the mesh with the field seen straight at its surface (surface.py) and write it in the capture's
+    coordinates: vertex colours, or with `texture` a UV atlas (texture.py; its files go into the record).
+    Returns the vertex colours (uint8 [V, 4], for the picture)."""
     density_fn, color_fn, _, _ = field_functions(run)
     colors_of = surface_color_fn(density_fn, color_fn, COLOR_CELLS * h)
     normals = vertex_normals(verts, faces)
     colors = rgba8(chunked(colors_of, verts.astype(np.float32), normals, chunk=16384))
-    record = {"kind": "mesh", "file": str(out.resolve()), "method": method, "step": run.step,
-              "resolution": resolution, "bound": bound, "box_rule": "--box" if box is not None else "the field's box",
-              "faces_of_surface": n_surface, "pieces_dropped": dropped, "faces_before_simplification": n_faces,
-              "closed_manifold": closed, "watertight_requested": watertight, **info}
     if texture:
         log(f"mesh: texture atlas (xatlas, about {texture_size}^2 texels) for {len(faces)} faces...")
         uv, tex_faces, tex_verts, image = bake(verts, normals, faces, texture_size,
@@ -139,9 +169,4 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
         record["texture"] = {"files": [str(f.resolve()) for f in files], "size": list(image.shape[1::-1])}
     else:
         write_mesh(out, to_capture(verts, run.transform), faces, colors)
-    picture = mesh_picture(run.run_dir / "exports" / "mesh.png", verts, faces, colors,
-                           f"{out.name}: {len(verts)} vertices, {len(faces)} faces ({method}, step {run.step})")
-    record.update({"vertices": len(verts), "faces": len(faces), "seconds": round(time.perf_counter() - t0, 2),
-                   "picture": picture.name, "coordinates": "the capture's own (pose normalisation undone)"})
-    RunFolder(run.run_dir).write_record("mesh", record)
-    return record
+    return colors
