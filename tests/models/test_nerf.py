@@ -28,7 +28,7 @@ class _SlabField:
     def embedding(self, params, image_idx):
         return None
 
-    def __call__(self, params, mean, d, emb=None, var=None):
+    def __call__(self, params, mean, d, emb=None, footprint=None):
         sigma = jnp.where(jnp.abs(mean[..., 2]) < 0.1, 50.0, 0.0)
         return jnp.full(mean.shape, 0.5), sigma
 

@@ -119,14 +119,14 @@ def sample_field(run, bricks: np.ndarray, resolution: int, sh_bands: int, progre
 
     @jax.jit
     def sample(x):  # [P, 3] -> sigma [P], coefficients [P, 3 * SH]
-        scale = None if footprint is None else jnp.full(x.shape[0], footprint, jnp.float32)
+        fp = None if footprint is None else jnp.full(x.shape[0], footprint, jnp.float32)
 
         def colour(d):
-            return model.field(p, x, jnp.broadcast_to(d, x.shape), emb, scale=scale)[0]  # [P, 3]
+            return model.field(p, x, jnp.broadcast_to(d, x.shape), emb, footprint=fp)[0]  # [P, 3]
 
         rgb = jax.lax.map(colour, dirs)  # [D, P, 3]
         coeff = jnp.einsum("kd,dpc->pck", pinv, rgb)
-        a = jnp.log(jnp.maximum(model.field.density(p, x, scale), np.exp(LOG_SIGMA_MIN)))
+        a = jnp.log(jnp.maximum(model.field.density(p, x, fp), np.exp(LOG_SIGMA_MIN)))
         return a, coeff.reshape(x.shape[0], -1)
 
     s = BRICK + 1

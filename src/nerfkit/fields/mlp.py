@@ -9,7 +9,8 @@
     c     = sigmoid(A_c relu(A_v [f, gamma(d), e_k] + b_v) + b_c)     (hidden width W/2)
 
 mip-NeRF (kind "mip") feeds the integrated encoding of a Gaussian instead: h_0 = E[gamma(x)], x ~ N(mean,
-diag(var)) (encoding/integrated.py), with `var` passed next to the mean; everything else is the same MLP.
+diag(var)) (encoding/integrated.py), with the variances var passed as the sample's `footprint` next to the
+mean (the field signature, models/base.py Field); everything else is the same MLP.
 
 e_k is the appearance embedding of training image k (NeRF-W), present only when
 appearance_dim > 0; views that are not training images use the mean embedding.
@@ -83,11 +84,11 @@ class MLPField:
             params["rgb"] = {"w": dense_init(next(keys), w, 3), "b": jnp.zeros(3, jnp.float32)}
         return params
 
-    def _trunk(self, params, x, var=None):
-        if var is None:
+    def _trunk(self, params, x, footprint=None):
+        if footprint is None:
             ex = positional_encoding(x, self.cfg.l_xyz, self.cfg.pe)
         else:
-            ex = integrated_positional_encoding(x, var, self.cfg.l_xyz)
+            ex = integrated_positional_encoding(x, footprint, self.cfg.l_xyz)
         h = ex
         for layer, p in enumerate(params["trunk"]):
             z = h @ p["w"] + p["b"]
@@ -96,23 +97,23 @@ class MLPField:
             h = jax.nn.relu(z)
         return h
 
-    def density(self, params, x: jnp.ndarray, var: jnp.ndarray | None = None) -> jnp.ndarray:
-        """sigma [...] >= 0 at positions x [..., 3] (Gaussians of diagonal covariance var [..., 3], if given)."""
-        h = self._trunk(params, x, var)
+    def density(self, params, x: jnp.ndarray, footprint: jnp.ndarray | None = None) -> jnp.ndarray:
+        """sigma [...] >= 0 at positions x [..., 3] (Gaussians of diagonal covariance footprint [..., 3], if given)."""
+        h = self._trunk(params, x, footprint)
         return jax.nn.relu(h @ params["sigma"]["w"] + params["sigma"]["b"])[..., 0]
 
     def embedding(self, params, image_idx):
         return appearance_embedding(params, image_idx, self.n_appearance)
 
     def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None,
-                 var: jnp.ndarray | None = None):
+                 footprint: jnp.ndarray | None = None):
         """rgb [..., 3] in (0, 1) and sigma [...] at x [..., 3] seen along unit directions d.
 
         d (and the appearance embeddings emb [..., A], when the field has them) broadcast
-        against x (e.g. [R, 1, 3] for all samples of a ray). With var [..., 3], x and var are the
-        mean and diagonal covariance of Gaussians, encoded with the integrated encoding (mip-NeRF).
+        against x (e.g. [R, 1, 3] for all samples of a ray). With footprint [..., 3], x and footprint are
+        the mean and diagonal covariance of Gaussians, encoded with the integrated encoding (mip-NeRF).
         """
-        h = self._trunk(params, x, var)
+        h = self._trunk(params, x, footprint)
         sigma = jax.nn.relu(h @ params["sigma"]["w"] + params["sigma"]["b"])[..., 0]
         if self.cfg.viewdirs:
             f = h @ params["feature"]["w"] + params["feature"]["b"]

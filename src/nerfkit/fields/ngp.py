@@ -7,14 +7,15 @@
     sigma  = exp(min(z_0, 15))                             (truncated exponential)
     c      = sigmoid(MLP_64x64([z, SH_4(d), e_k]))         (degree-4 spherical harmonics)
 
-With antialias (--antialias), each sample carries the std s of its pixel footprint (world units) and
+With antialias (--antialias), each sample carries the std s of its pixel footprint (world units; the
+field signature's `footprint`, models/base.py Field) and
 level l's features are scaled by erf(h_l / (sqrt(8) s_y)) (encoding/hashgrid.level_weights; h_l the
 level's cell size, s_y the footprint in grid coordinates: s, or s / R times the contraction's local
 scale when contracted), so levels finer than the footprint fade out instead of aliasing.
 
 e_k is the appearance embedding of training image k (NeRF-W; absent when
 appearance_dim = 0); other views use the mean embedding. Same interface as the NeRF MLP:
-`field(params, x, d, emb) -> (rgb, sigma)`, `field.density(params, x)`; the occupancy grid
+`field(params, x, d, emb, footprint) -> (rgb, sigma)`, `field.density(params, x, footprint)`; the occupancy grid
 uses `density_grid(params, y)`, the density at grid coordinates. Points outside a bounded
 box get sigma = 0.
 """
@@ -70,11 +71,11 @@ class HashGridField:
         """Grid coordinates y [..., 3] of world points x [..., 3]."""
         return contract(x / self.radius) if self.unbounded else x
 
-    def grid_scale(self, x: jnp.ndarray, scale: jnp.ndarray) -> jnp.ndarray:
-        """Footprint stds [...] in grid coordinates of footprints of std `scale` [...] (world) at x [..., 3]."""
+    def grid_scale(self, x: jnp.ndarray, footprint: jnp.ndarray) -> jnp.ndarray:
+        """Footprint stds [...] in grid coordinates of footprints of std `footprint` [...] (world) at x [..., 3]."""
         if self.unbounded:
-            return scale / self.radius * contraction_scale(x / self.radius)
-        return scale
+            return footprint / self.radius * contraction_scale(x / self.radius)
+        return footprint
 
     def _geometry(self, params, y, scale_y=None):
         u = (y + self.grid_bound) / (2 * self.grid_bound)
@@ -92,21 +93,22 @@ class HashGridField:
         """sigma [...] at grid coordinates y [..., 3] (world units of density)."""
         return self._geometry(params, y)[0]
 
-    def density(self, params, x: jnp.ndarray, scale: jnp.ndarray | None = None) -> jnp.ndarray:
-        """sigma [...] >= 0 at world points x [..., 3] (footprints of std `scale` [...] when anti-aliased)."""
+    def density(self, params, x: jnp.ndarray, footprint: jnp.ndarray | None = None) -> jnp.ndarray:
+        """sigma [...] >= 0 at world points x [..., 3] (footprints of std `footprint` [...] when anti-aliased)."""
         y = self.to_grid(x)
-        return self._geometry(params, y, None if scale is None else self.grid_scale(x, scale))[0]
+        return self._geometry(params, y, None if footprint is None else self.grid_scale(x, footprint))[0]
 
     def embedding(self, params, image_idx) -> jnp.ndarray | None:
         """Appearance embeddings [R, A] of training images image_idx [R] (None: the mean), or None without them."""
         return appearance_embedding(params, image_idx, self.n_appearance)
 
     def __call__(self, params, x: jnp.ndarray, d: jnp.ndarray, emb: jnp.ndarray | None = None,
-                 scale: jnp.ndarray | None = None):
+                 footprint: jnp.ndarray | None = None):
         """rgb [..., 3], sigma [...] at x [..., 3] seen along unit directions d (broadcast to x),
         with appearance embeddings emb [..., A] (broadcast to x; needed when the field has them) and,
-        anti-aliased, footprint stds scale [...] in world units (None: every level at full weight)."""
-        sigma, z = self._geometry(params, self.to_grid(x), None if scale is None else self.grid_scale(x, scale))
+        anti-aliased, footprint stds [...] in world units (None: every level at full weight)."""
+        sigma, z = self._geometry(params, self.to_grid(x),
+                                  None if footprint is None else self.grid_scale(x, footprint))
         sh = sh_encode(jnp.broadcast_to(d, x.shape).reshape(-1, 3), SH_DEGREE).reshape(*x.shape[:-1], -1)
         parts = [z, sh]
         if self.n_appearance:

@@ -13,6 +13,9 @@ method supports):
                   optimiser and train step, and an image renderer (render_camera(params, aux, c2w,
                   camera) -> {"rgb" [H,W,3], "depth" [H,W], "acc" [H,W]}).
 
+Fields (F(x, d) -> rgb, sigma) share one call signature, `Field`, whose `footprint` argument is each kind's
+size of a sample (see Field).
+
 What a method supports is declared once, in `supports` (a `Supports`); the trainer, the renderers
 and the CLI read it instead of probing for attributes. The settings it reads are declared in `reads`
 (training/flags.py refuses the others when given). A new method is one module defining a class
@@ -58,6 +61,35 @@ class Supports:
 
 
 @runtime_checkable
+class Field(Protocol):
+    """F(x, d) -> (rgb, sigma), one call signature for every kind of field (fields/, models/baked/):
+
+        field(params, x [..., 3], d [..., 3] or broadcastable, emb [..., A] | None, footprint=None)
+            -> rgb [..., 3], sigma [...]
+        field.density(params, x, footprint=None) -> sigma [...]
+        field.embedding(params, image_idx) -> appearance embeddings [R, A] (None: the field has none)
+
+    `footprint` is the size of the region each sample stands for (its pixel's cone at that depth), in the
+    form the kind's encoding integrates over; None: a point, encoded as such.
+
+        mlp / mip (fields/mlp.py)  the diagonal covariance var [..., 3] of the Gaussian x ~ N(mean, diag(var))
+                                   of a conical frustum: the integrated positional encoding (mip-NeRF)
+        ngp (fields/ngp.py)        the std s [...] of the pixel footprint in world units: hash-grid levels
+                                   finer than s are faded out (--antialias; MarchingModel.sample_scale)
+        baked (models/baked/)      ignored (one grid resolution)
+    """
+
+    def __call__(self, params: Params, x, d, emb=None, footprint=None) -> tuple:
+        """(rgb [..., 3], sigma [...]) at x seen along unit directions d."""
+
+    def density(self, params: Params, x, footprint=None):
+        """sigma [...] at x [..., 3]."""
+
+    def embedding(self, params: Params, image_idx):
+        """Appearance embeddings of training images image_idx [R] (None: their mean), or None."""
+
+
+@runtime_checkable
 class Model(Protocol):
     """What every method has."""
 
@@ -92,14 +124,15 @@ class MarchingModel(RayModel, Protocol):
     """A RayModel that marches an occupancy grid (the wavefront renderer, bake and export read these)."""
 
     MIN_TRANSMITTANCE: ClassVar[float]
-    field: Any  # to_grid(x), embedding(params, idx), density(params, x, scale), __call__(params, x, d, emb)
+    field: Field  # and to_grid(x), radius, unbounded (the marcher's grid coordinates)
     occ: Any  # sampling.occupancy.OccupancyConfig
 
     def candidates(self, o, d, key=None, index=None) -> tuple:
         """Candidate sample positions t [R, K] along the rays (and their intervals)."""
 
     def sample_scale(self, t, dir_norm, radii):
-        """Footprint scale of each sample (None without cones)."""
+        """The field's footprint of each sample at t on rays of |d| dir_norm and cone radii (None without
+        cones, or where the field does not use it)."""
 
 
 @runtime_checkable

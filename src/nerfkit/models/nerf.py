@@ -191,7 +191,7 @@ class MipNeRFModel:
         norm = jnp.linalg.norm(d, axis=-1)
         emb = self.field.embedding(params, image_idx)
         rgb, sigma = self.field(params, mean, (d / norm[:, None])[:, None, :],
-                                None if emb is None else emb[:, None, :], var=var)
+                                None if emb is None else emb[:, None, :], footprint=var)
         w = compositing_weights(sigma, (t[:, 1:] - t[:, :-1]) * norm[:, None])
         out = composite(w, rgb, 0.5 * (t[:, 1:] + t[:, :-1]), self.background)
         out["weights"], out["edges"] = w, t
@@ -343,9 +343,9 @@ class NGPModel:
         emb = self.field.embedding(params["field"], image_idx)
         if emb is not None:
             emb = emb[ray] if image_idx is not None else emb
-        scale = self.sample_scale(t_mid, dir_norm[ray], None if radii is None else radii[ray])
-        x, viewdir, scale = self.shard_samples((x, viewdir, scale))
-        rgb, sigma = self.field(params["field"], x, viewdir, emb, scale=scale)
+        footprint = self.sample_scale(t_mid, dir_norm[ray], None if radii is None else radii[ray])
+        x, viewdir, footprint = self.shard_samples((x, viewdir, footprint))
+        rgb, sigma = self.field(params["field"], x, viewdir, emb, footprint=footprint)
         delta = (m["t_end"] - m["t_start"]) * dir_norm[ray]
         w = packed_compositing_weights(sigma, delta, ray, valid, self.MIN_TRANSMITTANCE)
         bg = jax.random.uniform(k_bg, (n, 3)) if (train and self.unbounded) else self.background

@@ -232,7 +232,7 @@ class WavefrontRenderer(Renderer):
             emb = model.field.embedding(params["field"], None)
             t_s = t_mid.reshape(-1)[src]
             rgb, sigma = model.field(params["field"], o[ray] + t_s[:, None] * d[ray], d[ray] / norm[ray][:, None], emb,
-                                     scale=model.sample_scale(t_s, norm[ray], rad[ray]))
+                                     footprint=model.sample_scale(t_s, norm[ray], rad[ray]))
             back = jnp.minimum(slot, budget - 1)  # [r, cap]: each sample's packed position
             tau = jnp.where(ok, sigma[back] * (t1 - t0) * norm[:, None], 0.0)
             t_i = trans[:, None] * jnp.exp(-(jnp.cumsum(tau, axis=1) - tau))

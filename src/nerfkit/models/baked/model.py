@@ -40,12 +40,13 @@ class BakedField:
     def embedding(params, image_idx):
         return None
 
-    def density(self, params, x):
+    def density(self, params, x, footprint=None):
+        """sigma [...] at points x [..., 3] (one resolution: a footprint changes nothing)."""
         return lookup(params, x.reshape(-1, 3), self.bound, self.resolution)[0].reshape(x.shape[:-1])
 
-    def __call__(self, params, x, d, emb=None, scale=None):
+    def __call__(self, params, x, d, emb=None, footprint=None):
         """rgb [P, 3], sigma [P] at points x [P, 3] seen along unit directions d [P, 3] (the baked grid has
-        one resolution: footprints `scale` do not change it)."""
+        one resolution: a footprint does not change it)."""
         sigma, coeff = lookup(params, x, self.bound, self.resolution)
         y = sh_encode(d, self.bands)  # [P, SH]
         rgb = jnp.einsum("pck,pk->pc", coeff.reshape(x.shape[0], 3, -1), y)
