@@ -202,9 +202,10 @@ class SplatSettings:
     """Steps per SH degree: the degree rises by one every N steps up to --sh-degree (3DGS: 1000 of 30k)."""
     ssim_lambda: float = 0.2
     """Loss = (1 - lambda) L1 + lambda (1 - SSIM)."""
-    init_points: Literal["auto", "sfm", "random"] = "auto"
-    """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D), random (uniform in the
-    scene box) or auto (sfm where the capture has points, else random)."""
+    init_points: Literal["auto", "sfm", "hull", "random"] = "auto"
+    """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D), hull (uniform in the
+    visual hull of the masks or alpha channel), random (uniform in the scene box) or auto (sfm where the
+    capture has points, else hull where it has masks or alpha, else random)."""
 
 
 @dataclass

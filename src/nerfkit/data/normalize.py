@@ -88,15 +88,17 @@ def masked_bound(poses: np.ndarray, cameras: list[Camera], alphas: np.ndarray, r
     for _ in range(2):
         g = (np.arange(resolution) + 0.5) / resolution * 2 * extent - extent
         pts = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
-        keep = _hull(pts, poses, cameras, alphas)
+        keep = inside_visual_hull(pts, poses, cameras, alphas)
         if not keep.any():
             return None
         extent = min(extent, float(np.abs(pts[keep]).max() + 2 * extent / resolution))
     return margin * extent
 
 
-def _hull(pts, poses, cameras, alphas) -> np.ndarray:
-    """bool [P]: points inside the visual hull (see masked_bound)."""
+def inside_visual_hull(pts, poses, cameras, alphas) -> np.ndarray:
+    """bool [P]: points [P, 3] inside the visual hull of the silhouettes alphas [N, H, W] (> 1/2; uint8 or
+    float) seen by pinhole cameras at poses [N, 4, 4]: seen by at least half of the cameras, and inside the
+    silhouette of every camera that sees them (see masked_bound)."""
     keep = np.ones(len(pts), bool)
     n_seen = np.zeros(len(pts), np.int32)
     for pose, cam, alpha in zip(poses, cameras, alphas):
@@ -113,3 +115,22 @@ def _hull(pts, poses, cameras, alphas) -> np.ndarray:
         keep &= ~seen | inside
         n_seen += seen
     return keep & (n_seen >= 0.5 * len(poses))
+
+
+def sample_visual_hull(n: int, box: float, poses: np.ndarray, cameras: list[Camera], alphas: np.ndarray,
+                       seed: int = 0, tries: int = 64) -> np.ndarray | None:
+    """Up to n points [n, 3] uniform in the visual hull (inside_visual_hull) within [-box, box]^3: uniform
+    points of the box, kept when inside, in rounds of 4n; None when a round keeps none."""
+    rng = np.random.default_rng(seed)
+    kept: list[np.ndarray] = []
+    total = 0
+    for _ in range(tries):
+        pts = rng.uniform(-box, box, (4 * n, 3))
+        inside = pts[inside_visual_hull(pts, poses, cameras, alphas)]
+        if not len(inside):
+            return None
+        kept.append(inside)
+        total += len(inside)
+        if total >= n:
+            break
+    return np.concatenate(kept)[:n]

@@ -125,8 +125,10 @@ def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]
             from nerfkit.models.splat.method import find_sfm_points
 
             if find_sfm_points(capture) is None:
+                where = ("in the visual hull of its silhouettes" if capture.has_masks or capture.alpha
+                         else "random in the box")
                 out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
-                                            f"points3D): the Gaussians start random in the box")
+                                            f"points3D): the Gaussians start {where}")
     return out
 
 

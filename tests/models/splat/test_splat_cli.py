@@ -183,3 +183,42 @@ def test_init_from_colmap_points(tmp_path):
     np.testing.assert_allclose(got, want[np.lexsort(want.T)], atol=1e-4)
     np.testing.assert_allclose(0.28209479 * params["sh_dc"][:50, 0] + 0.5, np.tile([10, 200, 30], (50, 1)) / 255,
                                atol=1e-5)
+
+
+def test_without_points_a_masked_scene_starts_in_its_visual_hull(tmp_path):
+    """No SfM points but an alpha channel (a Blender scene): the Gaussians start uniform in the visual hull of
+    the training silhouettes, every one inside it; --init-points random keeps the box; hull without
+    silhouettes is refused in one line."""
+    from nerfkit.core.presets import preset
+    from nerfkit.data.normalize import inside_visual_hull
+
+    scene = make_scene(tmp_path / "scene", size=24, n_train=8, n_val=1, n_test=1)
+    cap = read_capture(scene, "train", "auto")
+    data = load_scene(scene, "train")
+    assert data.alphas is not None
+    model = SplatModel(preset("splat"))
+    model.bind_data(cap, data, log=lambda *_: None)
+    params, aux = model.init()
+    means = params["means"][aux["active"]]
+    assert "visual hull" in model.init_note and len(means) > 1000
+    assert inside_visual_hull(means, data.poses, data.cameras, data.alphas).all()
+    cfg = preset("splat")
+    cfg.splat.init_points = "random"
+    boxed = SplatModel(cfg)
+    boxed.bind_data(cap, data, log=lambda *_: None)
+    p2, a2 = boxed.init()
+    assert "box" in boxed.init_note
+    assert inside_visual_hull(p2["means"][a2["active"]], data.poses, data.cameras, data.alphas).mean() < 0.5
+
+
+def test_hull_init_without_silhouettes_is_refused(tmp_path):
+    from nerfkit.core.errors import DataError
+    from nerfkit.core.presets import preset
+    from nerfkit.data.formats.colmap import read_colmap
+    from nerfkit.data.procedural.captures import make_capture
+
+    root = make_capture(tmp_path / "cap", "colmap", n_views=6, size=16)
+    cfg = preset("splat")
+    cfg.splat.init_points = "hull"
+    with pytest.raises(DataError, match="--init-points hull, but the capture has neither masks nor an alpha"):
+        SplatModel(cfg).bind_data(read_colmap(root, 8, True), load_scene(root, "train", format="colmap"))

@@ -28,6 +28,7 @@ import numpy as np
 
 from nerfkit.core.errors import DataError
 from nerfkit.data.formats.colmap import find_model
+from nerfkit.data.normalize import sample_visual_hull
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.model import (
@@ -57,6 +58,10 @@ RANDOM_INIT = 100_000  # random Gaussians in the box without SfM points (3DGS's 
 # cores, benchmarks/splat_lego.py --minutes 2.5): 0.3 gives 26.25 dB at 2 min and 5.8 steps/s, against 24.47 dB and
 # 5.1 steps/s at 1.0 (50k random Gaussians ~13 px wide cost the tile rasteriser 3x more per step at first).
 RANDOM_INIT_SCALE = 0.3
+# Inside the visual hull of the silhouettes (masked captures, Blender's alpha) rather than the whole box: lego (seed
+# protocol, 2000 steps, all 50 views of val[50:100], 2 shared cores) 31.54 dB at 0.3 x the neighbour distance, 31.33 at
+# 1.0, against 30.67 from the box (random).
+HULL_INIT_SCALE = 0.3
 
 
 def splat_config(cfg) -> SplatConfig:
@@ -168,19 +173,36 @@ class SplatModel:
             except ValueError as e:
                 raise DataError(f"{capture.root}: {e}") from None
         choice = self.cfg.splat.init_points
-        path = find_sfm_points(capture) if choice != "random" else None
+        path = find_sfm_points(capture) if choice in ("auto", "sfm") else None
         if choice == "sfm" and path is None:
             raise DataError(f"{capture.root}: --init-points sfm, but the capture has no SfM points (sparse_pc.ply "
                             f"or a COLMAP model); use --init-points random")
+        if choice == "hull" and data.alphas is None:
+            raise DataError(f"{capture.root}: --init-points hull, but the capture has neither masks nor an alpha "
+                            f"channel; use --init-points random")
         if path is not None:
             pts, cols = read_points(path, transform=data.transform)
             if len(pts) >= 4:
                 self.init_gaussians = init_from_points(pts, cols)
                 self.init_note = f"{len(pts)} SfM points of {path.name}"
+        if self.init_gaussians is None and choice in ("auto", "hull") and data.alphas is not None:
+            self._init_in_hull(data)
         if self.init_gaussians is None:
             self.init_note = f"{min(RANDOM_INIT, self.sc.capacity)} random points in the box " \
                              f"[-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
         log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}")
+
+    def _init_in_hull(self, data) -> None:
+        """Grey Gaussians (as the random init's) uniform in the visual hull of the training silhouettes, their
+        scales HULL_INIT_SCALE x the distance to their neighbours."""
+        n = min(RANDOM_INIT, self.sc.capacity)
+        pts = sample_visual_hull(n, self.sc.init_box, data.poses, data.cameras, data.alphas, self.sc.seed)
+        if pts is None:
+            return
+        g = init_from_points(pts, np.full((len(pts), 3), 0.5, np.float32), self.sc.init_opacity)
+        g["log_scales"] = g["log_scales"] + np.float32(np.log(HULL_INIT_SCALE))
+        self.init_gaussians = g
+        self.init_note = f"{len(pts)} points uniform in the visual hull of the training silhouettes"
 
     def init(self, key=None):
         """(params: all capacity slots, aux: active mask, classic statistics, clock) as numpy arrays."""
