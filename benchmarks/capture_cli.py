@@ -1,0 +1,99 @@
+"""A posed capture through the command line, preset against preset in one sitting: held-out PSNR against the
+CLI's own wall clock, and the held-out photos side by side.
+
+    python benchmarks/capture_cli.py [--data MARYROSE] [--presets ngp splat] [--minutes 10] [--downscale 2]
+                                     [--name maryrose] [--out runs/capture_cli]
+
+For each preset P, one fresh run of exactly what a user types:
+
+    nerfkit train DATA --out OUT/<P> --preset P --max-minutes M --downscale D
+    nerfkit eval OUT/<P> --split test
+
+(the wall clock is the whole `nerfkit train` process; PSNR and SSIM are `nerfkit eval`'s over every held-out
+photo). Writes benchmarks/results/<name>_cli.json (with the commit it ran on) and <name>_cli.jpg: three
+held-out photos (first, middle, last), each as the runs see it and every preset's render.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from provenance import provenance
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_DATA = ROOT.parent / "shared" / "data" / "real" / "maryrose"
+
+
+def nerfkit(*args: str) -> tuple[float, str]:
+    """Run the CLI in its own process (as a user would); (wall seconds, stdout)."""
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, text=True, check=False)
+    if r.returncode != 0:
+        raise SystemExit(f"nerfkit {' '.join(args)} failed (exit {r.returncode})")
+    return time.perf_counter() - t0, r.stdout
+
+
+def side_by_side(runs: dict[str, Path], views: list[int], out: Path) -> None:
+    """Rows of held-out photos: the photo as the runs see it (masked, composited, shrunk), then each preset's
+    render (eval's RUN/eval_test/view_NNN_rgb.png)."""
+    import imageio.v3 as iio
+
+    from nerfkit.core.viz import to_uint8
+    from nerfkit.data.loader import load_scene
+    from nerfkit.run.folder import RunFolder
+
+    first = RunFolder(next(iter(runs.values())))
+    d = first.config().data
+    photos = load_scene(first.data_dir(), "test", format=d.format, downscale=d.downscale, target_width=d.target_width,
+                        background=d.background, masks=d.masks, holdout_every=d.holdout_every).images
+    rows = [np.concatenate([to_uint8(photos[k])] + [iio.imread(r / "eval_test" / f"view_{k:03d}_rgb.png")[..., :3]
+                                                   for r in runs.values()], axis=1) for k in views]
+    iio.imwrite(out, np.concatenate(rows, axis=0), quality=90)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    ap.add_argument("--presets", nargs="+", default=["ngp", "splat"])
+    ap.add_argument("--minutes", type=float, default=10.0)
+    ap.add_argument("--downscale", type=int, default=2)
+    ap.add_argument("--name", default="maryrose")
+    ap.add_argument("--out", type=Path, default=Path("runs/capture_cli"))
+    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
+    a = ap.parse_args()
+    result = {"what": f"nerfkit train + nerfkit eval --split test on {a.data.name}, wall clock of the CLI",
+              "data": str(a.data), "minutes": a.minutes, "downscale": a.downscale, "presets": {},
+              "provenance": provenance()}
+    runs = {}
+    for preset in a.presets:
+        run = a.out / preset
+        train_s, out = nerfkit("train", str(a.data), "--out", str(run), "--preset", preset, "--max-minutes",
+                               f"{a.minutes:g}", "--downscale", str(a.downscale), "--no-progress", "--overwrite")
+        eval_s, _ = nerfkit("eval", str(run), "--split", "test", "--overwrite")
+        ev = json.loads((run / "eval_test.json").read_text())
+        m = re.search(r"step (\d+), ([\d.]+) steps/s", out)
+        result["presets"][preset] = {"run": str(run), "train_wall_s": round(train_s, 1),
+                                     "steps": int(m.group(1)) if m else None, "psnr": round(ev["psnr"], 3),
+                                     "ssim": round(ev["ssim"], 4), "views": ev["n_views"],
+                                     "per_view_psnr": [round(v["psnr"], 3) for v in ev["per_view"]],
+                                     "eval_wall_s": round(eval_s, 1)}
+        runs[preset] = run
+        print(f"{preset}: {result['presets'][preset]['steps']} steps in {train_s / 60:.2f} min, "
+              f"{ev['psnr']:.2f} dB / SSIM {ev['ssim']:.4f} on {ev['n_views']} held-out photos", flush=True)
+    a.results.mkdir(parents=True, exist_ok=True)
+    path = a.results / f"{a.name}_cli.json"
+    path.write_text(json.dumps(result, indent=2))
+    n = result["presets"][a.presets[0]]["views"]
+    side_by_side(runs, sorted({0, n // 2, n - 1}), path.with_suffix(".jpg"))
+    print(f"wrote {path} and {path.with_suffix('.jpg')} (columns: ground truth, {', '.join(a.presets)})")
+
+
+if __name__ == "__main__":
+    main()
