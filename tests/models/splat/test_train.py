@@ -8,14 +8,18 @@ by at most ~7e-4 per step), so 300 steps are far from converged: 3,000 steps rea
 For scale, the NeRF tests reach 17-20 dB on this 32 px scene (tests/models/test_ngp.py, training/test_trainer.py).
 """
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from nerfkit.data.loader import load_scene
 from nerfkit.data.procedural.scene import make_scene
+from nerfkit.models.splat import densify
+from nerfkit.models.splat.optim import LearningRates, init_state, make_optimizers
 from nerfkit.models.splat.train import (
     SplatConfig,
     evaluate,
+    host_control,
     initial_params,
     train_splats,
 )
@@ -56,3 +60,29 @@ def test_refuses_bad_arguments(scene):
         SplatConfig(strategy="adc")
     with pytest.raises(ValueError, match="one size"):
         train_splats(train.images[:2], train.poses[:2], [train.cameras[0], train.cameras[0].with_size(16, 16)], steps=1)
+
+
+def _host_schedule(reset_every: int, steps: int, control_until: float = 0.8) -> list[tuple[int, list[str]]]:
+    """(step, what host_control did) for every step that did something, on 40 random Gaussians."""
+    cfg = SplatConfig(capacity=40, strategy="classic", control_from=100, control_every=100, control_until=control_until,
+                      classic=densify.ClassicSchedule(reset_every=reset_every))
+    p0, active = initial_params(cfg)
+    params = {k: jnp.asarray(v) for k, v in p0.items()}
+    opts = make_optimizers(LearningRates(), 1.0)
+    opt_state, stats, rng = init_state(opts, params), densify.zero_stats(40), np.random.default_rng(0)
+    done = []
+    for step in range(1, steps + 1):
+        params, opt_state, stats, active, what = host_control(cfg, step, step / steps, params, opt_state, stats, active,
+                                                              rng, 1.0, 32)
+        if what:
+            done.append((step, what))
+        if "reset" in what:
+            assert float(jnp.max(jnp.where(jnp.asarray(active), params["opacity"], -jnp.inf))) <= np.log(0.01 / 0.99) + 1e-5
+    return done
+
+
+def test_opacity_reset_only_when_asked_and_inside_the_control_window():
+    none = _host_schedule(reset_every=0, steps=1000)
+    assert [s for s, w in none] == list(range(100, 800, 100)) and all(w == ["control"] for _, w in none)
+    resets = [s for s, w in _host_schedule(reset_every=300, steps=1000) if "reset" in w]
+    assert resets == [300, 600]  # 900 is past control_until (0.8 of 1000 steps)

@@ -180,16 +180,19 @@ def host_control(cfg: SplatConfig, step: int, progress: float, params, opt_state
                  width: int):
     """What the host does after step `step` (1-based count of steps done) at progress in [0, 1]: a
     density-control round every cfg.control_every steps from cfg.control_from while progress <
-    cfg.control_until, and (classic) the opacity reset every classic.reset_every steps in that window.
+    cfg.control_until, and (classic, when classic.reset_every > 0) the opacity reset every reset_every steps
+    in that window.
     Returns (params, opt_state, stats, active, what: list of "control" / "reset")."""
     what = []
     window = progress < cfg.control_until
-    resets = step // cfg.classic.reset_every if cfg.strategy == "classic" else 0  # resets done before this step
+    every = cfg.classic.reset_every if cfg.strategy == "classic" else 0
+    reset_now = every > 0 and step % every == 0 and window
+    resets = step // every - reset_now if every > 0 else 0  # resets done before this step
     if cfg.strategy != "none" and step >= cfg.control_from and step % cfg.control_every == 0 and window:
         params, opt_state, stats, active = _control(cfg, step, params, opt_state, stats, active, rng, extent, width,
-                                                    resets - (step % cfg.classic.reset_every == 0))
+                                                    resets)
         what.append("control")
-    if cfg.strategy == "classic" and step % cfg.classic.reset_every == 0 and window:
+    if reset_now:
         params = dict(params, opacity=jnp.asarray(classic.reset_opacity(_host(params), cfg.classic.reset_opacity)
                                                   ["opacity"]))
         opt_state = dict(opt_state, opacity=reset_rows(opt_state["opacity"], np.arange(cfg.capacity), cfg.capacity))
