@@ -76,14 +76,15 @@ def main():
     data = load_frames(read_capture(RunFolder(a.run).data_dir(a.data), a.split), a.split)
     c2w, cam = data.poses[0], data.cameras[0]
     renderer = make_renderer(model, cfg.train.chunk)
-    print(f"{a.run} (step {step}), {type(renderer).__name__}, chunk {renderer.chunk}; jax {jax.__version__} on "
+    chunk = getattr(renderer, "chunk", None)  # ray renderers' batch; the splat rasteriser draws whole images
+    print(f"{a.run} (step {step}), {type(renderer).__name__}, chunk {chunk}; jax {jax.__version__} on "
           f"{jax.devices()[0].platform}")
     results = {}
     for side, repeats in ((800, 3), (256, 5)):
         camera = Camera.pinhole(side, side, cam.fx * side / cam.width)
         results[side] = timed(renderer, params, aux, c2w, camera, repeats)
         print(f"{side}x{side}: {results[side]:.3f} s (median of {repeats}, compiled)", flush=True)
-    record = {"run": str(a.run), "step": step, "renderer": type(renderer).__name__, "chunk": renderer.chunk,
+    record = {"run": str(a.run), "step": step, "renderer": type(renderer).__name__, "chunk": chunk,
               "seconds_per_frame": {f"{k}x{k}": round(v, 4) for k, v in results.items()},
               "what": "one compiled frame of the run's field (view 0 of the split), median of repeats"}
     if hasattr(renderer, "_shade"):
