@@ -9,14 +9,16 @@ For each method M it runs what a user types, `nerfkit export mesh RUN --method M
 rasterises it into every view of the split at the photos' size (export/raster.py). Against the
 views' silhouettes (alpha or masks > 1/2): IoU, precision, recall per view (export/quality.py); against
 the field's rendered z-depth, on pixels both cover: the share within 1% of the box's side 2B.
-Writes benchmarks/results/mesh_<name>.json (with the commit) and mesh_<name>.png (per method, four
-views: green both, red mesh only, blue silhouette only).
+Writes benchmarks/results/mesh_<name>.json (with the commit), mesh_<name>.png (per method, four
+views: green both, red mesh only, blue silhouette only) and mesh_<name>_<method>_sides.png (the
+export's own picture of the mesh from two sides).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import sys
 import time
@@ -82,6 +84,9 @@ def main() -> None:
         out = a.run / "exports" / f"mesh_{method}{suffix}"
         seconds = export(a.run, method, out, extra if method == "tsdf" else [e for e in extra if e != "--watertight"])
         record = json.loads((a.run / "exports" / "export_mesh.json").read_text())
+        a.results.mkdir(parents=True, exist_ok=True)
+        sides = a.results / f"mesh_{name}_{method}_sides.png"  # the export's own picture, from two sides
+        shutil.copyfile(a.run / "exports" / record["picture"], sides)
         mesh = trimesh.load(out, process=False, force="mesh")
         verts = np.asarray(mesh.vertices, np.float64) @ run.transform[:3, :3].T + run.transform[:3, 3]
         faces = np.asarray(mesh.faces)
