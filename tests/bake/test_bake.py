@@ -162,7 +162,7 @@ def test_finetuning_brings_the_baked_scene_closer_to_the_images(procedural_run, 
 
 
 def test_training_render_matches_the_reference_renderer(baked):
-    """finetune.py optimises what eval and the browser render: BakedModel.render_rays (packed, differentiable;
+    """finetune.py optimises what eval and the browser render: BakedModel.render_packed (packed, differentiable;
     with or without the live-sample pass) gives the wavefront renderer's pixels."""
     run, out, _ = baked
     b = load_baked(out)
@@ -172,7 +172,7 @@ def test_training_render_matches_the_reference_renderer(baked):
     ref = make_renderer(bm, 4096).render_camera(bp, ba, data.poses[0], data.cameras[0])["rgb"].reshape(-1, 3)[::4]
     o, d = (a.reshape(-1, 3)[::4].astype(np.float32) for a in camera_rays(data.poses[0], data.cameras[0]))
     for live in (None, 128 * len(o), 16 * len(o)):
-        out = bm.render_rays(bp, ba, jnp.asarray(o), jnp.asarray(d), 128 * len(o), live)
+        out = bm.render_packed(bp, ba, jnp.asarray(o), jnp.asarray(d), 128 * len(o), live)
         done = np.asarray(out["complete"])
         assert done.mean() == 1.0 if live != 16 * len(o) else 0.2 < done.mean() < 1.0  # a small budget drops rays
         np.testing.assert_allclose(np.asarray(out["rgb"])[done], np.asarray(ref)[done], atol=1e-4)

@@ -63,7 +63,7 @@ def test_the_chosen_level_removes_the_fusions_inward_bias_on_exact_depth():
     s / tau (measured: -0.14 of a pixel's footprint p on average). best_level, which scores each
     candidate surface by its depth agreement with the views (both ways: pixels where mesh or field is),
     picks a level whose surface has no bias (|mean r - R| < 0.05 p) and a smaller error; a volume shifted
-    by 0.2 gets its level 0.2 higher; an empty mesh scores 0."""
+    by 0.2 gets its level 0.2 higher; an empty mesh scores 0, and so does a level the volume never reaches."""
     f, known, h, views = fused_volume(cameras([-60, -20, 20, 60], 6), 64, False)
     p = 2.5 / FOCAL
     level, scores = tsdf.best_level(f, known, BOUND, *views)
@@ -75,6 +75,9 @@ def test_the_chosen_level_removes_the_fusions_inward_bias_on_exact_depth():
     shifted, _ = tsdf.best_level(np.clip(f + 0.2, -1.0, 1.0), known, BOUND, *views)
     assert abs(shifted - (level + 0.2)) <= 0.05
     assert tsdf.depth_iou(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64), *views, 0.02) == 0.0
+    # candidate levels outside the fused values (a thin object never reaches F = -0.2) score 0, not a crash
+    thin, thin_scores = tsdf.best_level(np.clip(f, -0.15, 1.0), known, BOUND, *views)
+    assert thin_scores[-0.2] == 0.0 and thin > -0.15
 
 
 def test_view_terms_free_surface_and_hidden_points():

@@ -15,18 +15,22 @@ import shutil
 import threading
 import time
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 from chromium import Chromium, find_chromium
 
+from nerfkit.core.metrics import psnr
 from nerfkit.core.presets import preset
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.evaluation.evaluate import render_run
+from nerfkit.models.splat.model import PARAM_NAMES, render
 from nerfkit.rays.camera_path import read_camera_path
+from nerfkit.rays.cameras import Camera
 from nerfkit.render.images import make_renderer
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.trainer import Trainer
-from nerfkit.viewer.frames import viser_from_c2w
+from nerfkit.viewer.frames import DRAWN_BY, viser_from_c2w
 from nerfkit.viewer.run import attach_viewer, scene_view_of_run
 from nerfkit.viewer.server import Viewer
 
@@ -158,9 +162,6 @@ def test_viewer_renders_in_headless_chromium(chromium, run, tmp_path):
         loop.close()
         browser.close()
         viewer.close()
-
-    import imageio.v3 as iio
-
     img = iio.imread(shot)
     assert img.shape[1] == 640 and img.shape[0] >= 300 and float(np.std(img[..., :3])) > 10, "screenshot is blank"
     keep = os.environ.get("NERFKIT_VIEWER_SCREENSHOT")
@@ -191,11 +192,8 @@ def test_viewer_during_training(trained):
 def test_the_browser_draws_a_splat_runs_gaussians(chromium, splat_run, tmp_path):
     """A splat run: the browser draws the Gaussians itself (viser's splats, degree-0 colour), nerfkit renders
     nothing but on request; its picture of a training camera matches nerfkit's rasteriser at degree 0; switched
-    to "nerfkit (server)", the viewer renders frames again and the browser's splats are hidden."""
-    from nerfkit.core.metrics import psnr
-    from nerfkit.models.splat.model import PARAM_NAMES, render
-    from nerfkit.rays.cameras import Camera
-    from nerfkit.viewer.frames import DRAWN_BY
+    to "nerfkit (server)" (by picking the Depth output, which only nerfkit renders), the viewer renders frames
+    again and the browser's splats are hidden."""
 
     _, run_dir = splat_run
     run_ = RunFolder(run_dir).load()
@@ -223,7 +221,8 @@ def test_the_browser_draws_a_splat_runs_gaussians(chromium, splat_run, tmp_path)
         w, h = cam.image_width, cam.image_height
         got = cam.get_render(height=h, width=w)[..., :3].astype(np.float32) / 255.0
         assert st.shown is None  # nerfkit rendered no frame for it
-        viewer.drawn_by.value = DRAWN_BY[1]
+        viewer.mode.value = "Depth"  # nerfkit's render: picking it hands the drawing to nerfkit
+        assert viewer.drawn_by.value == DRAWN_BY[1]
         wait_for(still_frame_of(st), 120, "a frame rendered by nerfkit")
         assert not viewer.splats.handle.visible and st.last_image.std() > 5
     finally:
@@ -235,8 +234,6 @@ def test_the_browser_draws_a_splat_runs_gaussians(chromium, splat_run, tmp_path)
                           sh_degree=0)["rgb"], 0.0, 1.0)
     assert want.std() > 0.05, "a blank reference image: a bad test camera"
     score = float(psnr(got, want))
-    import imageio.v3 as iio
-
     iio.imwrite(tmp_path / "browser_vs_nerfkit.png", (np.concatenate([want, got], 1) * 255).astype(np.uint8))
     if os.environ.get("NERFKIT_VIEWER_SPLATS_SCREENSHOT"):
         shutil.copy(tmp_path / "browser_vs_nerfkit.png", os.environ["NERFKIT_VIEWER_SPLATS_SCREENSHOT"])

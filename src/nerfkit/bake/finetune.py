@@ -4,7 +4,7 @@ Sampling the field at cell vertices loses detail twice: trilinear interpolation 
 grid blurs what the hash grid resolved, and a few SH bands cannot hold all of the field's
 view dependence. Both are fixed where it matters, in image space: the baked log-densities
 a [K, S, S, S] and SH coefficients [K, S, S, S, C] are the parameters of the reference
-renderer (model.BakedModel.render_rays: the same sample positions, look-up and compositing
+renderer (model.BakedModel.render_packed: the same sample positions, look-up and compositing
 that `nerfkit eval --baked` and the browser use), and Adam minimises
 
     L = mean_r || C_baked(r) - C_image(r) ||^2
@@ -74,7 +74,7 @@ def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_
         target = images[img, i, j]
 
         def loss_fn(p):
-            out = model.render_rays({"field": {**p, "index": index}}, aux, o, d, budget, live_budget)
+            out = model.render_packed({"field": {**p, "index": index}}, aux, o, d, budget, live_budget)
             mask = out["complete"].astype(jnp.float32)
             mse = jnp.sum(mask[:, None] * (out["rgb"] - target) ** 2) / (3.0 * jnp.maximum(jnp.sum(mask), 1.0))
             return mse, jnp.sum(mask)

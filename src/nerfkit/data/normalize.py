@@ -120,7 +120,8 @@ def inside_visual_hull(pts, poses, cameras, alphas) -> np.ndarray:
 def sample_visual_hull(n: int, box: float, poses: np.ndarray, cameras: list[Camera], alphas: np.ndarray,
                        seed: int = 0, tries: int = 64) -> np.ndarray | None:
     """Up to n points [n, 3] uniform in the visual hull (inside_visual_hull) within [-box, box]^3: uniform
-    points of the box, kept when inside, in rounds of 4n; None when a round keeps none."""
+    points of the box, kept when inside, in rounds of 4n until n are kept, a round keeps none or `tries` rounds
+    are done; None when nothing was kept (an empty hull)."""
     rng = np.random.default_rng(seed)
     kept: list[np.ndarray] = []
     total = 0
@@ -128,9 +129,9 @@ def sample_visual_hull(n: int, box: float, poses: np.ndarray, cameras: list[Came
         pts = rng.uniform(-box, box, (4 * n, 3))
         inside = pts[inside_visual_hull(pts, poses, cameras, alphas)]
         if not len(inside):
-            return None
+            break
         kept.append(inside)
         total += len(inside)
         if total >= n:
             break
-    return np.concatenate(kept)[:n]
+    return np.concatenate(kept)[:n] if kept else None

@@ -19,7 +19,7 @@ its image but that every such view sees hidden behind a surface (W = 0, seen > 0
 object; a point no view has in its image is unknown. The surface is bounded by the views' free
 pixels: a point some photo shows background through cannot stay inside (its +1 pulls F up).
 
-D_k is the median depth (where the ray turns half opaque, render/volume.py), not the expected
+D_k is the median depth (where the running opacity reaches half the ray's opacity, render/volume.py), not the expected
 depth: a ray that grazes a soft edge and goes on to the floor has an expected depth between the
 two, which is no surface at all.
 
@@ -190,12 +190,18 @@ def best_level(f: np.ndarray, known: np.ndarray, bound: float, c2w, intr, depth,
     def score(c: float) -> float:
         c = round(c, 3)
         if c not in scores:
-            verts, faces = zero_surface(f, known, bound, False, c)
+            try:
+                verts, faces = zero_surface(f, known, bound, False, c)
+            except (ValueError, RuntimeError):  # marching cubes: c outside the fused values, or no cube crosses it
+                verts, faces = np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64)
             scores[c] = depth_iou(verts, faces, c2w, intr, depth, opacity, tol) if len(faces) else 0.0
         return scores[c]
 
-    best = max(LEVELS, key=score)
-    best = max((best - LEVEL_STEP / 2, best, best + LEVEL_STEP / 2), key=score)
+    def rank(c: float) -> tuple[float, float]:
+        return score(c), -abs(c)  # ties (e.g. no surface at all) go to the level nearest F = 0
+
+    best = max(LEVELS, key=rank)
+    best = max((best - LEVEL_STEP / 2, best, best + LEVEL_STEP / 2), key=rank)
     return round(best, 3), scores
 
 
@@ -208,7 +214,8 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
                  log) -> tuple[np.ndarray, np.ndarray, dict]:
     """The fused surface in the normalised frame: (verts [V, 3], faces [F, 3], record fields). Renders
     every `every`-th training view (default: about FUSION_VIEWS; PIXELS_PER_CELL x resolution pixels
-    wide), fuses their depth on the grid of [-bound, bound]^3 and takes F = 0."""
+    wide), fuses their median depth on the grid of [-bound, bound]^3 and takes the surface F = c at the level c
+    best_level picks."""
     t0 = time.perf_counter()
     views = render_views(run, every=every, data=data, pinhole=True, progress=progress, target=FUSION_VIEWS,
                          width=PIXELS_PER_CELL * resolution, median=True)

@@ -295,7 +295,8 @@ class WavefrontRenderer(Renderer):
         if median:
             half = np.where(opacity > 1e-6, 1.0 - 0.5 * opacity, -1.0).astype(np.float32)
             again = self._march(params, aux, origins, directions, radii, half)["depth_median"]
-            out["depth_median"] = np.where(opacity > 1e-6, again, self.model.far).astype(np.float32)
+            crossed = (opacity > 1e-6) & (again > 0)  # (float rounding can miss the crossing of a nearly clear ray)
+            out["depth_median"] = np.where(crossed, again, self.model.far).astype(np.float32)
         return out
 
     def _march(self, params, aux, origins, directions, radii, half) -> dict:

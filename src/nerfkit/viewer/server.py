@@ -182,6 +182,7 @@ class Viewer:
                                                   "its rasteriser (view-dependent colour, depth, opacity)")
             self.drawn_by.on_update(lambda _e: self._switch_drawing())
         self.mode = gui.add_dropdown("Output", MODES, initial_value="RGB")
+        self.mode.on_update(lambda _e: self._mode_changed())
         self.resolution = gui.add_number("Max resolution", 256, min=32, max=2048, step=16,
                                          hint="longest side of the live view (moving: previews keep 6 frames/s)")
         self.out_res = gui.add_number("Save resolution", 800, min=32, max=4096, step=16,
@@ -210,6 +211,11 @@ class Viewer:
     def browser_draws(self) -> bool:
         """The browser draws the Gaussians (no frames are rendered here, but saved views are)."""
         return self.drawn_by is not None and self.drawn_by.value == DRAWN_BY[0]
+
+    def _mode_changed(self) -> None:
+        """Depth or opacity are nerfkit's renders: picking one while the browser draws hands drawing to nerfkit."""
+        if self.browser_draws and self.mode.value != "RGB":
+            self.drawn_by.value = DRAWN_BY[1]  # its on_update switches the drawing
 
     def _switch_drawing(self) -> None:
         self.splats.set_visible(self.browser_draws)

@@ -54,7 +54,9 @@ class BakedField:
 
 
 class BakedModel:
-    """Marching like NGPModel (box candidates at t-step meta["step"]), the brick index as occupancy."""
+    """Marching like NGPModel (box candidates at t-step meta["step"]), the brick index as occupancy. It is
+    rendered, never trained: it has what the wavefront renderer reads of a MarchingModel (field, occ,
+    candidates, sample_scale, MIN_TRANSMITTANCE) and, for bake/finetune.py, render_packed."""
 
     MIN_TRANSMITTANCE = 1e-4
     supports = Supports(family="marching", mesh=False)
@@ -86,7 +88,7 @@ class BakedModel:
         """No footprints (see NGPModel.sample_scale): the baked grid is not anti-aliased."""
         return None
 
-    def render_rays(self, params, aux, o, d, budget: int, live_budget: int | None = None) -> dict:
+    def render_packed(self, params, aux, o, d, budget: int, live_budget: int | None = None) -> dict:
         """Differentiable render of rays o, d [R, 3] at the reference renderer's sample positions (used by
         finetune.py). The samples in stored bricks are packed into `budget` (occupancy.pack_candidates);
         with `live_budget`, a first pass of density alone finds the samples still seen, T_i >= 1e-4 (a

@@ -161,8 +161,9 @@ class SplatModel:
 
     # -- data and initialisation ---------------------------------------------------------------
     def bind_data(self, capture, data, log=print) -> None:
-        """Take the scene extent from the training poses and the initial Gaussians from the capture's SfM
-        points (in the normalised frame) or, without them, random in the scene box."""
+        """Take the scene extent from the training poses and the initial Gaussians (--init-points): the
+        capture's SfM points (in the normalised frame); else, with masks or alpha, uniform in the visual
+        hull of the training silhouettes; else random in the scene box."""
         self.extent = scene_extent(data.poses)
         if data.sizes is not None:
             raise DataError(f"{capture.root}: --preset splat trains on images of one size; this selection has "
@@ -187,6 +188,9 @@ class SplatModel:
                 self.init_note = f"{len(pts)} SfM points of {path.name}"
         if self.init_gaussians is None and choice in ("auto", "hull") and data.alphas is not None:
             self._init_in_hull(data)
+            if self.init_gaussians is None and choice == "hull":
+                raise DataError(f"{capture.root}: --init-points hull, but the training silhouettes' visual hull "
+                                f"is empty (do the masks and poses agree?); use --init-points random")
         if self.init_gaussians is None:
             self.init_note = f"{min(RANDOM_INIT, self.sc.capacity)} random points in the box " \
                              f"[-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
