@@ -3,6 +3,7 @@
 - `<!-- nerfkit-help: VERB [KIND] -->` becomes the output of `nerfkit VERB [KIND] --help`.
 - `<!-- nerfkit-measurements -->` becomes a table of every benchmarks/results/*.json: what it measured,
   the command and commit that wrote it, and its top-level figures.
+- `<!-- nerfkit-readme -->` (the home page) becomes README.md, its links made relative to docs/.
 - The pictures in benchmarks/results/ are published under results/.
 """
 
@@ -71,7 +72,19 @@ def _measurements() -> str:
     return "\n".join(rows)
 
 
+def _readme() -> str:
+    """README.md as the site's home page: links into docs/ and benchmarks/results/ made site-relative."""
+    text = (ROOT / "README.md").read_text()
+    text = text.replace("](docs/", "](").replace("](benchmarks/results/", "](results/")
+    manual = "The manual is a MkDocs site in `docs/` (read the Markdown on GitHub, or build it:\n"
+    if manual not in text:
+        raise ValueError("docs/hooks/generate.py: README's sentence about the manual changed; update _readme")
+    return text.replace(manual, "This site is built from `docs/` (")
+
+
 def on_page_markdown(markdown, page, config, files):
+    if "<!-- nerfkit-readme -->" in markdown:
+        markdown = markdown.replace("<!-- nerfkit-readme -->", _readme())
     markdown = re.sub(r"<!-- nerfkit-help: ([a-z -]+?) -->",
                       lambda m: "```text\n" + _help(m.group(1).split()) + "\n```", markdown)
     return markdown.replace("<!-- nerfkit-measurements -->", _measurements())
