@@ -69,7 +69,8 @@ def main() -> None:
             got, cam = viser_render(chromium, Path(tmp) / f"profile{k}", g, pose, fov, a.size)
             want = np.clip(render(g, pose, cam, sh_degree=0)["rgb"], 0.0, 1.0)
             score = float(psnr(got, want))
-            out["views"].append({"train_view": k, "width": cam.width, "height": cam.height, "psnr_viser_vs_nerfkit": score})
+            out["views"].append({"train_view": k, "width": cam.width, "height": cam.height,
+                                 "psnr_viser_vs_nerfkit": score})
             print(f"view {k}: viser vs nerfkit {score:.2f} dB at {cam.width}x{cam.height}")
             rows.append(np.concatenate([want, got], 1))
     a.results.mkdir(parents=True, exist_ok=True)

@@ -8,11 +8,12 @@ centre a triangle covers, raster.py):
 (an empty mesh scores 0, a mesh filling the image scores |S_k| / image: neither passes). Depth:
 on the pixels both the mesh and the field cover (field opacity >= 1/2), the share where the mesh's
 z-depth is within `tol` of the field's rendered z-depth (the expected depth given a hit; and its
-median depth, where the running opacity reaches half the ray's opacity, render/volume.py: the expected depth of a ray that
-grazes a soft edge and goes on to the floor lies on no surface, so no mesh can match it there; or
-the exact depth, where known); and the same share on the "interior" pixels only: more than EDGE_PX pixels from the silhouette's edge and
-from a jump of the field's depth by more than `tol` between neighbours (where a sub-pixel shift of
-an edge swaps a foreground depth for a background one).
+median depth, where the running opacity reaches half the ray's opacity, render/volume.py: the
+expected depth of a ray that grazes a soft edge and goes on to the floor lies on no surface, so
+no mesh can match it there; or the exact depth, where known); and the same share on the
+"interior" pixels only: more than EDGE_PX pixels from the silhouette's edge and from a jump of
+the field's depth by more than `tol` between neighbours (where a sub-pixel shift of an edge swaps
+a foreground depth for a background one).
 """
 
 from __future__ import annotations

@@ -34,8 +34,8 @@ DEFAULT_VIEWS = 32  # when no --every is given: about this many views, evenly sp
 @dataclass
 class Views:
     """Rendered views (normalised frame): c2w [V, 4, 4], intrinsics [V, 4] = (fx, fy, cx, cy),
-    depth (expected, given a hit) / median depth (where the running opacity reaches half the ray's opacity, volume.py) / opacity
-    [V, H, W] (median: None unless asked for), rgb [V, H, W, 3], and the pinhole cameras."""
+    depth (expected, given a hit) / median depth (where the running opacity reaches half the ray's
+    opacity, volume.py) / opacity [V, H, W] (median: None unless asked for), rgb [V, H, W, 3], and the pinhole cameras."""
 
     c2w: np.ndarray
     intrinsics: np.ndarray
