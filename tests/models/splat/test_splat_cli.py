@@ -1,6 +1,7 @@
 """`--preset splat` through the same command line as the radiance fields: train, resume, eval, render, the
 exports (splat .ply, cameras, point cloud) and the refusals; SfM-point initialisation."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -189,6 +190,7 @@ def test_without_points_a_masked_scene_starts_in_its_visual_hull(tmp_path):
     """No SfM points but an alpha channel (a Blender scene): the Gaussians start uniform in the visual hull of
     the training silhouettes, every one inside it; --init-points random keeps the box; hull without
     silhouettes is refused in one line."""
+    from nerfkit.core.errors import DataError
     from nerfkit.core.presets import preset
     from nerfkit.data.normalize import inside_visual_hull
 
@@ -209,6 +211,14 @@ def test_without_points_a_masked_scene_starts_in_its_visual_hull(tmp_path):
     p2, a2 = boxed.init()
     assert "box" in boxed.init_note
     assert inside_visual_hull(p2["means"][a2["active"]], data.poses, data.cameras, data.alphas).mean() < 0.5
+    # silhouettes that hold nothing: --init-points hull is refused in one line, auto falls back to the box
+    empty = dataclasses.replace(data, alphas=np.zeros_like(data.alphas))
+    cfg.splat.init_points = "hull"
+    with pytest.raises(DataError, match="visual hull is empty"):
+        SplatModel(cfg).bind_data(cap, empty, log=lambda *_: None)
+    auto = SplatModel(preset("splat"))
+    auto.bind_data(cap, empty, log=lambda *_: None)
+    assert "box" in auto.init_note
 
 
 def test_hull_init_without_silhouettes_is_refused(tmp_path):
