@@ -87,12 +87,13 @@ def test_view_terms_free_surface_and_hidden_points():
     tau = 0.1
     x = np.array([[0.55, 0, 0], [0.5, 0, 0], [0.45, 0, 0], [0, 0, 0], [0, 0.9, 0], [3.5, 0, 0]], np.float32)
     wf, w, seen = (np.asarray(a) for a in tsdf.view_terms(x, c2w, intr, depth, opac, tau))
-    # in front of the surface (s = 0.05 -> f = 0.5), on it, behind it (-0.5), hidden deep inside (no
-    # weight), beside the sphere on a background pixel (free: +1), behind the camera (not in the image)
-    np.testing.assert_allclose(w, [1, 1, 1, 0, 1, 0], atol=1e-6)
+    # in front of the surface (s = 0.05 -> f = 0.5), on it, behind it (f = -0.5 at half the weight: the ramp
+    # 1 + s / tau behind the surface), hidden deep inside (no weight), beside the sphere on a background pixel
+    # (free: +1), behind the camera (not in the image)
+    np.testing.assert_allclose(w, [1, 1, 0.5, 0, 1, 0], atol=0.01)
     # The depth is read at the pixel centre, half a pixel (0.018 units at z = 2.5) off the pole, where the
     # sphere is (0.018)^2 / 2R = 3e-4 farther; 1e-3 in depth is 0.01 in f = s / tau.
-    np.testing.assert_allclose(wf, [0.5, 0.0, -0.5, 0, 1, 0], atol=0.01)
+    np.testing.assert_allclose(wf, [0.5, 0.0, -0.25, 0, 1, 0], atol=0.01)
     np.testing.assert_array_equal(seen, [1, 1, 1, 1, 1, 0])
 
 
@@ -138,3 +139,40 @@ def test_drop_specks_keeps_pieces_by_size_not_share():
     v, f, dropped = drop_specks(np.asarray(m.vertices), np.asarray(m.faces), size=0.1)
     assert dropped == 1 and len(f) == len(big.faces) + len(small.faces) and len(v) == len(big.vertices) + len(
         small.vertices)
+
+
+def exact_plate_view(c2w: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(z-depth [H, W], opacity [H, W]) of the box |x_i| <= half_i seen by the camera at c2w (slab test)."""
+    j, i = np.meshgrid(np.arange(SIZE) + 0.5, np.arange(SIZE) + 0.5)
+    d = np.stack([(j - SIZE / 2) / FOCAL, -(i - SIZE / 2) / FOCAL, -np.ones_like(j)], -1) @ c2w[:3, :3].T
+    o = c2w[:3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (-half - o) / d, (half - o) / d
+    near, far = np.minimum(t1, t2).max(-1), np.maximum(t1, t2).min(-1)
+    hit = near < far
+    return np.where(hit, near, 100.0).astype(np.float32), hit.astype(np.float32)
+
+
+def test_a_wall_thinner_than_the_truncation_keeps_its_faces():
+    """A plate of thickness t = 0.05 < tau (0.095), seen from above and below. A point e above its top face
+    is e in front of the top views' surface (f = e / tau) and t + e behind the bottom views' (f = -(t + e) /
+    tau): with full weight behind the surface the two cancel only at e = tau - t (0.045: the plate comes out
+    0.14 thick); with the ramp w = 1 + s / tau behind it, where e = (1 - (t + e) / tau)(t + e), e* = 0.019
+    for views straight along the normal (oblique views see a longer way behind the face, so less)."""
+    t, half = 0.05, np.array([0.5, 0.5, 0.025])
+    poses = cameras([-70, -45, 45, 70], 6)
+    views = [exact_plate_view(p, half) for p in poses]
+    depth, opac = np.stack([v[0] for v in views]), np.stack([v[1] for v in views])
+    intr = np.tile([FOCAL, FOCAL, SIZE / 2, SIZE / 2], (len(poses), 1)).astype(np.float32)
+    axis = np.linspace(-BOUND, BOUND, 64, dtype=np.float32)
+    tau = tsdf.truncation(float(axis[1] - axis[0]), pixel_footprint(poses, [Camera(SIZE, SIZE, FOCAL, FOCAL, SIZE / 2,
+                                                                                       SIZE / 2)] * len(poses)))
+    assert tau > t
+    verts, _ = tsdf.zero_surface(*tsdf.tsdf_volume(*tsdf.fuse_grid(axis, poses, intr, depth, opac, tau), False),
+                                 BOUND, False, 0.0)
+    e = np.linspace(0, tau - t, 10001)
+    e_star = e[np.argmin(np.abs(e - (1 - (t + e) / tau) * (t + e)))]
+    middle = verts[(np.abs(verts[:, 0]) < 0.3) & (np.abs(verts[:, 1]) < 0.3)]
+    top, bottom = middle[middle[:, 2] > 0, 2], middle[middle[:, 2] < 0, 2]
+    assert len(top) > 100 and len(bottom) > 100
+    assert 0 <= top.mean() - t / 2 < e_star and 0 <= -t / 2 - bottom.mean() < e_star
