@@ -202,6 +202,10 @@ class SplatSettings:
     """Steps per SH degree: the degree rises by one every N steps up to --sh-degree (3DGS: 1000 of 30k)."""
     ssim_lambda: float = 0.2
     """Loss = (1 - lambda) L1 + lambda (1 - SSIM)."""
+    coarse: float = 0.5
+    """Coarse to fine: the first COARSE of the budget trains on the photos at half resolution (2x2 pixels
+    averaged: a quarter of the rasteriser's work per step, so more steps), the rest at full resolution; 0: full
+    resolution throughout."""
     init_points: Literal["auto", "sfm", "hull", "random"] = "auto"
     """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D), hull (uniform in the
     visual hull of the masks or alpha channel), random (uniform in the scene box) or auto (sfm where the
@@ -364,6 +368,8 @@ def _check_splat_and_images(g: SplatSettings, d: DataConfig) -> None:
     _need(g.capacity >= 1, f"--capacity must be >= 1 (got {g.capacity})")
     _need(0 <= g.sh_degree <= 3, f"--sh-degree must be 0, 1, 2 or 3 (got {g.sh_degree})")
     _need(g.sh_interval >= 1, f"--sh-interval must be >= 1 (got {g.sh_interval})")
+    _need(0.0 <= g.coarse < 1.0, f"--coarse must be in [0, 1): the share of the budget at half resolution (got "
+                                 f"{g.coarse})")
     _need(0 <= g.ssim_lambda <= 1, f"--ssim-lambda must be in [0, 1] (got {g.ssim_lambda})")
     _need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
     _need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")

@@ -49,6 +49,7 @@ from nerfkit.models.splat.train import (
     SplatConfig,
     host_control,
     initial_params,
+    half_resolution,
     make_step,
 )
 from nerfkit.rays.cameras import Camera
@@ -68,7 +69,8 @@ def splat_config(cfg) -> SplatConfig:
     """train.SplatConfig of a nerfkit Config (--preset splat): capacity, strategy, SH, loss weight, seed."""
     g = cfg.splat
     return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
-                       ssim_lambda=g.ssim_lambda, seed=cfg.train.seed, init_box=cfg.field.resolved_bound())
+                       ssim_lambda=g.ssim_lambda, coarse_until=g.coarse, seed=cfg.train.seed,
+                       init_box=cfg.field.resolved_bound())
 
 
 def find_sfm_points(capture) -> Path | None:
@@ -141,7 +143,7 @@ class SplatModel:
     supports = Supports(family="image", parallel="views", mesh=False)
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
-        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "init_points"))
+        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "coarse", "init_points"))
 
     @staticmethod
     def describe(cfg) -> str:
@@ -149,6 +151,7 @@ class SplatModel:
         g = cfg.splat
         return (f"splat: up to {g.capacity} Gaussians ({g.strategy} density control), SH degree {g.sh_degree}"
                 f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, L1 + {g.ssim_lambda:g} D-SSIM, "
+                f"{f'half resolution for the first {g.coarse:.0%} of the budget, ' if g.coarse else ''}"
                 f"{g.init_points} init, one view per step")
 
     def __init__(self, cfg):
@@ -232,6 +235,17 @@ class SplatModel:
         sc, width, height = self.sc, data.width, data.height
         jitted = make_step(sc, optimizer.opts, width, height, with_health=True)
         intr = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
+        half: dict = {}  # coarse to fine: the half-resolution step and views, made at the first coarse step
+
+        def at_resolution(progress: float, images):
+            """(compiled step, images, intrinsics, width) for this step: half resolution while progress < coarse."""
+            if progress >= sc.coarse_until:
+                return jitted, images, intr, width
+            if half.get("of") is not images:
+                small, small_intr = half_resolution(images, intr)
+                half.update({"of": images, "images": small, "intr": small_intr})
+                half.setdefault("step", make_step(sc, optimizer.opts, width // 2, height // 2, with_health=True))
+            return half["step"], half["images"], half["intr"], width // 2
         bg = jnp.asarray(self.background, jnp.float32)
         base_key = jax.random.PRNGKey(sc.seed)
         n_views = len(data.poses)
@@ -251,12 +265,13 @@ class SplatModel:
             lr = means_lr(progress, self.extent, sc.lrs)
             stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
             params = {k: jnp.asarray(v) for k, v in state["params"].items()}
-            params, opt_state, stats, photo, mse, finite = jitted(
-                params, state["opt_state"], stats, jnp.asarray(active), images, poses, intr, bg, view_of(step),
+            fn, views, view_intr, w_now = at_resolution(progress, images)
+            params, opt_state, stats, photo, mse, finite = fn(
+                params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, bg, view_of(step),
                 jax.random.fold_in(base_key, step), lr, deg)
             rng = np.random.default_rng([sc.seed, step + 1])
             params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats,
-                                                               active, rng, self.extent, width)
+                                                               active, rng, self.extent, w_now)
             aux.update({k: stats[k] for k in stats}, active=active,
                        clock=np.float32(clock + time.perf_counter() - t0))
             metrics = {"loss": photo, "mse": mse, "finite": finite, "lr": jnp.float32(lr),

@@ -9,6 +9,10 @@ rate a traced scalar, so nothing recompiles when they change):
     L = (1 - 0.2) L1 + 0.2 (1 - SSIM)  [+ MCMC's opacity and scale regularisers]
     Adam per parameter group (optim.py)  [+ MCMC position noise | classic gradient statistics]
 
+Coarse to fine: while progress t < coarse_until, a step renders and scores the view at half
+resolution (half_resolution: 2x2 pixels averaged, intrinsics halved; a second compiled step),
+a quarter of the rasteriser's work, so the early, coarse fitting takes more steps.
+
 Views are visited in a fresh random order every epoch (3DGS draws one camera per step). The SH
 degree rises by one every `sh_interval` steps up to 3. Every `control_every` steps the host runs
 the density control (mcmc.py: relocation and growth; densify.py: clone/split/prune) on numpy
@@ -68,6 +72,7 @@ class SplatConfig:
     control_every: int = 100  # steps between density-control rounds
     control_from: int = 500  # first step with density control
     control_until: float = 0.8  # progress after which density control stops (MCMC: 25k of 30k)
+    coarse_until: float = 0.0  # progress before which views train at half resolution (coarse to fine; 0: never)
     opacity_reg: float = mcmc.OPACITY_REG
     scale_reg: float = mcmc.SCALE_REG
     noise_lr: float = mcmc.NOISE_LR
@@ -156,6 +161,15 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
     return step
 
 
+def half_resolution(images: jnp.ndarray, intrinsics: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """The views at half resolution: images [V, H, W, 3] -> [V, H // 2, W // 2, 3], each pixel the mean of a
+    2x2 block (an odd last row or column dropped), and their intrinsics [V, 4] (fx, fy, cx, cy) / 2 (pixel
+    centres at half-integers: the small pixel j covers the big ones 2j and 2j + 1, centre 2j + 1 = 2 (j + 1/2))."""
+    v, h, w, c = images.shape
+    small = images[:, : h // 2 * 2, : w // 2 * 2].reshape(v, h // 2, 2, w // 2, 2, c).mean(axis=(2, 4))
+    return small, intrinsics / 2.0
+
+
 def _host(params: dict) -> dict:
     return {k: np.asarray(v) for k, v in params.items()}
 
@@ -226,6 +240,9 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
     step_fn = make_step(cfg, opts, width, height)
     data = (jnp.asarray(train_images, jnp.float32), jnp.asarray(poses, jnp.float32),
             jnp.asarray([intrinsics_of(c) for c in cameras], jnp.float32), jnp.asarray(background, jnp.float32))
+    if cfg.coarse_until > 0:
+        small, small_intr = half_resolution(data[0], data[2])
+        coarse = (make_step(cfg, opts, width // 2, height // 2), (small, data[1], small_intr, data[3]), width // 2)
     order, records, losses = np.zeros(0, int), [], []
     clock, step, next_cb, next_log, last_cb = _Clock(time.perf_counter()), 0, callback_every_s, 10.0, -1
     while True:
@@ -241,16 +258,16 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
             order = rng.permutation(len(train_images))
         idx, order = int(order[0]), order[1:]
         deg = min(cfg.sh_degree, step // cfg.sh_interval)
-        params, opt_state, stats, photo = step_fn(params, opt_state, stats, jnp.asarray(active), *data, idx,
-                                                  jax.random.fold_in(base_key, step), means_lr(progress, extent, cfg.lrs),
-                                                  deg)
+        fn, views, w_now = coarse if progress < cfg.coarse_until else (step_fn, data, width)
+        params, opt_state, stats, photo = fn(params, opt_state, stats, jnp.asarray(active), *views, idx,
+                                             jax.random.fold_in(base_key, step), means_lr(progress, extent, cfg.lrs), deg)
         step += 1
         losses.append(photo)
         if step % cfg.log_every == 0:
             records.append((step, clock.elapsed(), _mean_loss(losses)))
             losses = []
         params, opt_state, stats, active, _ = host_control(cfg, step, progress, params, opt_state, stats, active, rng,
-                                                          extent, width)
+                                                          extent, w_now)
         if log and elapsed >= next_log:
             log(f"step {step}  {elapsed:.0f} s  loss {records[-1][2] if records else float(photo):.4f}  "
                 f"active {int(active.sum())}")
