@@ -129,7 +129,7 @@ def observe_splat(trainer):
     return {
         "data": lambda: [td.images, td.poses, trainer.val_data.images, np.asarray(trainer.val_ids)],
         "schedule": lambda: [sorted(schedule_at(s, p, cfg).items()) for s in (0, 300, 500, 1000, 1500, 3000)
-                             for p in (0.0, 0.5, 0.9)],
+                             for p in (0.0, 0.3, 0.5, 0.9)],
         "init": lambda: jax.tree_util.tree_leaves(init_state(model, trainer.optimizer, cfg.train.seed)),
         "step": step,
     }

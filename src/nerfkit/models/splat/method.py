@@ -102,10 +102,12 @@ def progress_of(step: int, clock: float, cfg) -> float:
 
 def schedule_at(step: int, progress: float, cfg) -> dict:
     """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
-    learning rate per unit of scene extent, and whether density control may run (the window)."""
+    learning rate per unit of scene extent, whether density control may run (the window) and whether the
+    step trains at half resolution (coarse to fine)."""
     sc = splat_config(cfg)
     return {"sh_degree": min(sc.sh_degree, step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
-            "control": step >= sc.control_from and step % sc.control_every == 0 and progress < sc.control_until}
+            "control": step >= sc.control_from and step % sc.control_every == 0 and progress < sc.control_until,
+            "half_resolution": progress < sc.coarse_until}
 
 
 class SplatOptimizer:
@@ -243,7 +245,7 @@ class SplatModel:
 
         def at_resolution(progress: float, images):
             """(compiled step, images, intrinsics, width) for this step: half resolution while progress < coarse."""
-            if progress >= sc.coarse_until:
+            if not schedule_at(0, progress, cfg)["half_resolution"]:
                 return jitted, images, intr, width
             if half.get("of") is not images:
                 small, small_intr = half_resolution(images, intr)

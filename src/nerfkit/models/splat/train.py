@@ -237,12 +237,9 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
     extent = scene_extent(poses)
     rng, base_key = np.random.default_rng(cfg.seed), jax.random.PRNGKey(cfg.seed)
     params, active, opts, opt_state, stats = _initial_state(cfg, init, extent)
-    step_fn = make_step(cfg, opts, width, height)
     data = (jnp.asarray(train_images, jnp.float32), jnp.asarray(poses, jnp.float32),
             jnp.asarray([intrinsics_of(c) for c in cameras], jnp.float32), jnp.asarray(background, jnp.float32))
-    if cfg.coarse_until > 0:
-        small, small_intr = half_resolution(data[0], data[2])
-        coarse = (make_step(cfg, opts, width // 2, height // 2), (small, data[1], small_intr, data[3]), width // 2)
+    fine, coarse = _steps(cfg, opts, width, height, data)
     order, records, losses = np.zeros(0, int), [], []
     clock, step, next_cb, next_log, last_cb = _Clock(time.perf_counter()), 0, callback_every_s, 10.0, -1
     while True:
@@ -258,7 +255,7 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
             order = rng.permutation(len(train_images))
         idx, order = int(order[0]), order[1:]
         deg = min(cfg.sh_degree, step // cfg.sh_interval)
-        fn, views, w_now = coarse if progress < cfg.coarse_until else (step_fn, data, width)
+        fn, views, w_now = coarse if progress < cfg.coarse_until else fine
         params, opt_state, stats, photo = fn(params, opt_state, stats, jnp.asarray(active), *views, idx,
                                              jax.random.fold_in(base_key, step), means_lr(progress, extent, cfg.lrs), deg)
         step += 1
@@ -277,6 +274,16 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
     if callback and last_cb != step:
         callback(step, clock.elapsed(), params, active)
     return {k: np.asarray(v)[active] for k, v in params.items()}, records
+
+
+def _steps(cfg: SplatConfig, opts: dict, width: int, height: int, data: tuple):
+    """((step, views, width) at full resolution, the same at half resolution or None without a coarse phase):
+    views = (images, poses, intrinsics, background) on the device."""
+    fine = (make_step(cfg, opts, width, height), data, width)
+    if cfg.coarse_until <= 0:
+        return fine, None
+    small, small_intr = half_resolution(data[0], data[2])
+    return fine, (make_step(cfg, opts, width // 2, height // 2), (small, data[1], small_intr, data[3]), width // 2)
 
 
 def _image_size(minutes: float | None, steps: int | None, cameras) -> tuple[int, int]:
