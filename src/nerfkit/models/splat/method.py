@@ -47,9 +47,9 @@ from nerfkit.models.splat.optim import (
 )
 from nerfkit.models.splat.train import (
     SplatConfig,
+    half_resolution,
     host_control,
     initial_params,
-    half_resolution,
     make_step,
 )
 from nerfkit.rays.cameras import Camera
@@ -250,7 +250,8 @@ class SplatModel:
             if half.get("of") is not images:
                 small, small_intr = half_resolution(images, intr)
                 half.update({"of": images, "images": small, "intr": small_intr})
-                half.setdefault("step", make_step(sc, optimizer.opts, width // 2, height // 2, with_health=True))
+                if "step" not in half:
+                    half["step"] = make_step(sc, optimizer.opts, width // 2, height // 2, with_health=True)
             return half["step"], half["images"], half["intr"], width // 2
         bg = jnp.asarray(self.background, jnp.float32)
         base_key = jax.random.PRNGKey(sc.seed)
