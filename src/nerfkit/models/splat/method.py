@@ -243,9 +243,10 @@ class SplatModel:
         intr = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
         half: dict = {}  # coarse to fine: the half-resolution step and views, made at the first coarse step
 
-        def at_resolution(progress: float, images):
-            """(compiled step, images, intrinsics, width) for this step: half resolution while progress < coarse."""
-            if not schedule_at(0, progress, cfg)["half_resolution"]:
+        def at_resolution(half_resolution_now: bool, images):
+            """(compiled step, images, intrinsics, width) for this step: the half-resolution ones when the schedule
+            says so (coarse to fine)."""
+            if not half_resolution_now:
                 return jitted, images, intr, width
             if half.get("of") is not images:
                 small, small_intr = half_resolution(images, intr)
@@ -268,11 +269,12 @@ class SplatModel:
             active = np.asarray(aux["active"], bool)
             clock = float(aux["clock"])
             progress = progress_of(step, clock, cfg)
-            deg = min(sc.sh_degree, step // sc.sh_interval)
+            plan = schedule_at(step, progress, cfg)
+            deg = plan["sh_degree"]
             lr = means_lr(progress, self.extent, sc.lrs)
             stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
             params = {k: jnp.asarray(v) for k, v in state["params"].items()}
-            fn, views, view_intr, w_now = at_resolution(progress, images)
+            fn, views, view_intr, w_now = at_resolution(plan["half_resolution"], images)
             params, opt_state, stats, photo, mse, finite = fn(
                 params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, bg, view_of(step),
                 jax.random.fold_in(base_key, step), lr, deg)
