@@ -28,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.models.splat.project import SH_C0, project_gaussians, sh_colors
+from nerfkit.models.splat.project import LOWPASS_DILATION, SH_C0, project_gaussians, sh_colors
 from nerfkit.models.splat.rasterize import rasterize
 
 SH_DEGREE = 3
@@ -146,12 +146,15 @@ def intrinsics_of(camera) -> tuple[float, float, float, float]:
     return (float(camera.fx), float(camera.fy), float(camera.cx), float(camera.cy))
 
 
-def splat_inputs(params: dict, c2w, intrinsics, width: int, height: int, sh: jax.Array):
+def splat_inputs(params: dict, c2w, intrinsics, width: int, height: int, sh: jax.Array,
+                 dilation: float = LOWPASS_DILATION):
     """Projection and SH colours of all Gaussians for one camera (the rasteriser's inputs).
 
-    sh [N, 16, 3]: the coefficients to use (bands above the current degree zeroed by the caller).
+    sh [N, 16, 3]: the coefficients to use (bands above the current degree zeroed by the caller);
+    dilation: project.project_gaussians' low-pass floor in px^2.
     Returns (proj dict of project_gaussians, colours [N, 3], opacities [N] = sigmoid(opacity))."""
-    proj = project_gaussians(params["means"], params["log_scales"], params["quats"], c2w, intrinsics, width, height)
+    proj = project_gaussians(params["means"], params["log_scales"], params["quats"], c2w, intrinsics, width, height,
+                             dilation)
     cam_center = c2w[:3, 3]
     colors = sh_colors(sh, params["means"], cam_center, SH_DEGREE)
     return proj, colors, jax.nn.sigmoid(params["opacity"])

@@ -18,7 +18,11 @@ up pixel-for-pixel with a NeRF render of the same camera. The image-space covari
 local affine approximation of the projection (EWA), plus a low-pass dilation:
 
     J = [[fx / z, 0, -fx x / z^2], [0, fy / z, -fy y / z^2]]   at (x, y, z) = p_c
-    Sigma' = J V Sigma V^T J^T + LOWPASS_DILATION * I_2.
+    Sigma' = J V Sigma V^T J^T + delta * I_2,   delta = LOWPASS_DILATION (px^2) by default.
+
+A view rendered at a fraction r of its photo's resolution (coarse to fine trains at r = 1/2) takes
+delta = LOWPASS_DILATION r^2: the same 0.3 px^2 footprint measured in the photo's pixels, so that
+Gaussians fitted small are not eroded by a floor four times wider than the one they render with.
 
 As in the paper's code, x / z and y / z inside J are clamped to FOV_CLAMP times the image's
 half-extent, so Gaussians far outside the view do not get huge footprints. Everything here
@@ -63,9 +67,10 @@ def world_to_camera(c2w: jax.Array) -> tuple[jax.Array, jax.Array]:
     return flip[:, None] * c2w[:3, :3].T, c2w[:3, 3]
 
 
-def ewa_covariance_2d(p_cam: jax.Array, cov_cam: jax.Array, intrinsics, width: int, height: int) -> jax.Array:
-    """Sigma' = J Sigma_c J^T + LOWPASS_DILATION I [N, 2, 2] of camera-space means [N, 3] (OpenCV
-    axes, z > 0) and covariances Sigma_c = V Sigma V^T [N, 3, 3]; intrinsics = (fx, fy, cx, cy)."""
+def ewa_covariance_2d(p_cam: jax.Array, cov_cam: jax.Array, intrinsics, width: int, height: int,
+                      dilation: float = LOWPASS_DILATION) -> jax.Array:
+    """Sigma' = J Sigma_c J^T + dilation I [N, 2, 2] of camera-space means [N, 3] (OpenCV axes, z > 0)
+    and covariances Sigma_c = V Sigma V^T [N, 3, 3]; intrinsics = (fx, fy, cx, cy); dilation in px^2."""
     fx, fy, cx, cy = intrinsics
     z = p_cam[:, 2]
     tx = jnp.clip(p_cam[:, 0] / z, -FOV_CLAMP * cx / fx, FOV_CLAMP * (width - cx) / fx) * z
@@ -74,14 +79,14 @@ def ewa_covariance_2d(p_cam: jax.Array, cov_cam: jax.Array, intrinsics, width: i
     jac = jnp.stack([jnp.stack([fx / z, zero, -fx * tx / (z * z)], -1),
                      jnp.stack([zero, fy / z, -fy * ty / (z * z)], -1)], axis=-2)  # [N, 2, 3]
     cov2d = jac @ cov_cam @ jnp.swapaxes(jac, -1, -2)
-    return cov2d + LOWPASS_DILATION * jnp.eye(2, dtype=cov2d.dtype)
+    return cov2d + dilation * jnp.eye(2, dtype=cov2d.dtype)
 
 
 def conic_and_radius(cov2d: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Conic (a, b, c) [N, 3] with [[a, b], [b, c]] = Sigma'^{-1}, and radius [N] int32 =
     ceil(SIGMA_CUTOFF sqrt(lambda_max(Sigma'))) in pixels (no gradient)."""
     sa, sb, sc = cov2d[:, 0, 0], cov2d[:, 0, 1], cov2d[:, 1, 1]
-    det = sa * sc - sb * sb  # > 0: Sigma' >= LOWPASS_DILATION I
+    det = sa * sc - sb * sb  # > 0: Sigma' >= dilation I
     conic = jnp.stack([sc / det, -sb / det, sa / det], axis=-1)
     sa, sc, det = (jax.lax.stop_gradient(x) for x in (sa, sc, det))
     mid = 0.5 * (sa + sc)
@@ -89,13 +94,15 @@ def conic_and_radius(cov2d: jax.Array) -> tuple[jax.Array, jax.Array]:
     return conic, jnp.ceil(SIGMA_CUTOFF * jnp.sqrt(lam_max)).astype(jnp.int32)
 
 
-def project_gaussians(means, log_scales, quats, c2w, intrinsics, width: int, height: int) -> dict:
+def project_gaussians(means, log_scales, quats, c2w, intrinsics, width: int, height: int,
+                      dilation: float = LOWPASS_DILATION) -> dict:
     """Project N Gaussians into a pinhole camera.
 
     Args:
       means [N, 3], log_scales [N, 3], quats [N, 4] (w first): the Gaussians, world space.
       c2w [4, 4]: camera-to-world, OpenGL axes. intrinsics: (fx, fy, cx, cy), floats or
-      scalar arrays. width, height: image size in pixels (static).
+      scalar arrays. width, height: image size in pixels (static). dilation: the low-pass floor
+      added to Sigma' in px^2 (module docstring).
 
     Returns dict: means2d [N, 2] (u, v) pixel coordinates, conics [N, 3], depths [N] (z-depth),
     radii [N] int32 (0: culled, i.e. z <= NEAR_PLANE or the radius square misses the image),
@@ -110,7 +117,7 @@ def project_gaussians(means, log_scales, quats, c2w, intrinsics, width: int, hei
     fx, fy, cx, cy = intrinsics
     means2d = jnp.stack([fx * p_cam[:, 0] / z + cx, fy * p_cam[:, 1] / z + cy], axis=-1)
     cov_cam = view @ covariance_3d(log_scales, quats) @ view.T
-    cov2d = ewa_covariance_2d(p_cam, cov_cam, intrinsics, width, height)
+    cov2d = ewa_covariance_2d(p_cam, cov_cam, intrinsics, width, height, dilation)
     conics, radii = conic_and_radius(cov2d)
     m = jax.lax.stop_gradient(means2d)
     inside = ((m[:, 0] + radii > 0) & (m[:, 0] - radii < width) & (m[:, 1] + radii > 0) & (m[:, 1] - radii < height))

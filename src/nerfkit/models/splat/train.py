@@ -10,8 +10,9 @@ rate a traced scalar, so nothing recompiles when they change):
     Adam per parameter group (optim.py)  [+ MCMC position noise | classic gradient statistics]
 
 Coarse to fine: while progress t < coarse_until, a step renders and scores the view at half
-resolution (half_resolution: 2x2 pixels averaged, intrinsics halved; a second compiled step),
-a quarter of the rasteriser's work, so the early, coarse fitting takes more steps.
+resolution (half_resolution: 2x2 pixels averaged, intrinsics halved; a second compiled step,
+with the screen dilation a quarter in half-pixels^2, the photos' footprint: project.py), a
+quarter of the rasteriser's work, so the early, coarse fitting takes more steps.
 
 Views are visited in a fresh random order every epoch (3DGS draws one camera per step). The SH
 degree rises by one every `sh_interval` steps up to 3. Every `control_every` steps the host runs
@@ -55,6 +56,7 @@ from nerfkit.models.splat.optim import (
     reset_rows,
     scene_extent,
 )
+from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 
 
@@ -112,10 +114,10 @@ def initial_params(cfg: SplatConfig, init: dict | None = None) -> tuple[dict, np
     return params, active
 
 
-def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, *, cfg, width, height):
+def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, *, cfg, width, height, dilation):
     """Loss of one view and aux (photometric loss, radii); offset [N, 2] zeros: d/d offset = dL/dmeans2d."""
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
-                                      all_sh(params) * sh_mask)
+                                      all_sh(params) * sh_mask, dilation)
     radii = jnp.where(active, proj["radii"], 0)
     rgb, _ = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii, bg, width, height,
                        backend=cfg.backend)
@@ -126,7 +128,7 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, *, cfg, widt
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
 
 
-def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False):
+def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False, scale: float = 1.0):
     """The jitted training step
 
         step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree)
@@ -134,9 +136,11 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
 
     images [V, H, W, 3], poses [V, 4, 4], intrinsics [V, 4] stay on the device; idx picks the view.
     A step whose loss or gradients are not finite changes nothing (finite: False). with_health also
-    returns the view's MSE and that flag (what nerfkit's run loop logs)."""
-    loss_grad = jax.value_and_grad(partial(_loss_fn, cfg=cfg, width=width, height=height), argnums=(0, 1),
-                                   has_aux=True)
+    returns the view's MSE and that flag (what nerfkit's run loop logs). scale: the views' resolution as a
+    fraction of the photos' (1/2 in the coarse phase); the screen dilation is LOWPASS_DILATION scale^2, the
+    same footprint in the photos' pixels (project.py)."""
+    loss_grad = jax.value_and_grad(partial(_loss_fn, cfg=cfg, width=width, height=height,
+                                           dilation=LOWPASS_DILATION * scale * scale), argnums=(0, 1), has_aux=True)
 
     @jax.jit
     def step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree):
@@ -283,7 +287,7 @@ def _steps(cfg: SplatConfig, opts: dict, width: int, height: int, data: tuple):
     if cfg.coarse_until <= 0:
         return fine, None
     small, small_intr = half_resolution(data[0], data[2])
-    return fine, (make_step(cfg, opts, width // 2, height // 2), (small, data[1], small_intr, data[3]), width // 2)
+    return fine, (make_step(cfg, opts, width // 2, height // 2, scale=0.5), (small, data[1], small_intr, data[3]), width // 2)
 
 
 def _image_size(minutes: float | None, steps: int | None, cameras) -> tuple[int, int]:
