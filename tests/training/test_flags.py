@@ -69,6 +69,7 @@ def alternative(name: str, cfg) -> list[str]:
         "train.devices": "2", "train.precrop_frac": "0.3",
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
         "splat.strategy": "mcmc" if v == "classic" else "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
+        "splat.coarse": "0.25", "splat.ssim_lambda": "0.2",
     }
     if name == "field.kind" and v == "ngp":  # the MLP fields need a fixed [near, far]
         return [flag, "mlp", "--near", "2", "--far", "6"]
@@ -128,7 +129,7 @@ def observe_splat(trainer):
 
     return {
         "data": lambda: [td.images, td.poses, trainer.val_data.images, np.asarray(trainer.val_ids)],
-        "schedule": lambda: [sorted(schedule_at(s, p, cfg).items()) for s in (0, 300, 500, 1000, 1500, 3000)
+        "schedule": lambda: [sorted(schedule_at(s, p, model.sc).items()) for s in (0, 300, 500, 1000, 1500, 3000)
                              for p in (0.0, 0.3, 0.5, 0.9)],
         "init": lambda: jax.tree_util.tree_leaves(init_state(model, trainer.optimizer, cfg.train.seed)),
         "step": step,

@@ -188,7 +188,7 @@ class Trainer:
         plots = self.run_dir / "plots"
         steps = [r["step"] for r in rows]
         g = self.cfg.splat
-        what = f"{1 - g.ssim_lambda:g} L1 + {g.ssim_lambda:g} D-SSIM" if self.cfg.field.kind == "splat" else "MSE"
+        what = g.loss_name() if self.cfg.field.kind == "splat" else "MSE"
         plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", f"loss ({what})",
                     "Training loss", logy=True)
         plot_curves({"train": (steps, [r["psnr"] for r in rows])}, plots / "train_psnr.png", "step", "PSNR (dB)",

@@ -232,3 +232,26 @@ def test_hull_init_without_silhouettes_is_refused(tmp_path):
     cfg.splat.init_points = "hull"
     with pytest.raises(DataError, match="--init-points hull, but the capture has neither masks nor an alpha"):
         SplatModel(cfg).bind_data(read_colmap(root, 8, True), load_scene(root, "train", format="colmap"))
+
+
+def test_coarse_to_fine_by_default_only_on_photos_large_enough(tmp_path):
+    """--coarse unset: half resolution for the first COARSE_AUTO of the budget on photos of at least
+    COARSE_MIN_PIXELS (maryrose at 432 px), full resolution on smaller ones (lego at 200 px, the test scene);
+    a --coarse the user sets is taken as it is; bind_data says which and why."""
+    from nerfkit.core.presets import preset
+    from nerfkit.models.splat.method import COARSE_AUTO, COARSE_MIN_PIXELS, coarse_share
+
+    assert coarse_share(None, 432 * 432) == COARSE_AUTO > 0 and coarse_share(None, 200 * 200) == 0.0
+    assert coarse_share(None, COARSE_MIN_PIXELS) == COARSE_AUTO and coarse_share(None, COARSE_MIN_PIXELS - 1) == 0
+    assert coarse_share(0.3, 200 * 200) == 0.3 and coarse_share(0.0, 10**6) == 0.0
+    scene = make_scene(tmp_path / "scene", size=24, n_train=4, n_val=1, n_test=0)
+    cap, data = read_capture(scene, "train", "auto"), load_scene(scene, "train")
+    lines: list[str] = []
+    for coarse, want in ((None, 0.0), (0.25, 0.25)):
+        cfg = preset("splat")
+        cfg.splat.coarse = coarse
+        model = SplatModel(cfg)
+        model.bind_data(cap, data, log=lines.append)
+        assert model.sc.coarse_until == want
+    assert "full resolution throughout (photos of 576 pixels < 100,000; set --coarse)" in lines[0]
+    assert lines[1].endswith("half resolution for the first 25% of the budget")

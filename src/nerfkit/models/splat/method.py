@@ -67,13 +67,28 @@ HULL_INIT_SCALE = 0.3
 # (filled, it could only prune: the Gaussians sealed inside the object keep their slots). maryrose (masks, --downscale 2,
 # 10 min through the CLI, --coarse 0.5, held-out photos): 23.20 dB from half the slots, 22.94 dB from all of them.
 HULL_INIT_SHARE = 0.5
+# --coarse unset: half resolution for the first COARSE_AUTO of the budget on photos of at least COARSE_MIN_PIXELS,
+# where the rasteriser dominates the step. 10 min through the CLI, 2 cores: maryrose (432 x 432, 187k px) runs 2.6x
+# the steps per second at half resolution and gains 0.6 dB (22.33 -> 22.94); lego (200 x 200, 40k px) 1.2x, where
+# projection and Adam over every Gaussian cost as much as the pixels, and loses 0.8 dB (34.61 -> 33.84 dB).
+COARSE_AUTO = 0.5
+COARSE_MIN_PIXELS = 100_000
 
 
-def splat_config(cfg) -> SplatConfig:
-    """train.SplatConfig of a nerfkit Config (--preset splat): capacity, strategy, SH, loss weight, seed."""
+def coarse_share(coarse: float | None, pixels: int | None) -> float:
+    """The share of the budget trained at half resolution: --coarse when set; unset, COARSE_AUTO for photos
+    of at least COARSE_MIN_PIXELS pixels (pixels None: not known yet, 0)."""
+    if coarse is not None:
+        return coarse
+    return COARSE_AUTO if pixels is not None and pixels >= COARSE_MIN_PIXELS else 0.0
+
+
+def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
+    """train.SplatConfig of a nerfkit Config (--preset splat): capacity, strategy, SH, loss weight, seed, and the
+    coarse phase for training photos of `pixels` pixels each (coarse_share)."""
     g = cfg.splat
     return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
-                       ssim_lambda=g.ssim_lambda, coarse_until=g.coarse, seed=cfg.train.seed,
+                       ssim_lambda=g.ssim_lambda, coarse_until=coarse_share(g.coarse, pixels), seed=cfg.train.seed,
                        init_box=cfg.field.resolved_bound())
 
 
@@ -100,14 +115,19 @@ def progress_of(step: int, clock: float, cfg) -> float:
     return float(min(1.0, max(step / max(t.max_steps, 1), by_time)))
 
 
-def schedule_at(step: int, progress: float, cfg) -> dict:
+def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
     """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
     learning rate per unit of scene extent, whether density control may run (the window) and whether the
-    step trains at half resolution (coarse to fine)."""
-    sc = splat_config(cfg)
+    step trains at half resolution (coarse to fine). sc: the model's SplatConfig (bound to its data)."""
     return {"sh_degree": min(sc.sh_degree, step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
             "control": step >= sc.control_from and step % sc.control_every == 0 and progress < sc.control_until,
             "half_resolution": progress < sc.coarse_until}
+
+
+def _describe_coarse(coarse: float | None) -> str:
+    if coarse is None:
+        return f"half resolution for the first {COARSE_AUTO:.0%} on photos of >= {COARSE_MIN_PIXELS:,} pixels, "
+    return f"half resolution for the first {coarse:.0%} of the budget, " if coarse else ""
 
 
 class SplatOptimizer:
@@ -156,8 +176,8 @@ class SplatModel:
         """One line naming the model with the settings it reads (and only those)."""
         g = cfg.splat
         return (f"splat: up to {g.capacity} Gaussians ({g.strategy} density control), SH degree {g.sh_degree}"
-                f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, L1 + {g.ssim_lambda:g} D-SSIM, "
-                f"{f'half resolution for the first {g.coarse:.0%} of the budget, ' if g.coarse else ''}"
+                f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, loss {g.loss_name()}, "
+                f"{_describe_coarse(g.coarse)}"
                 f"{g.init_points} init, one view per step")
 
     def __init__(self, cfg):
@@ -177,6 +197,7 @@ class SplatModel:
         if data.sizes is not None:
             raise DataError(f"{capture.root}: --preset splat trains on images of one size; this selection has "
                             f"several (multiscale data): pick one level with --train-split")
+        self.sc = splat_config(self.cfg, data.width * data.height)
         for cam in data.cameras[:1]:
             try:
                 intrinsics_of(cam)
@@ -203,7 +224,15 @@ class SplatModel:
         if self.init_gaussians is None:
             self.init_note = f"{min(RANDOM_INIT, self.sc.capacity)} random points in the box " \
                              f"[-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
-        log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}")
+        log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}; {self._coarse_note(data)}")
+
+    def _coarse_note(self, data) -> str:
+        """What the coarse phase will be, and why when --coarse was left to the photos' size."""
+        share, px = self.sc.coarse_until, data.width * data.height
+        what = f"half resolution for the first {share:.0%} of the budget" if share else "full resolution throughout"
+        if self.cfg.splat.coarse is not None:
+            return what
+        return f"{what} (photos of {px:,} pixels {'>=' if share else '<'} {COARSE_MIN_PIXELS:,}; set --coarse)"
 
     def _init_in_hull(self, data) -> None:
         """Grey Gaussians (as the random init's) uniform in the visual hull of the training silhouettes, their
@@ -252,7 +281,7 @@ class SplatModel:
                 small, small_intr = half_resolution(images, intr)
                 half.update({"of": images, "images": small, "intr": small_intr})
                 if "step" not in half:
-                    half["step"] = make_step(sc, optimizer.opts, width // 2, height // 2, with_health=True)
+                    half["step"] = make_step(sc, optimizer.opts, width // 2, height // 2, with_health=True, scale=0.5)
             return half["step"], half["images"], half["intr"], width // 2
         bg = jnp.asarray(self.background, jnp.float32)
         base_key = jax.random.PRNGKey(sc.seed)
@@ -269,7 +298,7 @@ class SplatModel:
             active = np.asarray(aux["active"], bool)
             clock = float(aux["clock"])
             progress = progress_of(step, clock, cfg)
-            plan = schedule_at(step, progress, cfg)
+            plan = schedule_at(step, progress, sc)
             deg = plan["sh_degree"]
             lr = means_lr(progress, self.extent, sc.lrs)
             stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
