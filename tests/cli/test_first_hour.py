@@ -111,6 +111,22 @@ def test_help_all_explains_every_flag_the_preset_uses(capsys):
             assert flag_of(name)[2:] in text and setting_doc(name)[:30] in " ".join(text.split()), (preset, name)
 
 
+
+def test_every_value_help_shows_can_be_typed_back():
+    """Each "--flag value" that --help prints for a preset parses back to that preset's setting: the words shown
+    for an unset number (--bound auto, --devices all, --target-width -, --coarse auto) included."""
+    from nerfkit.cli.help import _flag, shown
+    from nerfkit.cli.train import parse_train_args
+
+    for preset in presets.PRESETS:
+        cfg = presets.preset(preset)
+        for name in sorted(shown(cfg) - {"data.train_split", "data.val_split"}):  # these show what unset means
+            section, field = name.split(".")
+            argv = ["data", "--out", "run", "--preset", preset, *_flag(name, cfg).split()]
+            parsed = getattr(getattr(parse_train_args(argv).cfg, section), field)
+            if not isinstance(parsed, bool):  # a boolean's flag is the one that flips it
+                assert parsed == getattr(getattr(cfg, section), field), (preset, name, argv)
+
 def test_readme_and_help_agree_on_the_numbers_they_share():
     from nerfkit.cli.help import train_help
     from nerfkit.viewer.run import TRAINING_FRACTION

@@ -33,8 +33,35 @@ def preset_of(argv: list[str]) -> str:
     return name
 
 
+def unset_words(argv: list[str]) -> list[str]:
+    """argv with the word help prints for an unset number ("--bound auto", "--devices all", "--target-width -")
+    turned into the None that tyro reads, so every value --help shows can be typed back."""
+    import dataclasses
+    import typing
+
+    from nerfkit.cli.help import UNSET
+    from nerfkit.core.config import Config
+    from nerfkit.training.flags import flag_of, setting_names
+
+    numeric = {}
+    for name in setting_names():
+        section, field = name.split(".")
+        hint = typing.get_type_hints(type(getattr(Config(), section)))[field]
+        if set(typing.get_args(hint)) in ({int, type(None)}, {float, type(None)}):
+            numeric[flag_of(name)] = UNSET.get(name, "auto")
+    out = list(argv)
+    for k, a in enumerate(out):
+        flag, eq, value = a.partition("=")
+        if eq and numeric.get(flag) == value:  # --bound=auto
+            out[k] = f"{flag}=None"
+        elif k + 1 < len(out) and numeric.get(a) == out[k + 1]:  # --bound auto
+            out[k + 1] = "None"
+    return out
+
+
 def parse_train_args(argv: list[str]) -> TrainArgs:
     """`nerfkit train` arguments: the preset's config (or, with --resume, the run's own) with the flags on top."""
+    argv = unset_words(argv)
     name = preset_of(argv)
     base = preset(name)
     out = flag_value(argv, "--out")
