@@ -202,8 +202,8 @@ class SplatSettings:
     """Steps per SH degree: the degree rises by one every N steps up to --sh-degree (3DGS: 1000 of 30k)."""
     ssim_lambda: float = 0.0
     """Loss = (1 - lambda) L1 + lambda (1 - SSIM); 3DGS: 0.2. 0 by measurement on the PSNR of held-out views
-    (10 min through the CLI, 2 cores): maryrose 23.86 dB at 0, 23.46 at 0.05, 23.15 at 0.2 (ngp 23.39); lego
-    34.01 dB at 0, 34.61 at 0.2 (ngp 33.09). D-SSIM trades PSNR for SSIM (maryrose 0.850 at 0, 0.882 at 0.2)."""
+    (10 min through the CLI, 2 cores, probes): maryrose 23.86 dB at 0, 23.46 at 0.05, 23.15 at 0.2 (ngp 23.39-23.57);
+    lego 34.01 dB at 0, 34.61 at 0.2 (ngp 33.09). D-SSIM trades PSNR for SSIM (maryrose 0.850 at 0, 0.882 at 0.2)."""
     coarse: float | None = None
     """Coarse to fine: the first COARSE of the budget trains on the photos at half resolution (2x2 pixels
     averaged: a quarter of the rasteriser's work per step, so more steps), the rest at full resolution; 0: full
