@@ -36,7 +36,6 @@ def preset_of(argv: list[str]) -> str:
 def unset_words(argv: list[str]) -> list[str]:
     """argv with the word help prints for an unset number ("--bound auto", "--devices all", "--target-width -")
     turned into the None that tyro reads, so every value --help shows can be typed back."""
-    import dataclasses
     import typing
 
     from nerfkit.cli.help import UNSET
