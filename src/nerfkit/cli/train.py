@@ -42,10 +42,10 @@ def unset_words(argv: list[str]) -> list[str]:
     from nerfkit.core.config import Config
     from nerfkit.training.flags import flag_of, setting_names
 
-    numeric = {}
+    cfg, numeric = Config(), {}
     for name in setting_names():
         section, field = name.split(".")
-        hint = typing.get_type_hints(type(getattr(Config(), section)))[field]
+        hint = typing.get_type_hints(type(getattr(cfg, section)))[field]
         if set(typing.get_args(hint)) in ({int, type(None)}, {float, type(None)}):
             numeric[flag_of(name)] = UNSET.get(name, "auto")
     out = list(argv)

@@ -48,6 +48,7 @@ from nerfkit.models.splat.optim import (
 from nerfkit.models.splat.train import (
     SplatConfig,
     half_resolution,
+    half_step,
     host_control,
     initial_params,
     make_step,
@@ -281,7 +282,7 @@ class SplatModel:
                 small, small_intr = half_resolution(images, intr)
                 half.update({"of": images, "images": small, "intr": small_intr})
                 if "step" not in half:
-                    half["step"] = make_step(sc, optimizer.opts, width // 2, height // 2, with_health=True, scale=0.5)
+                    half["step"] = half_step(sc, optimizer.opts, width, height, with_health=True)
             return half["step"], half["images"], half["intr"], width // 2
         bg = jnp.asarray(self.background, jnp.float32)
         base_key = jax.random.PRNGKey(sc.seed)

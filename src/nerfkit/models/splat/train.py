@@ -165,6 +165,12 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
     return step
 
 
+def half_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False):
+    """make_step for views at half of the photos' width x height (coarse to fine: their images and intrinsics
+    from half_resolution), with the screen dilation scaled to keep the photos' footprint."""
+    return make_step(cfg, opts, width // 2, height // 2, with_health=with_health, scale=0.5)
+
+
 def half_resolution(images: jnp.ndarray, intrinsics: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
     """The views at half resolution: images [V, H, W, 3] -> [V, H // 2, W // 2, 3], each pixel the mean of a
     2x2 block (an odd last row or column dropped), and their intrinsics [V, 4] (fx, fy, cx, cy) / 2 (pixel
@@ -287,7 +293,7 @@ def _steps(cfg: SplatConfig, opts: dict, width: int, height: int, data: tuple):
     if cfg.coarse_until <= 0:
         return fine, None
     small, small_intr = half_resolution(data[0], data[2])
-    return fine, (make_step(cfg, opts, width // 2, height // 2, scale=0.5), (small, data[1], small_intr, data[3]), width // 2)
+    return fine, (half_step(cfg, opts, width, height), (small, data[1], small_intr, data[3]), width // 2)
 
 
 def _image_size(minutes: float | None, steps: int | None, cameras) -> tuple[int, int]:
