@@ -23,10 +23,12 @@ def _git(*args: str) -> str:
 
 
 def provenance() -> dict:
-    """{commit, dirty, date, command, python, cpus, machine, load_at_start} (1-minute load average: the
+    """{commit, dirty (None: unknown), date, command, python, cpus, machine, load_at_start} (1-minute load average: the
     machine is shared, so a figure measured under load says so)."""
-    dirty = bool(_git("status", "--porcelain", "--untracked-files=no"))
-    return {"commit": _git("rev-parse", "HEAD"), "dirty": dirty, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+    commit = _git("rev-parse", "HEAD")
+    # A copy of the tree without .git (a lent GPU machine): the commit comes from NERFKIT_COMMIT, dirty unknown.
+    dirty = bool(_git("status", "--porcelain", "--untracked-files=no")) if commit else None
+    return {"commit": commit or os.environ.get("NERFKIT_COMMIT", ""), "dirty": dirty, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
             "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "python": platform.python_version(),
             "cpus": os.cpu_count(), "machine": platform.machine(),
             "load_at_start": round(os.getloadavg()[0], 2)}
