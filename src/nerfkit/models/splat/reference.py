@@ -20,7 +20,7 @@ The 3-sigma ellipse cut (SIGMA_MAX = SIGMA_CUTOFF^2 / 2) makes the image indepen
 tile grid: a Gaussian's ellipse lies inside its radius square and so inside the tiles it is
 binned to. (The 3DGS code instead cuts at the tile rectangle, which depends on the grid.)
 
-This is O(pixels x Gaussians): used by the tests and as the portable (GPU) path, with
+This is O(pixels x Gaussians): used by the tests and where no host callback is wanted, with
 autodiff for gradients. Pixels are processed in blocks (checkpointed for the backward pass) to
 bound memory at a few block x N arrays.
 """
