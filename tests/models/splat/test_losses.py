@@ -1,4 +1,5 @@
-"""SSIM / D-SSIM loss of splat/losses.py against nerfkit.core.metrics.ssim (skimage), and the L1 + D-SSIM mix.
+"""SSIM / D-SSIM loss of splat/losses.py against nerfkit.core.metrics.ssim (skimage), the L1 + D-SSIM mix
+and the RMSE pixel term.
 
 Tolerance: 2e-5 absolute on the mean SSIM. Both take the same windowed statistics over the same
 valid pixels; the JAX side sums in float32 (~1e-7 relative per term, over 121-tap windows and a
@@ -16,6 +17,7 @@ from nerfkit.models.splat.losses import (
     gaussian_window,
     l1,
     photometric_loss,
+    rmse,
     ssim,
 )
 
@@ -59,3 +61,25 @@ def test_loss_mix_and_gradient():
     assert g.shape == x.shape and bool(jnp.all(jnp.isfinite(g)))
     # a small step against the gradient lowers the loss
     assert float(photometric_loss(x - 0.05 * g / jnp.abs(g).max(), y)) < float(photometric_loss(x, y))
+
+
+def test_rmse_fits_the_mean_where_l1_fits_the_median():
+    """Views that disagree on a pixel: targets y = (0, 0, 0, 1) for one predicted value c. RMSE's gradient
+    vanishes at mean(y) = 0.25 (L1's does not: there it is (3 - 1) / 4 = 0.5); at any c it is the MSE's
+    gradient / (2 rmse), and its size stays within L1's (|mean(c - y)| / rmse <= 1)."""
+    y = jnp.asarray([0.0, 0.0, 0.0, 1.0], jnp.float32).reshape(1, 4, 1)
+
+    def loss(fn):
+        return jax.grad(lambda c: fn(jnp.full_like(y, c), y))
+
+    assert abs(float(loss(rmse)(0.25))) < 1e-6
+    assert float(loss(l1)(0.25)) == pytest.approx(0.5, rel=1e-6)
+    for c in (-0.3, 0.1, 0.6, 1.2):
+        mse_grad = float(jax.grad(lambda c: jnp.mean((jnp.full_like(y, c) - y) ** 2))(c))
+        r = float(rmse(jnp.full_like(y, c), y))
+        assert float(loss(rmse)(c)) == pytest.approx(mse_grad / (2 * r), rel=1e-5)
+        assert abs(float(loss(rmse)(c))) <= 1.0 + 1e-6
+    x = jnp.asarray(np.random.default_rng(3).uniform(size=(20, 24, 3)), jnp.float32)
+    assert float(photometric_loss(x, y.mean() + 0 * x, 0.0, "rmse")) == pytest.approx(
+        float(jnp.sqrt(jnp.mean((x - y.mean()) ** 2))), rel=1e-5)
+    assert bool(jnp.all(jnp.isfinite(jax.grad(photometric_loss)(x, x, 0.2, "rmse"))))

@@ -1,4 +1,5 @@
-"""Photometric losses of 3DGS: L = (1 - lambda) L1 + lambda D-SSIM, lambda = 0.2 (Kerbl et al. 2023).
+"""Photometric losses of 3DGS: L = (1 - lambda) L1 + lambda D-SSIM, lambda = 0.2 (Kerbl et al. 2023),
+and nerfkit's alternative pixel term RMSE = sqrt(mean (x - y)^2) in place of L1 (see rmse).
 
 SSIM (Wang et al. 2004) with an 11 x 11 Gaussian window (sigma 1.5, normalised), on images in
 [0, 1] (C1 = 0.01^2, C2 = 0.03^2). Local statistics are window-weighted means:
@@ -26,6 +27,7 @@ SSIM_SIGMA = 1.5
 SSIM_C1 = 0.01**2
 SSIM_C2 = 0.03**2
 SSIM_LAMBDA = 0.2
+RMSE_EPS = 1e-12  # keeps rmse's gradient finite at a perfect fit
 
 
 def gaussian_window(size: int = SSIM_WINDOW, sigma: float = SSIM_SIGMA) -> np.ndarray:
@@ -71,6 +73,18 @@ def l1(x: jax.Array, y: jax.Array) -> jax.Array:
     return jnp.mean(jnp.abs(x - y))
 
 
-def photometric_loss(pred: jax.Array, target: jax.Array, ssim_lambda: float = SSIM_LAMBDA) -> jax.Array:
-    """(1 - lambda) L1 + lambda (1 - SSIM) of [H, W, 3] images (scalar)."""
-    return (1.0 - ssim_lambda) * l1(pred, target) + ssim_lambda * (1.0 - ssim(pred, target))
+def rmse(x: jax.Array, y: jax.Array) -> jax.Array:
+    """Root of the mean squared error (scalar). Its minimiser is the MSE's (where views disagree on a
+    colour: their mean, what PSNR scores; L1's is their median), and its gradient (x - y) / (n rmse) has
+    about L1's size (mean |x - y| / rmse <= 1), so thresholds set on L1's gradients still apply."""
+    return jnp.sqrt(jnp.mean((x - y) ** 2) + RMSE_EPS)
+
+
+PIXEL_LOSSES = {"l1": l1, "rmse": rmse}
+
+
+def photometric_loss(pred: jax.Array, target: jax.Array, ssim_lambda: float = SSIM_LAMBDA,
+                     pixel: str = "l1") -> jax.Array:
+    """(1 - lambda) D + lambda (1 - SSIM) of [H, W, 3] images (scalar), D the pixel loss: "l1" (3DGS) or
+    "rmse"."""
+    return (1.0 - ssim_lambda) * PIXEL_LOSSES[pixel](pred, target) + ssim_lambda * (1.0 - ssim(pred, target))

@@ -89,7 +89,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
     coarse phase for training photos of `pixels` pixels each (coarse_share)."""
     g = cfg.splat
     return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
-                       ssim_lambda=g.ssim_lambda, coarse_until=coarse_share(g.coarse, pixels), seed=cfg.train.seed,
+                       ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels), seed=cfg.train.seed,
                        init_box=cfg.field.resolved_bound())
 
 
@@ -170,7 +170,7 @@ class SplatModel:
     supports = Supports(family="image", parallel="views", mesh=False)
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
-        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "coarse", "init_points"))
+        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points"))
 
     @staticmethod
     def describe(cfg) -> str:

@@ -37,7 +37,7 @@ import numpy as np
 from nerfkit.core.metrics import psnr, ssim
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat import mcmc
-from nerfkit.models.splat.losses import SSIM_LAMBDA, photometric_loss
+from nerfkit.models.splat.losses import PIXEL_LOSSES, SSIM_LAMBDA, photometric_loss
 from nerfkit.models.splat.model import (
     PARAM_NAMES,
     all_sh,
@@ -69,6 +69,7 @@ class SplatConfig:
     strategy: str = "mcmc"  # "mcmc", "classic" or "none"
     lrs: LearningRates = field(default_factory=LearningRates)
     ssim_lambda: float = SSIM_LAMBDA
+    pixel_loss: str = "l1"  # losses.PIXEL_LOSSES: "l1" (3DGS) or "rmse"
     sh_degree: int = 3
     sh_interval: int = 500  # steps per SH band (3DGS: 1000 of 30k; a CPU run is ~5k steps)
     control_every: int = 100  # steps between density-control rounds
@@ -90,6 +91,8 @@ class SplatConfig:
     def __post_init__(self):
         if self.strategy not in ("mcmc", "classic", "none"):
             raise ValueError(f"strategy must be mcmc, classic or none, got {self.strategy!r}")
+        if self.pixel_loss not in PIXEL_LOSSES:
+            raise ValueError(f"pixel_loss must be one of {sorted(PIXEL_LOSSES)}, got {self.pixel_loss!r}")
         if not 0 <= self.sh_degree <= 3:
             raise ValueError(f"sh_degree must be 0..3, got {self.sh_degree}")
 
@@ -121,7 +124,7 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, *, cfg, widt
     radii = jnp.where(active, proj["radii"], 0)
     rgb, _ = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii, bg, width, height,
                        backend=cfg.backend)
-    photo = photometric_loss(rgb, image, cfg.ssim_lambda)
+    photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
     loss = photo
     if cfg.strategy == "mcmc":
         loss = loss + mcmc.regularizer(params, cfg.opacity_reg, cfg.scale_reg, active)
