@@ -12,6 +12,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+# Read when a benchmark imports this module (its start), not when it writes its record (the end, for most).
+LOAD_AT_START = round(os.getloadavg()[0], 2)
 
 
 def _git(*args: str) -> str:
@@ -23,12 +25,12 @@ def _git(*args: str) -> str:
 
 
 def provenance() -> dict:
-    """{commit, dirty (None: unknown), date, command, python, cpus, machine, load_at_start} (1-minute load average: the
-    machine is shared, so a figure measured under load says so)."""
+    """{commit, dirty (None: unknown), date, command, python, cpus, machine, load_at_start} (the 1-minute load
+    average when the benchmark started: the machine is shared, so a figure measured under load says so)."""
     commit = _git("rev-parse", "HEAD")
     # A copy of the tree without .git (a lent GPU machine): the commit comes from NERFKIT_COMMIT, dirty unknown.
     dirty = bool(_git("status", "--porcelain", "--untracked-files=no")) if commit else None
-    return {"commit": commit or os.environ.get("NERFKIT_COMMIT", ""), "dirty": dirty, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
-            "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "python": platform.python_version(),
-            "cpus": os.cpu_count(), "machine": platform.machine(),
-            "load_at_start": round(os.getloadavg()[0], 2)}
+    return {"commit": commit or os.environ.get("NERFKIT_COMMIT", ""), "dirty": dirty,
+            "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+            "python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine(),
+            "load_at_start": LOAD_AT_START}

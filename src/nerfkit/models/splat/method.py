@@ -85,12 +85,12 @@ def coarse_share(coarse: float | None, pixels: int | None) -> float:
 
 
 def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
-    """train.SplatConfig of a nerfkit Config (--preset splat): capacity, strategy, SH, loss weight, seed, and the
+    """train.SplatConfig of a nerfkit Config (--preset splat): capacity, strategy, SH, loss, seed, and the
     coarse phase for training photos of `pixels` pixels each (coarse_share)."""
     g = cfg.splat
     return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
-                       ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels), seed=cfg.train.seed,
-                       init_box=cfg.field.resolved_bound())
+                       ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
+                       seed=cfg.train.seed, init_box=cfg.field.resolved_bound())
 
 
 def find_sfm_points(capture) -> Path | None:
