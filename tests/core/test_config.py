@@ -43,3 +43,14 @@ def test_not_a_config_and_retired_settings():
 def test_unknown_preset():
     with pytest.raises(ConfigError, match="unknown preset 'nope'; choose one of"):
         preset("nope")
+
+
+def test_a_splat_run_from_before_pixel_loss_keeps_its_l1():
+    """The default pixel loss became rmse; a run folder written before the setting existed trained with L1,
+    so loading (and resuming) it keeps L1, while a config that names the setting keeps what it names."""
+    d = preset("splat").to_dict()
+    assert d["splat"].pop("pixel_loss") == "rmse"
+    assert Config.from_dict(d).splat.pixel_loss == "l1"
+    d["splat"]["pixel_loss"] = "rmse"
+    assert Config.from_dict(d).splat.pixel_loss == "rmse"
+    assert Config.from_dict(preset("ngp").to_dict() | {"splat": {}}).splat == preset("ngp").splat

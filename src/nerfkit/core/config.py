@@ -246,16 +246,20 @@ class Config:
     @staticmethod
     def from_dict(d: dict[str, Any]) -> "Config":
         """Rebuild a config (e.g. a run folder's config.json); ConfigError if it is not a valid one. Settings
-        that earlier versions wrote and no model reads any more (RETIRED) are dropped."""
+        that earlier versions wrote and no model reads any more (RETIRED) are dropped; a splat section written
+        before --pixel-loss existed gets "l1", the loss those runs trained with (so --resume keeps it)."""
         try:
             sections = {k: {n: v for n, v in d[k].items() if f"{k}.{n}" not in RETIRED}
                         for k in ("data", "field", "sampler", "train")}
+            splat = dict(d.get("splat", {}))  # runs of earlier versions may have no splat section
+            if splat:
+                splat.setdefault("pixel_loss", "l1")
             cfg = Config(
                 data=DataConfig(**sections["data"]),
                 field=FieldConfig(**sections["field"]),
                 sampler=SamplerConfig(**sections["sampler"]),
                 train=TrainConfig(**sections["train"]),
-                splat=SplatSettings(**d.get("splat", {})),  # runs of earlier versions have no splat section
+                splat=SplatSettings(**splat),
             )
         except (KeyError, TypeError) as e:
             raise ConfigError(f"config is not a nerfkit config ({e})") from None
