@@ -3,7 +3,8 @@
 # nerfkit train + nerfkit eval, seed protocol, 200x200), then each run's 800x800 frame time
 # (benchmarks/render_speed.py). The splat rasteriser's numba tile kernels run on the host CPU (the rest of a
 # step on the GPU); benchmarks/results/gpu_h200/ was measured before that, with the pure-JAX reference.
-# Writes into RESULTS: lego_cli_{ngp,splat}.json + .png, render_speed_{ngp,splat}.json and device.txt (the GPU, the driver, jax's version and devices).
+# Writes into RESULTS: lego_cli_{ngp,splat}.json + .png, render_speed_{ngp,splat}.json and device.txt
+# (the GPU, the driver, jax's version and devices).
 #
 #     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [MINUTES=2]
 set -euo pipefail
