@@ -123,6 +123,7 @@ def _ball_model(scene_type: str, march_steps: int = 256):
     cfg.sampler.occ_res, cfg.sampler.march_steps = 16, march_steps
     if scene_type == "unbounded":
         cfg.sampler.near, cfg.sampler.far, cfg.field.bound = 0.05, 1e3, 1.5
+    cfg.sampler.sampling = "occupancy"  # the marching model (unbounded scenes default to proposal sampling)
     model = build_model(cfg)
     model.eval_samples_per_ray = 600  # one pass holds every ray
     params, aux = model.init(jax.random.PRNGKey(0))

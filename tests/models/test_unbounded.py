@@ -23,9 +23,9 @@ def capture(tmp_path_factory):
     return make_capture(tmp_path_factory.mktemp("env") / "cap", "nerfstudio", n_views=40, size=48, environment=True)
 
 
-def small(scene_type: str):
+def small(scene_type: str, sampling: str = "auto"):
     cfg = preset("ngp")
-    cfg.field.scene_type = scene_type
+    cfg.field.scene_type, cfg.sampler.sampling = scene_type, sampling
     cfg.field.hash_log2_size, cfg.field.hash_max_res = 14, 256
     cfg.sampler.max_samples, cfg.sampler.march_steps, cfg.sampler.occ_res = 1 << 14, 256, 32
     cfg.train.max_steps, cfg.train.batch_rays = STEPS, 1024
@@ -36,13 +36,15 @@ def small(scene_type: str):
 
 @pytest.mark.slow
 def test_unbounded_beats_bounded_on_a_scene_with_a_far_environment(capture, tmp_path):
+    """Both samplers of the unbounded field (proposal, the default there, and the occupancy march)."""
     psnr = {}
-    for kind in ("unbounded", "bounded"):
-        run = tmp_path / kind
-        Trainer(capture, run, small(kind), progress=False).run()
-        psnr[kind] = evaluate_run(run, None, "test", progress=False)["psnr"]
-    assert psnr["unbounded"] >= FLOOR_DB, psnr
-    assert psnr["unbounded"] >= psnr["bounded"] + MARGIN_DB, psnr
+    for kind, sampling in (("unbounded", "proposal"), ("unbounded", "occupancy"), ("bounded", "auto")):
+        run = tmp_path / f"{kind}_{sampling}"
+        Trainer(capture, run, small(kind, sampling), progress=False).run()
+        psnr[kind, sampling] = evaluate_run(run, None, "test", progress=False)["psnr"]
+    for sampling in ("proposal", "occupancy"):
+        assert psnr["unbounded", sampling] >= FLOOR_DB, psnr
+        assert psnr["unbounded", sampling] >= psnr["bounded", "auto"] + MARGIN_DB, psnr
 
 
 def test_scene_type_is_picked_from_the_data(capture, tmp_path):
@@ -54,11 +56,13 @@ def test_scene_type_is_picked_from_the_data(capture, tmp_path):
     assert cfg.field.bound == pytest.approx(1.1 * 4.0, abs=0.06)  # the inner ball holds every camera
     assert cfg.sampler.far >= 1e3 and cfg.sampler.near < 0.1
     assert cfg.field.appearance_dim == 16 and cfg.field.appearance_count == len(train)
+    assert cfg.sampler.sampling == "proposal"  # resolved, so eval and --resume build the same model
     masked = make_capture(tmp_path / "m", "llff", n_views=8, size=32, masks=True)
     cap = read_capture(masked, "train")
     cfg = resolve_config(preset("ngp"), cap, load_frames(cap, "train"), log=logs.append)
     assert cfg.field.scene_type == "bounded" and any("masked capture" in line for line in logs[-2:])
     assert cfg.field.appearance_dim == 0  # object captures keep one appearance (see resolve.py)
+    assert cfg.sampler.sampling == "occupancy"
     # The box from the masks' visual hull holds the objects (within 1.2 of the origin). Cameras between
     # 10 and 50 degrees of elevation cannot see below the ground disc, so the hull reaches down there
     # (measured 2.55-2.8), but it stays well inside the cameras' ball (radius 3.8).

@@ -51,13 +51,13 @@ def training_frames(run):
     """The run's training images (its split, resolution and background)."""
     d = run.cfg.data
     return load_frames(_training_capture(run), d.train_split, downscale=d.downscale, target_width=d.target_width,
-                       background=d.background, progress=False)
+                       background=d.background, progress=False, undistort=d.undistort)
 
 
 def training_poses(run) -> np.ndarray:
     """The run's training poses c2w [N, 4, 4] (normalised frame), without reading the images."""
     d = run.cfg.data
-    return scene_cameras(_training_capture(run), d.train_split, d.downscale, d.target_width).poses
+    return scene_cameras(_training_capture(run), d.train_split, d.downscale, d.target_width, d.undistort).poses
 
 
 def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_budget: int | None, seed: int = 0):

@@ -46,6 +46,9 @@ class DataConfig:
     """Use object masks where the capture has them (pixels outside become the background); --no-masks ignores them."""
     holdout_every: int = 8
     """Formats without splits: every N-th image (sorted by name, index % N == 0) is held out as 'test'."""
+    undistort: bool = False
+    """Set from the data: photos of lens-distorted cameras are resampled as pinhole cameras see them, for a
+    method that renders pinhole cameras only (Gaussian splats); the fields model the lens instead."""
 
 
 @dataclass
@@ -134,7 +137,23 @@ class SamplerConfig:
     """ngp: ray-marching steps across the box diagonal (step = 2 sqrt(3) bound / N); unbounded scenes: steps
     evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""
     max_samples: int = 65536
-    """ngp: samples per training step; rays per step adapt to fill it (at most --batch-rays)."""
+    """ngp with occupancy sampling: samples per training step; rays per step adapt to fill it (at most
+    --batch-rays)."""
+    sampling: Literal["auto", "occupancy", "proposal"] = "auto"
+    """ngp: where samples go along a ray. occupancy: march the occupancy grid (instant-ngp; every occupied
+    cell a ray crosses, also behind the first surface); proposal: two small proposal density fields place
+    --field-samples samples where the ray's weight is (nerfacto). auto: occupancy for bounded scenes,
+    proposal for unbounded ones."""
+    proposal_samples: int = 64
+    """ngp with proposal sampling: the first proposal round's samples per ray (the second takes half)."""
+    field_samples: int = 32
+    """ngp with proposal sampling: samples per ray of the radiance field (the last round's)."""
+
+    def resolved_sampling(self, field: FieldConfig) -> str:
+        """"occupancy" or "proposal": --sampling, where auto means proposal for unbounded scenes."""
+        if self.sampling != "auto":
+            return self.sampling
+        return "proposal" if field.unbounded() else "occupancy"
 
 
 @dataclass
@@ -251,6 +270,8 @@ class Config:
         try:
             sections = {k: {n: v for n, v in d[k].items() if f"{k}.{n}" not in RETIRED}
                         for k in ("data", "field", "sampler", "train")}
+            if d["field"].get("kind") == "ngp":  # ngp runs of earlier versions marched the occupancy grid
+                sections["sampler"].setdefault("sampling", "occupancy")
             splat = dict(d.get("splat", {}))  # runs of earlier versions may have no splat section
             if splat:
                 splat.setdefault("pixel_loss", "l1")
@@ -380,6 +401,8 @@ def _check_field_sizes(f: FieldConfig, s: SamplerConfig) -> None:
         _need(s.occ_res >= 2 and s.occ_update_every >= 1 and s.march_steps >= 2,
               "need --occ-res >= 2, --occ-update-every >= 1, --march-steps >= 2")
         _need(s.max_samples >= s.march_steps, f"--max-samples must be >= --march-steps ({s.march_steps})")
+        _need(s.proposal_samples >= 4 and s.field_samples >= 2,
+              "need --proposal-samples >= 4 and --field-samples >= 2")
 
 
 def _check_splat_and_images(g: SplatSettings, d: DataConfig) -> None:

@@ -27,6 +27,7 @@ from nerfkit.data.images import (
     resolve_downscale,
 )
 from nerfkit.data.normalize import apply_transform, normalizing_transform
+from nerfkit.data.undistort import pinhole_cameras, undistort_image
 
 MAX_SIDE = 1600
 
@@ -63,9 +64,10 @@ class CaptureFrame:
     factor: int
 
 
-def scene_cameras(cap: Capture, spec: str, downscale: int | None = None, target_width: int | None = None
-                  ) -> CaptureFrame:
-    """Poses (normalised) and cameras (at the loaded size) of the frames `spec` selects, without reading pixels."""
+def scene_cameras(cap: Capture, spec: str, downscale: int | None = None, target_width: int | None = None,
+                  undistort: bool = False) -> CaptureFrame:
+    """Poses (normalised) and cameras (at the loaded size) of the frames `spec` selects, without reading pixels;
+    with `undistort`, the pinhole cameras the photos are resampled to (undistort.pinhole_cameras)."""
     frames = cap.frames(spec)
     first = frames[0].camera
     if not cap.levels:  # multiscale data: every level keeps its own size (data/multiscale.py)
@@ -80,6 +82,8 @@ def scene_cameras(cap: Capture, spec: str, downscale: int | None = None, target_
     poses = apply_transform(m, s, np.stack([f.c2w for f in frames])).astype(np.float32)
     cams = [f.camera.scaled(1.0 / factor, f.camera.width // factor, f.camera.height // factor) for f in frames]
     names = [_rel(f.image, cap.root) for f in frames]
+    if undistort:
+        cams = pinhole_cameras(cams)
     return CaptureFrame(poses, cams, names, m, s, factor)
 
 
@@ -92,26 +96,32 @@ def _rel(path: Path, root: Path) -> str:
 
 def load_scene(root: str | Path, spec: str, *, format: str = "auto", downscale: int | None = None,
                target_width: int | None = None, background: str = "white", masks: bool = True,
-               holdout_every: int = 8, progress: bool = False) -> SceneData:
+               holdout_every: int = 8, progress: bool = False, undistort: bool = False) -> SceneData:
     """Load the frames a split spec selects (e.g. "train,val[0:50]" or "test") as SceneData."""
     cap = read_capture(root, spec, format, masks, holdout_every)
     return load_frames(cap, spec, downscale=downscale, target_width=target_width, background=background,
-                       progress=progress)
+                       progress=progress, undistort=undistort)
 
 
 def load_frames(cap: Capture, spec: str, *, downscale: int | None = None, target_width: int | None = None,
-                background: str = "white", progress: bool = False) -> SceneData:
-    """Read, mask, composite and shrink the images of `spec` (see load_scene)."""
-    sel = scene_cameras(cap, spec, downscale, target_width)
+                background: str = "white", progress: bool = False, undistort: bool = False) -> SceneData:
+    """Read, mask, composite and shrink the images of `spec` (see load_scene); with `undistort`, resample
+    photos of lens-distorted cameras as pinhole cameras see them (data/undistort.py), after shrinking."""
+    sel = scene_cameras(cap, spec, downscale, target_width, undistort)
     bg = np.ones(3) if background == "white" else np.zeros(3)
     frames = cap.frames(spec)
     images, alphas = [], []
     use_alpha = cap.alpha or any(f.mask is not None for f in frames)
-    for f in tqdm(frames, desc="load images", unit="img", disable=not progress or len(frames) < 20, leave=False):
+    for f, cam in tqdm(list(zip(frames, sel.cameras)), desc="load images", unit="img",
+                       disable=not progress or len(frames) < 20, leave=False):
         rgb, a = read_masked(f.image, f.mask, (f.camera.width, f.camera.height))
-        images.append(area_downscale(composite(rgb, a, bg), sel.factor))
+        shrunk = f.camera.scaled(1.0 / sel.factor, f.camera.width // sel.factor, f.camera.height // sel.factor)
+        image, a = area_downscale(composite(rgb, a, bg), sel.factor), area_downscale(a, sel.factor)
+        if shrunk != cam:  # undistorted: the pinhole camera sees another picture
+            image, a = undistort_image(image, shrunk, cam), undistort_image(a, shrunk, cam)
+        images.append(image)
         if use_alpha:
-            alphas.append(np.round(area_downscale(a, sel.factor) * 255).astype(np.uint8))
+            alphas.append(np.round(a * 255).astype(np.uint8))
     sizes = np.array([(c.height, c.width) for c in sel.cameras], np.int32)
     mixed = len({tuple(x) for x in sizes}) > 1
     return SceneData(pad_stack(images).astype(np.float32), sel.poses, sel.cameras, sel.names, sel.transform,

@@ -85,7 +85,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     bg = background_rgb(cfg.data.background)
 
     def score(spec, out_dir, ds, tw):
-        data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background)
+        data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background, undistort=d.undistort)
         return score_views(renderer, params, aux, data, every, progress, out_dir if write else None, bg), data
 
     if levels is None:
@@ -249,9 +249,9 @@ def poses_to_render(cap, d, split: str | None, orbit: int | None, camera_path: P
     split's own poses, the camera path's, or an orbit around the training cameras (a circle for Blender
     scenes, else an ellipse fitted to the camera centres). d: the run's DataConfig."""
     if split is not None:
-        sel = scene_cameras(cap, split, d.downscale, d.target_width)
+        sel = scene_cameras(cap, split, d.downscale, d.target_width, d.undistort)
         return sel, sel.poses, split_slug(split)
-    train = scene_cameras(cap, d.train_split, d.downscale, d.target_width)
+    train = scene_cameras(cap, d.train_split, d.downscale, d.target_width, d.undistort)
     if path is not None:
         return train, path["c2w"].astype(np.float32), f"path_{split_slug(Path(camera_path).stem)}"
     poses = orbit_poses(train.poses, orbit) if cap.format == "blender" else ellipse_orbit_poses(

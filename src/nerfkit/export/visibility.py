@@ -57,7 +57,7 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
     d = run.cfg.data
     split = split or d.train_split
     cap = read_capture(RunFolder(run.run_dir).data_dir(data), split, d.format, d.masks, d.holdout_every)
-    sel = scene_cameras(cap, split, d.downscale, d.target_width)
+    sel = scene_cameras(cap, split, d.downscale, d.target_width, d.undistort)
     every = every or max(1, math.ceil(len(sel.poses) / target))
     ids = list(range(0, len(sel.poses), every))
     cams = [sel.cameras[k].with_size(sel.cameras[k].width, sel.cameras[k].height) if pinhole else sel.cameras[k]

@@ -109,12 +109,15 @@ class HashGridField:
         anti-aliased, footprint stds [...] in world units (None: every level at full weight)."""
         sigma, z = self._geometry(params, self.to_grid(x),
                                   None if footprint is None else self.grid_scale(x, footprint))
-        sh = sh_encode(jnp.broadcast_to(d, x.shape).reshape(-1, 3), SH_DEGREE).reshape(*x.shape[:-1], -1)
-        parts = [z, sh]
-        if self.n_appearance:
-            parts.append(jnp.broadcast_to(emb, (*x.shape[:-1], self.n_appearance)))
-        h = jnp.concatenate(parts, axis=-1)
         c1, c2, c3 = params["color"]
-        h = jax.nn.relu(h @ c1["w"] + c1["b"])
+        # The first colour layer on [z, SH(d), e] as a sum of matmuls with its weights split by rows: the
+        # direction and embedding terms are computed at their own shape (once per ray where they broadcast
+        # over a ray's samples) and broadcast in the sum.
+        w_z, w_sh, w_e = jnp.split(c1["w"], [GEO_FEATURES, GEO_FEATURES + SH_DEGREE**2])
+        d = jnp.asarray(d, jnp.float32)
+        per_ray = sh_encode(d.reshape(-1, 3), SH_DEGREE).reshape(*d.shape[:-1], -1) @ w_sh + c1["b"]
+        if self.n_appearance:
+            per_ray = per_ray + jnp.asarray(emb, jnp.float32) @ w_e
+        h = jax.nn.relu(z @ w_z + per_ray)
         h = jax.nn.relu(h @ c2["w"] + c2["b"])
         return jax.nn.sigmoid(h @ c3["w"] + c3["b"]), sigma

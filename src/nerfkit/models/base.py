@@ -42,6 +42,8 @@ class Supports:
     antialias:  renders cones (pixel footprints), so multiscale training and --antialias mean something
     bake:       `nerfkit bake` can turn it into a WebGL page of a baked density grid
     mesh:       a density field that `export mesh|pointcloud` can sample
+    lens:       renders through any COLMAP lens model (rays/cameras.py); without, photos of distorted
+                cameras are undistorted for it (data/undistort.py, DataConfig.undistort)
     """
 
     family: str = "rays"
@@ -50,6 +52,7 @@ class Supports:
     antialias: bool = False
     bake: bool = False
     mesh: bool = True
+    lens: bool = True
 
     @property
     def marching(self) -> bool:
@@ -108,6 +111,8 @@ class Model(Protocol):
 @runtime_checkable
 class RayModel(Model, Protocol):
     """A method that renders rays (the NeRF family)."""
+
+    rays_per_step: int  # rays drawn per training step (--batch-rays, or what the model's sample budget holds)
 
     def update_aux(self, params: Params, aux: Aux, step, key) -> Aux:
         """aux after a training step (e.g. an occupancy-grid refresh); identity where nothing changes."""

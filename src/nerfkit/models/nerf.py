@@ -71,7 +71,7 @@ NGP_SETTINGS = frozenset({
     "field.hash_levels", "field.hash_features", "field.hash_log2_size", "field.hash_base_res",
     "field.hash_max_res", "field.hidden", "field.antialias", "field.bound", "field.scene_type", "sampler.occ_res",
     "sampler.occ_update_every", "sampler.occ_warmup", "sampler.occ_warmup_decay", "sampler.march_steps",
-    "sampler.max_samples"})
+    "sampler.max_samples", "sampler.sampling", "sampler.proposal_samples", "sampler.field_samples"})
 
 
 def _near_far(s) -> str:
@@ -93,6 +93,7 @@ class NeRFModel:
 
     def __init__(self, cfg: Config):
         self.cfg = cfg
+        self.rays_per_step = cfg.train.batch_rays  # rays drawn per training step
         self.coarse = MLPField(cfg.field)
         self.fine = MLPField(cfg.field) if cfg.sampler.n_importance > 0 else None
         self.background = background_color(cfg.data.background)
@@ -176,6 +177,7 @@ class MipNeRFModel:
 
     def __init__(self, cfg: Config):
         self.cfg = cfg
+        self.rays_per_step = cfg.train.batch_rays  # rays drawn per training step
         self.field = MLPField(cfg.field)
         self.background = background_color(cfg.data.background)
 
@@ -254,10 +256,16 @@ class NGPModel:
         scene = f"{f.scene_type} scene, " if f.scene_type != "auto" else ""
         box = "" if f.bound is None else (f"inner ball {f.bound:g}, " if f.scene_type == "unbounded" else
                                           f"box {f.bound:g}, ")
+        if s.resolved_sampling(f) == "proposal":
+            rays = max(1, min(cfg.train.batch_rays, s.max_samples // s.field_samples))
+            sampling = (f"proposal sampling: {s.proposal_samples} + {max(s.proposal_samples // 2, 2)} proposal and "
+                        f"{s.field_samples} field samples per ray, {rays} rays per step")
+        else:
+            sampling = (f"occupancy grid {s.occ_res}^3, {s.march_steps} march steps, up to {s.max_samples} samples "
+                        f"per step")
         return (f"ngp: hash grid {f.hash_levels} levels x {f.hash_features} features, 2^{f.hash_log2_size} entries, "
                 f"{f.hash_base_res}-{f.hash_max_res} cells; MLPs {f.hidden} wide{', anti-aliased' if f.antialias else ''}"
-                f"; {scene}{box}occupancy grid {s.occ_res}^3, {s.march_steps} march steps, up to {s.max_samples} "
-                f"samples per step{_near_far(s)}{_appearance(f)}")
+                f"; {scene}{box}{sampling}{_near_far(s)}{_appearance(f)}")
 
     @staticmethod
     def shard_samples(x):
@@ -266,6 +274,7 @@ class NGPModel:
 
     def __init__(self, cfg: Config):
         self.cfg = cfg
+        self.rays_per_step = cfg.train.batch_rays  # drawn per step; those whose samples fit max_samples train
         self.field = HashGridField(cfg.field)
         s = cfg.sampler
         self.unbounded = self.field.unbounded

@@ -99,6 +99,18 @@ class Camera:
             params = tuple(float(x) for x in p)
         return Camera(w, h, self.fx * factor, self.fy * factor, self.cx * factor, self.cy * factor, self.model, params)
 
+    def undistorted(self) -> "Camera":
+        """The pinhole camera COLMAP's undistorter makes of this one (pycolmap.undistort_camera with its
+        defaults: the same focal lengths, and the size and principal point of the largest image whose every
+        pixel sees inside the photo); the camera itself when it is not distorted."""
+        if not self.distorted:
+            return self
+        from nerfkit.rays.colmap_compat import (
+            pycolmap,  # deferred: pycolmap loads only for lens cameras
+        )
+
+        return _from_pycolmap(pycolmap.undistort_camera(pycolmap.UndistortCameraOptions(), self._pycolmap()))
+
     def with_size(self, width: int, height: int) -> "Camera":
         """A pinhole camera of another size with the same field of view and centred
         principal point (for renders at a new resolution; the lens model is dropped)."""

@@ -11,7 +11,9 @@ model will not read, with the reason:
     by value      field.l_xyz without positional encoding (--no-pe), field.l_dir without view
                   directions, train.precrop_frac without a warm-up (--precrop-steps 0),
                   data.target_width when --downscale is given, sampler.occ_warmup_decay
-                  without a warm-up (--occ-warmup 0)
+                  without a warm-up (--occ-warmup 0), sampler.proposal_samples and field_samples
+                  where the occupancy grid places the samples (--sampling occupancy, or auto on a
+                  bounded scene)
     by the data   data.holdout_every for captures with their own splits (Blender, *_filenames), data.masks
                   for captures without object masks
 
@@ -45,7 +47,7 @@ def by_kind() -> dict[str, frozenset[str]]:
 
 
 # Settings filled in from the data (resolve.py), never from the command line.
-FROM_DATA = frozenset({"field.appearance_count"})
+FROM_DATA = frozenset({"field.appearance_count", "data.undistort"})
 
 def kind_name(kind: str) -> str:
     """The method's name in messages: "hash-grid (ngp)"."""
@@ -112,6 +114,18 @@ def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
     if kind == "ngp" and s.occ_warmup == 0:
         out["sampler.occ_warmup_decay"] = "there is no occupancy warm-up (--occ-warmup 0)"
+    if kind == "ngp" and (s.sampling != "auto" or capture is not None):
+        sampling = s.sampling
+        if sampling == "auto":  # decided by the scene (resolve.py): proposal for unbounded ones
+            from nerfkit.training.resolve import (
+                scene_type,  # deferred: the CLI parses flags before JAX loads
+            )
+
+            sampling = "proposal" if scene_type(cfg, capture)[0] == "unbounded" else "occupancy"
+        if sampling == "occupancy":
+            why = (f"the occupancy grid places the samples here (--sampling {s.sampling}"
+                   f"{'' if s.sampling != 'auto' else ': a bounded scene'}); --sampling proposal reads it")
+            out["sampler.proposal_samples"] = out["sampler.field_samples"] = why
     if t.precrop_steps == 0 and kind in FIELD_KINDS:
         out["train.precrop_frac"] = "there is no centre-crop warm-up (--precrop-steps 0)"
     if d.downscale is not None:

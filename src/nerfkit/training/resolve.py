@@ -26,6 +26,7 @@ import numpy as np
 from nerfkit.core.config import Config, validate
 from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.normalize import masked_bound
+from nerfkit.models.registry import METHODS
 
 UNBOUNDED_NEAR, UNBOUNDED_FAR = 0.05, 1e4
 APPEARANCE_DIM = 16
@@ -38,6 +39,19 @@ def default_splits(cfg: Config, cap_splits: list[str] | None = None) -> tuple[st
     if val is None:
         val = "val" if cap_splits is None or "val" in cap_splits else "test"
     return d.train_split or "train", val
+
+
+def lens_plan(cfg: Config, cap: Capture, spec: str) -> tuple[bool, str | None]:
+    """(undistort, what to say or None): whether the photos of `spec` must be undistorted for the method (it
+    renders pinhole cameras only, Supports.lens, and a camera has lens distortion), and the log line's start."""
+    distorted = [f.camera for f in cap.frames(spec) if f.camera.distorted]
+    if not distorted:
+        return False, None
+    model = distorted[0].model
+    if METHODS[cfg.field.kind].supports.lens:
+        return False, f"lens: {model} camera with distortion; every ray goes through the lens model"
+    return True, (f"lens: {model} camera with distortion; {METHODS[cfg.field.kind].title} renders pinhole cameras, "
+                  f"so the photos are undistorted (COLMAP's undistorter; held-out views alike)")
 
 
 def scene_type(cfg: Config, cap: Capture) -> tuple[str, str]:
@@ -74,6 +88,8 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
             f.bound = 1.5
             where = "the Blender scenes' box"
         notes.append(f"{'radius' if kind == 'unbounded' else 'box'} {f.bound:g} ({where})")
+    if f.kind == "ngp":
+        s.sampling = s.resolved_sampling(f)
     if s.near is None:
         s.near = UNBOUNDED_NEAR if kind == "unbounded" else 0.0
     if s.far is None:

@@ -5,6 +5,7 @@ with the config resolved from them (resolve.py).
 
 from __future__ import annotations
 
+import copy
 import shutil
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.flags import refuse_unused
-from nerfkit.training.resolve import default_splits, resolve_config
+from nerfkit.training.resolve import default_splits, lens_plan, resolve_config
 
 # What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
 # run refuses a folder holding any of them unless told to overwrite, and then removes exactly these.
@@ -65,7 +66,11 @@ def load_splits(data_dir: Path, cfg: Config, given: dict[str, str], where: str, 
     capture = read_capture(data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
     refuse_unused(cfg, given, where, capture)
     spec_train, spec_val = default_splits(cfg, list(capture.splits))
-    load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress)
+    cfg = copy.deepcopy(cfg)
+    d = cfg.data
+    d.undistort, lens_note = lens_plan(cfg, capture, f"{spec_train},{spec_val}")
+    load = dict(downscale=d.downscale, target_width=d.target_width, background=d.background, progress=progress,
+                undistort=d.undistort)
     train_data = load_frames(capture, spec_train, **load)
     val_data = load_frames(capture, spec_val, **load)
     if not capture.levels and ((val_data.height, val_data.width) != (train_data.height, train_data.width)):
@@ -75,6 +80,8 @@ def load_splits(data_dir: Path, cfg: Config, given: dict[str, str], where: str, 
     say(f"data: {capture.format} capture {data_dir}: {len(td)} training ({spec_train}) and "
         f"{len(val_data)} validation ({spec_val}) images at {td.width}x{td.height}"
         f"{', masks on' if td.has_masks else ''}")
+    if lens_note:
+        say(lens_note + (f" to a {td.width}x{td.height} pinhole camera" if d.undistort else ""))
     cfg = resolve_config(cfg, capture, td, log=say)
     cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
     return capture, train_data, val_data, cfg

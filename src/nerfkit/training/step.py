@@ -33,12 +33,12 @@ def make_optimizer(cfg: Config, model=None):
     return optax.adam(schedule, b2=t.adam_b2, eps=t.adam_eps), schedule
 
 
-def draw_batch(key, step, n_images: int, h: int, w: int, t, sizes=None):
-    """The pixels (img, i, j) [batch_rays] of one step, uniform over n_images images of h x w pixels;
+def draw_batch(key, step, n_images: int, h: int, w: int, t, sizes=None, batch: int | None = None):
+    """The pixels (img, i, j) [batch] (default: batch_rays) of one step, uniform over n_images images of h x w pixels;
     inside the centred crop of side precrop_frac while step < precrop_steps (t: the TrainConfig). On
     images of several sizes (sizes [N, 2] of (height, width), multiscale data) every pixel of every
     image is equally likely (cameras.draw_pixels) and there is no crop."""
-    b = t.batch_rays
+    b = t.batch_rays if batch is None else batch
     k_img, k_i, k_j = jax.random.split(key, 3)
     if sizes is not None:
         return draw_pixels(k_img, b, sizes)
@@ -60,8 +60,8 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
     packed samples: model.supports.parallel) are split over its devices, and state, images and poses must be
     replicated on it (parallel.replicate); the step computes the same.
 
-    Each step draws `batch_rays` pixels uniformly over all training images (inside the
-    centre crop while step < precrop_steps; on multiscale data every pixel of every level is
+    Each step draws model.rays_per_step pixels (--batch-rays, or fewer where the model's sample budget says
+    so) uniformly over all training images (inside the centre crop while step < precrop_steps; on multiscale data every pixel of every level is
     equally likely and its loss is weighted by its area, SceneData.lossmult), makes their rays
     with each frame's camera (cameras.ray_table: pinhole intrinsics, or per-pixel lens tables),
     renders them (with the appearance embedding of their image, where the model has them, and as cones
@@ -88,7 +88,7 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
     def step_fn(state, step, images, poses, table):
         key = jax.random.fold_in(base_key, step)
         k_draw, k_render, k_aux = jax.random.split(key, 3)
-        img, i, j = draw_batch(k_draw, step, images.shape[0], h, w, t, sizes)
+        img, i, j = draw_batch(k_draw, step, images.shape[0], h, w, t, sizes, model.rays_per_step)
         if split_rays:
             img, i, j = parallel.shard_rays((img, i, j), mesh)
         weights = None if sizes is None else lossmult[img]

@@ -37,6 +37,7 @@ from nerfkit.core.viz import (
     read_jsonl,
     save_png,
 )
+from nerfkit.data.images import area_downscale
 from nerfkit.models.registry import build_model
 from nerfkit.render.images import make_renderer
 from nerfkit.training import checkpoint as ckpt_lib
@@ -71,7 +72,7 @@ class Loop:
     start: float  # time.perf_counter() when this session's loop started
     deadline: float  # perf_counter time of --max-minutes (inf without)
     pending: list = field(default_factory=list)  # (step, device metrics) not yet logged
-    rays: list = field(default_factory=list)  # rays per step of the logged rows (models that report them)
+    rays: list = field(default_factory=list)  # (rays per step, samples per ray) of logged rows (models that report them)
     last_val: float | None = None  # the last validation's mean PSNR
     last_val_step: int = -1
     val_gate: float = 0.0  # no periodic validation before this clock time (keeps validation <= val_max_fraction)
@@ -81,6 +82,19 @@ class Loop:
     def elapsed(self, now: float | None = None) -> float:
         """Training seconds of the run at perf_counter time `now` (default: now)."""
         return self.elapsed0 + (time.perf_counter() if now is None else now) - self.start
+
+
+# Periodic validation renders each view at most this many pixels (photos larger are shrunk by an integer
+# factor, pixels averaged): a 1368x770 photo is validated at 456x256. `nerfkit eval` scores at full size.
+VAL_MAX_PIXELS = 1 << 17
+
+
+def validation_factor(width: int, height: int, max_pixels: int = VAL_MAX_PIXELS) -> int:
+    """The smallest integer f >= 1 with (width // f) (height // f) <= max_pixels."""
+    f = 1
+    while (width // f) * (height // f) > max_pixels and min(width, height) // (f + 1) >= 1:
+        f += 1
+    return f
 
 
 def evenly_spaced(n: int, k: int) -> list[int]:
@@ -130,14 +144,14 @@ class Trainer:
         self.mesh = None if split == "views" else parallel.data_mesh(parallel.mesh_devices(cfg.train.devices))
         self.primary = parallel.is_primary()  # process 0 of a multi-process run writes the run folder
         if split == "rays":
-            parallel.check_batch(cfg.train.batch_rays, self.mesh)
+            parallel.check_batch(self.model.rays_per_step, self.mesh)
         elif split == "samples":
             parallel.check_batch(cfg.sampler.max_samples, self.mesh, "--max-samples")
         say(f"model: {describe_model(cfg)}")
         if split == "views":  # whole views, one per step, on one device (Gaussian splats)
             self.model.bind_data(self.capture, self.train_data, log=say)
         else:
-            say(parallel.describe(cfg.train.batch_rays, self.mesh, split, cfg.sampler.max_samples))
+            say(parallel.describe(self.model.rays_per_step, self.mesh, split, cfg.sampler.max_samples))
         self.optimizer, self.schedule = make_optimizer(cfg, self.model)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
 
@@ -145,10 +159,15 @@ class Trainer:
         """Pick the views periodic validation renders (self.val_ids) and say them and the budget."""
         cfg, spec_val = self.cfg, self.cfg.data.val_split
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
-        whole = "" if len(self.val_ids) == len(self.val_data) else (
+        vd = self.val_data
+        self.val_factor = 1 if vd.sizes is not None else validation_factor(vd.width, vd.height)
+        small = "" if self.val_factor == 1 else (
+            f" at {vd.width // self.val_factor}x{vd.height // self.val_factor} (1/{self.val_factor} of the photos' "
+            f"size, so that validating costs a small share of the budget)")
+        whole = "" if len(self.val_ids) == len(self.val_data) and self.val_factor == 1 else (
             f"; nerfkit eval {shlex.quote(str(self.run_dir))} --split {shlex.quote(spec_val)} scores all "
-            f"{len(self.val_data)}")
-        say(f"validation: {validation_views(self.val_ids, len(self.val_data), spec_val)}{whole}")
+            f"{len(self.val_data)} at full size")
+        say(f"validation: {validation_views(self.val_ids, len(self.val_data), spec_val)}{small}{whole}")
         default = "" if given.keys() & {"train.max_minutes", "train.max_steps"} or resume else \
             f" (the {preset or 'preset'} default; --max-minutes M or --max-steps N changes it)"
         say(f"budget: {describe_budget(cfg)}{default}")
@@ -202,14 +221,19 @@ class Trainer:
         out_dir = self.run_dir / "val" / f"step_{step:07d}"
         vd = self.val_data
         scores, renders = [], []
+        f, gts = self.val_factor, []
         for k in self.val_ids:
-            r = self.renderer.render_camera(state["params"], state["aux"], vd.poses[k], vd.cameras[k])
-            scores.append(psnr_np(r["rgb"], vd.image(k)))
+            cam = vd.cameras[k]
+            if f > 1:
+                cam = cam.scaled(1.0 / f, cam.width // f, cam.height // f)
+            gts.append(area_downscale(vd.image(k), f))
+            r = self.renderer.render_camera(state["params"], state["aux"], vd.poses[k], cam)
+            scores.append(psnr_np(r["rgb"], gts[-1]))
             renders.append(r)
         bg = background_rgb(self.cfg.data.background)
         depth_imgs, (lo, hi) = colorize_renders(renders, bg)
-        for k, r, depth_img, score in zip(self.val_ids, renders, depth_imgs, scores):
-            save_png(out_dir / f"view_{k:03d}.png", comparison(vd.image(k), r["rgb"], depth_img, lo / vd.scale,
+        for k, gt, r, depth_img, score in zip(self.val_ids, gts, renders, depth_imgs, scores):
+            save_png(out_dir / f"view_{k:03d}.png", comparison(gt, r["rgb"], depth_img, lo / vd.scale,
                                                                hi / vd.scale, score, background=bg))
             np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
         mean = float(np.mean(scores))
@@ -332,7 +356,7 @@ class Trainer:
         out (at the measured step rate) under a time budget."""
         t = self.cfg.train
         row = self._log(loop.pending, loop.elapsed())
-        loop.rays += [row["rays"]] if "rays" in row else []
+        loop.rays += [(row["rays"], row["samples_per_ray"])] if "rays" in row else []
         now = time.perf_counter()
         if math.isfinite(loop.deadline) and loop.step > loop.first_step + 1:  # the bar ends where time runs out
             rate = (loop.step - loop.first_step - 1) / max(now - loop.compiled_at, 1e-9)
@@ -362,7 +386,7 @@ class Trainer:
         elapsed = loop.elapsed()
         if loop.pending:  # the last step is always in metrics.jsonl (summaries quote it)
             row = self._log(loop.pending, elapsed)
-            loop.rays += [row["rays"]] if "rays" in row else []
+            loop.rays += [(row["rays"], row["samples_per_ray"])] if "rays" in row else []
         if not interrupted:
             tqdm.write(f"{reason} at step {step}")
         if not interrupted and loop.last_val_step != step and step > 0 and self.primary:
@@ -378,8 +402,11 @@ class Trainer:
         run_time = time.perf_counter() - loop.start
         sps = (step - loop.first_step) / run_time if run_time > 0 else 0.0
         if loop.rays:
-            tqdm.write(f"rays per step: {np.mean(loop.rays):.0f} on average (the ngp batch takes as many of the "
-                       f"{t.batch_rays} drawn as fit {self.cfg.sampler.max_samples} samples)")
+            rays, spr = np.mean([r for r, _ in loop.rays]), np.mean([s for _, s in loop.rays])
+            how = (f"as many of the {t.batch_rays} drawn as fit" if self.model.supports.marching else
+                   f"{self.model.rays_per_step} x {spr:.0f} samples fill")
+            tqdm.write(f"rays per step: {rays:.0f} on average, {spr:.0f} samples per ray ({how} --max-samples "
+                       f"{self.cfg.sampler.max_samples})")
         if interrupted:
             tqdm.write(f"stopped at step {step}; checkpoint saved in {self.ckpt_dir}. Resume with:\n"
                        f"  nerfkit train {shlex.quote(str(self.data_dir))} --out {shlex.quote(str(self.run_dir))} --resume")

@@ -74,7 +74,7 @@ def scene_view_of_run(run_dir: Path, cfg) -> SceneView:
     d = cfg.data
     try:
         cap = read_capture(Path(scene["data_dir"]), d.train_split, d.format, d.masks, d.holdout_every)
-        sel = scene_cameras(cap, d.train_split, d.downscale, d.target_width)
+        sel = scene_cameras(cap, d.train_split, d.downscale, d.target_width, d.undistort)
         if len(sel.cameras) == len(poses):
             cams = sel.cameras
             thumbs = _photo_thumbnails(cap.root, sel.names)

@@ -167,7 +167,7 @@ class SplatRenderer:
 class SplatModel:
     """3D Gaussian splatting behind nerfkit's model interface (see the module docstring)."""
 
-    supports = Supports(family="image", parallel="views", mesh=False)
+    supports = Supports(family="image", parallel="views", mesh=False, lens=False)
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points"))
