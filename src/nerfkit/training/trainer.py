@@ -216,7 +216,9 @@ class Trainer:
                     "PSNR (dB)", f"Validation PSNR ({len(vrows[-1]['views']) if vrows else 0} views)", min_span=1.0)
 
     def validate(self, state, step: int, elapsed: float) -> float:
-        """Render the validation views, save them beside ground truth, log mean PSNR (process 0 only)."""
+        """Render the validation views, save them beside ground truth, log mean PSNR and the seconds it took
+        (process 0 only)."""
+        t0 = time.perf_counter()
         state = parallel.host_copy(state)
         out_dir = self.run_dir / "val" / f"step_{step:07d}"
         vd = self.val_data
@@ -238,7 +240,8 @@ class Trainer:
             np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
         mean = float(np.mean(scores))
         self._append("val_metrics.jsonl", {"step": step, "psnr": mean, "elapsed": round(elapsed, 2),
-                                           "views": self.val_ids, "per_view": [round(s, 3) for s in scores]})
+                                           "seconds": round(time.perf_counter() - t0, 2), "views": self.val_ids,
+                                           "per_view": [round(s, 3) for s in scores]})
         self.plot()
         return mean
 
