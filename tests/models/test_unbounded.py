@@ -57,6 +57,11 @@ def test_scene_type_is_picked_from_the_data(capture, tmp_path):
     assert cfg.sampler.far >= 1e3 and cfg.sampler.near < 0.1
     assert cfg.field.appearance_dim == 16 and cfg.field.appearance_count == len(train)
     assert cfg.sampler.sampling == "proposal"  # resolved, so eval and --resume build the same model
+    assert not any(line.startswith("slow:") for line in logs)
+    forced = preset("ngp")
+    forced.sampler.sampling = "occupancy"
+    assert resolve_config(forced, cap, train, log=logs.append).sampler.sampling == "occupancy"
+    assert logs[-2].startswith("slow: --sampling occupancy in an unbounded scene") and "--sampling proposal" in logs[-2]
     masked = make_capture(tmp_path / "m", "llff", n_views=8, size=32, masks=True)
     cap = read_capture(masked, "train")
     cfg = resolve_config(preset("ngp"), cap, load_frames(cap, "train"), log=logs.append)

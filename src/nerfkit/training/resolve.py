@@ -9,6 +9,9 @@ eval, render and --resume rebuild exactly the trained model.
                   (normalize.masked_bound); unbounded: inner ball = 1.1 x the farthest camera
     near, far     bounded: 0 and past the far side of the box from the farthest camera;
                   unbounded: 0.05 (cameras sit at radius 4) and 1e4
+    sampling      ngp: the occupancy march for bounded scenes, proposal sampling for unbounded ones
+    lens          the photos of a lens-distorted camera are undistorted for a method that renders pinhole
+                  cameras only (lens_plan; Gaussian splats), the fields model the lens
     appearance    16 per image for photo captures without masks (exposure and white balance
                   change between their photos); off for Blender scenes and masked object
                   captures (fixed exposure; on a turntable the embeddings soak up the shading
@@ -103,6 +106,10 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     f.appearance_count = len(train) if f.appearance_dim else 0
     if f.kind == "ngp" or f.scene_type != "auto":
         log(f"scene: {kind} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
+    if f.kind == "ngp" and kind == "unbounded" and s.sampling == "occupancy":
+        log("slow: --sampling occupancy in an unbounded scene keeps every occupied cell a ray crosses, behind the "
+            "first surface too (buddha: ~480 of 512 samples per ray, ~130 rays per step); --sampling proposal (the "
+            "default here) places 32 per ray and trains 2048 rays per step")
     if f.appearance_dim:
         log(f"appearance embeddings: {f.appearance_dim} per training image ({len(train)}); held-out views use the "
             f"mean embedding")
