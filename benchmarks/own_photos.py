@@ -36,10 +36,13 @@ from provenance import provenance
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def nerfkit(*args: str) -> tuple[float, str]:
-    """Run the CLI in its own process (as a user would); (wall seconds, stdout)."""
+def nerfkit(*args: str, stderr: Path | None = None) -> tuple[float, str]:
+    """Run the CLI in its own process (as a user would); (wall seconds, stdout). Its stderr (progress bars)
+    goes to the file `stderr`, else to this process's."""
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, text=True, check=False)
+    with open(stderr, "w") if stderr else open(sys.stderr.fileno(), "w", closefd=False) as err:
+        r = subprocess.run([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, stderr=err, text=True,
+                           check=False)
     if r.returncode != 0:
         raise SystemExit(f"nerfkit {' '.join(args)} failed (exit {r.returncode})")
     return time.perf_counter() - t0, r.stdout
@@ -51,13 +54,15 @@ def rows(path: Path) -> list[dict]:
 
 def one_preset(data: Path, run: Path, preset: str) -> dict:
     """train, eval (twice), render --orbit 60 of one preset; the figures the module docstring lists."""
-    train_s, out = nerfkit("train", str(data), "--out", str(run), "--preset", preset, "--no-progress",
-                           "--overwrite")
+    run.mkdir(parents=True, exist_ok=True)
+    train_s, out = nerfkit("train", str(data), "--out", str(run), "--preset", preset, "--overwrite",
+                           stderr=run.parent / f"{preset}_train_progress.txt")  # with progress: the log lines
     metrics, vals = rows(run / "metrics.jsonl"), rows(run / "val_metrics.jsonl")
     m = re.search(r"step (\d+), ([\d.]+) steps/s", out)
     res = {"train_wall_s": round(train_s, 1), "steps": int(m.group(1)) if m else None,
            "log": [line for line in out.splitlines() if line.split(":")[0] in
-                   ("data", "lens", "scene", "model", "validation", "budget", "splat init")],
+                   ("data", "lens", "scene", "slow", "appearance embeddings", "model", "validation", "budget",
+                    "splat init")],
            "validations": [{k: v[k] for k in ("step", "psnr", "seconds")} for v in vals],
            "validation_share": round(sum(v["seconds"] for v in vals) / train_s, 4)}
     if metrics and "rays" in metrics[0]:
