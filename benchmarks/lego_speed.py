@@ -34,7 +34,7 @@ from nerfkit.models.registry import build_model
 from nerfkit.render.images import Renderer
 from nerfkit.training.resolve import resolve_config
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
-from nerfkit.training.trainer import evenly_spaced
+from nerfkit.training.validation import evenly_spaced
 
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "nerf_synthetic" / "lego"
 

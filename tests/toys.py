@@ -27,6 +27,7 @@ class ConstantColour:
 
     def __init__(self, cfg):
         self.cfg = cfg
+        self.rays_per_step = cfg.train.batch_rays
 
     @staticmethod
     def describe(cfg) -> str:

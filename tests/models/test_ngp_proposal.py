@@ -7,7 +7,6 @@ import json
 import jax
 import jax.numpy as jnp
 import numpy as np
-import pytest
 
 from nerfkit.core.config import Config
 from nerfkit.core.presets import preset
@@ -15,8 +14,8 @@ from nerfkit.models.nerf import NGPModel
 from nerfkit.models.ngp_proposal import ProposalNGPModel
 from nerfkit.models.registry import build_model
 from nerfkit.rays.cameras import look_at
-from nerfkit.sampling.proposal import interlevel_loss
 from nerfkit.render.images import Renderer, make_renderer
+from nerfkit.sampling.proposal import interlevel_loss
 from nerfkit.training.step import init_state, make_optimizer, ray_loss
 
 

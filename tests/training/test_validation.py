@@ -40,3 +40,24 @@ def test_validation_share_of_wall_time_is_bounded(scene, tmp_path, monkeypatch, 
         # is always validated: far fewer than STEPS, and at most ~10% of the time beyond the final one.
         assert 2 <= len(rows) <= 2 + wall / 1.8, (len(rows), wall)
         assert rows[-1]["step"] == STEPS
+
+
+def test_large_photos_are_validated_smaller_and_the_log_says_so(tmp_path, capsys, monkeypatch):
+    import numpy as np
+
+    from nerfkit.training import trainer as trainer_module
+    from nerfkit.training.validation import validation_factor
+
+    assert validation_factor(1368, 770) == 3 and (1368 // 3) * (770 // 3) <= 1 << 17  # buddha: 456x256
+    assert validation_factor(200, 200) == 1 and validation_factor(432, 432) == 2
+    monkeypatch.setattr(trainer_module, "validation_factor", lambda w, h: 2)  # the scene's 16 px views: shrunk 2x
+    scene = make_scene(tmp_path / "scene", size=16, n_train=3, n_val=1, n_test=0)
+    cfg = preset("tiny")
+    cfg.train.max_steps, cfg.train.val_every, cfg.train.ckpt_every = 2, 2, 2
+    run = tmp_path / "run"
+    Trainer(scene, run, cfg, progress=True).run()
+    out = capsys.readouterr().out
+    assert "at 8x8 (1/2 of the photos' size" in out and "scores all 1 at full size" in out
+    row = read_jsonl(run / "val_metrics.jsonl")[-1]
+    assert row["step"] == 2 and row["seconds"] > 0
+    assert np.load(run / "val" / "step_0000002" / "view_000_depth.npy").shape == (8, 8)

@@ -52,7 +52,7 @@ from nerfkit.experiments.common import (
 )
 from nerfkit.report import html as h
 from nerfkit.report.run import write_report
-from nerfkit.training.trainer import evenly_spaced
+from nerfkit.training.validation import evenly_spaced
 
 MLP_SIZES = ("small", "paper")
 

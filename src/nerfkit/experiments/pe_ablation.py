@@ -48,7 +48,7 @@ from nerfkit.experiments.common import (
 from nerfkit.experiments.report import write_experiment_report
 from nerfkit.report.run import write_report
 from nerfkit.run.folder import RunFolder
-from nerfkit.training.trainer import evenly_spaced
+from nerfkit.training.validation import evenly_spaced
 
 
 @dataclass(frozen=True)

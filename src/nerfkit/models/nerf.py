@@ -257,9 +257,10 @@ class NGPModel:
         box = "" if f.bound is None else (f"inner ball {f.bound:g}, " if f.scene_type == "unbounded" else
                                           f"box {f.bound:g}, ")
         if s.resolved_sampling(f) == "proposal":
-            rays = max(1, min(cfg.train.batch_rays, s.max_samples // s.field_samples))
-            sampling = (f"proposal sampling: {s.proposal_samples} + {max(s.proposal_samples // 2, 2)} proposal and "
-                        f"{s.field_samples} field samples per ray, {rays} rays per step")
+            rays = s.proposal_batch(cfg.train.batch_rays)
+            first, second, field = s.proposal_counts()
+            sampling = (f"proposal sampling: {first} + {second} proposal and {field} field samples per ray, {rays} "
+                        f"rays per step")
         else:
             sampling = (f"occupancy grid {s.occ_res}^3, {s.march_steps} march steps, up to {s.max_samples} samples "
                         f"per step")

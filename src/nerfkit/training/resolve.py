@@ -107,9 +107,10 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     if f.kind == "ngp" or f.scene_type != "auto":
         log(f"scene: {kind} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
     if f.kind == "ngp" and kind == "unbounded" and s.sampling == "occupancy":
-        log("slow: --sampling occupancy in an unbounded scene keeps every occupied cell a ray crosses, behind the "
-            "first surface too (buddha: ~480 of 512 samples per ray, ~130 rays per step); --sampling proposal (the "
-            "default here) places 32 per ray and trains 2048 rays per step")
+        rays = s.proposal_batch(cfg.train.batch_rays)
+        log(f"slow: --sampling occupancy in an unbounded scene keeps every occupied cell a ray crosses, behind the "
+            f"first surface too (buddha: 476 of 512 samples per ray, 137 rays per step); --sampling proposal (the "
+            f"default here) places {s.field_samples} per ray and trains {rays} rays per step")
     if f.appearance_dim:
         log(f"appearance embeddings: {f.appearance_dim} per training image ({len(train)}); held-out views use the "
             f"mean embedding")

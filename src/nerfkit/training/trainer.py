@@ -28,16 +28,7 @@ from tqdm.auto import tqdm
 from nerfkit.core.config import Config, validate
 from nerfkit.core.errors import NerfkitError
 from nerfkit.core.metrics import mse_to_psnr
-from nerfkit.core.metrics import psnr as psnr_np
-from nerfkit.core.viz import (
-    background_rgb,
-    colorize_renders,
-    comparison,
-    plot_curves,
-    read_jsonl,
-    save_png,
-)
-from nerfkit.data.images import area_downscale
+from nerfkit.core.viz import background_rgb, plot_curves, read_jsonl
 from nerfkit.models.registry import build_model
 from nerfkit.render.images import make_renderer
 from nerfkit.training import checkpoint as ckpt_lib
@@ -51,6 +42,7 @@ from nerfkit.training.flags import (
 from nerfkit.training.setup import clear_run, load_splits, refuse_earlier_run
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
 from nerfkit.training.stopping import StopFlag
+from nerfkit.training.validation import evenly_spaced, render_validation, validation_factor, validation_views
 
 
 @dataclass
@@ -82,31 +74,6 @@ class Loop:
     def elapsed(self, now: float | None = None) -> float:
         """Training seconds of the run at perf_counter time `now` (default: now)."""
         return self.elapsed0 + (time.perf_counter() if now is None else now) - self.start
-
-
-# Periodic validation renders each view at most this many pixels (photos larger are shrunk by an integer
-# factor, pixels averaged): a 1368x770 photo is validated at 456x256. `nerfkit eval` scores at full size.
-VAL_MAX_PIXELS = 1 << 17
-
-
-def validation_factor(width: int, height: int, max_pixels: int = VAL_MAX_PIXELS) -> int:
-    """The smallest integer f >= 1 with (width // f) (height // f) <= max_pixels."""
-    f = 1
-    while (width // f) * (height // f) > max_pixels and min(width, height) // (f + 1) >= 1:
-        f += 1
-    return f
-
-
-def evenly_spaced(n: int, k: int) -> list[int]:
-    k = min(k, n)
-    return sorted({int(round(x)) for x in np.linspace(0, n - 1, k)})
-
-
-def validation_views(ids: list[int], n: int, spec: str) -> str:
-    """Which views periodic validation renders, in words: "4 of 9 views of test (0, 3, 5, 8), evenly spaced"."""
-    shown = ", ".join(map(str, ids[:12])) + (", ..." if len(ids) > 12 else "")
-    return (f"all {n} views of {spec}" if len(ids) == n else
-            f"{len(ids)} of {n} views of {spec} ({shown}), evenly spaced")
 
 
 class Trainer:
@@ -220,24 +187,9 @@ class Trainer:
         (process 0 only)."""
         t0 = time.perf_counter()
         state = parallel.host_copy(state)
-        out_dir = self.run_dir / "val" / f"step_{step:07d}"
-        vd = self.val_data
-        scores, renders = [], []
-        f, gts = self.val_factor, []
-        for k in self.val_ids:
-            cam = vd.cameras[k]
-            if f > 1:
-                cam = cam.scaled(1.0 / f, cam.width // f, cam.height // f)
-            gts.append(area_downscale(vd.image(k), f))
-            r = self.renderer.render_camera(state["params"], state["aux"], vd.poses[k], cam)
-            scores.append(psnr_np(r["rgb"], gts[-1]))
-            renders.append(r)
-        bg = background_rgb(self.cfg.data.background)
-        depth_imgs, (lo, hi) = colorize_renders(renders, bg)
-        for k, gt, r, depth_img, score in zip(self.val_ids, gts, renders, depth_imgs, scores):
-            save_png(out_dir / f"view_{k:03d}.png", comparison(gt, r["rgb"], depth_img, lo / vd.scale,
-                                                               hi / vd.scale, score, background=bg))
-            np.save(out_dir / f"view_{k:03d}_depth.npy", r["depth"].astype(np.float32), allow_pickle=False)
+        scores = render_validation(self.renderer, state["params"], state["aux"], self.val_data, self.val_ids,
+                                   self.val_factor, self.run_dir / "val" / f"step_{step:07d}",
+                                   background_rgb(self.cfg.data.background))
         mean = float(np.mean(scores))
         self._append("val_metrics.jsonl", {"step": step, "psnr": mean, "elapsed": round(elapsed, 2),
                                            "seconds": round(time.perf_counter() - t0, 2), "views": self.val_ids,
