@@ -31,7 +31,8 @@ from provenance import provenance
 
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.models.splat.densify import ClassicSchedule
-from nerfkit.models.splat.model import render
+from nerfkit.models.splat.strategy import STRATEGIES, Window
+from nerfkit.models.splat.gaussians import render
 from nerfkit.models.splat.train import SplatConfig, evaluate, train_splats
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,8 +46,9 @@ def evenly_spaced(n: int, k: int) -> list[int]:
 
 
 def parse_sets(items: list[str]) -> dict:
-    """{"field": value} from ["field=value", ...]; classic.<f>=v go into a ClassicSchedule."""
-    out, classic = {}, {}
+    """{"field": value} from ["field=value", ...]; classic.<f>=v go into the Classic strategy's ClassicSchedule,
+    window.<f>=v into the strategy's Window (strategy.py)."""
+    out, classic, window = {}, {}, {}
     for item in items:
         key, value = item.split("=", 1)
         try:
@@ -55,10 +57,14 @@ def parse_sets(items: list[str]) -> dict:
             pass
         if key.startswith("classic."):
             classic[key.split(".", 1)[1]] = value
+        elif key.startswith("window."):
+            window[key.split(".", 1)[1]] = value
         else:
             out[key] = value
-    if classic:
-        out["classic"] = ClassicSchedule(**classic)
+    if classic or window:
+        out["strategy_settings"] = {"schedule": ClassicSchedule(**classic)} if classic else {}
+        if window:
+            out["strategy_settings"]["window"] = Window(**window)
     return out
 
 
@@ -87,8 +93,9 @@ def main():
     a = ap.parse_args()
 
     overrides = parse_sets(a.set)
-    if a.strategy:
-        overrides["strategy"] = a.strategy
+    settings = overrides.pop("strategy_settings", {})
+    if a.strategy or settings:
+        overrides["strategy"] = STRATEGIES[a.strategy or SplatConfig().strategy.name](**settings)
     if a.capacity:
         overrides["capacity"] = a.capacity
     cfg = SplatConfig(**overrides)
@@ -128,7 +135,8 @@ def main():
     result = {
         "clock": "training time alone (compilation included), stopped during this script's evaluations",
         "method": "3DGS", "strategy": cfg.strategy, "minutes": a.minutes,
-        "config": json.loads(json.dumps(dataclasses.asdict(cfg))),
+        "config": json.loads(json.dumps({**dataclasses.asdict(cfg), "strategy": {
+            "name": cfg.strategy.name, **dataclasses.asdict(cfg.strategy)}})),
         "steps": steps, "steps_per_s": steps / trained, "gaussians": len(params["means"]),
         **{f"psnr_at_{k}": v["psnr"] for k, v in checkpoints.items()},
         "checkpoints_50_views": checkpoints,

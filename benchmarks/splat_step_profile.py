@@ -23,7 +23,7 @@ from provenance import provenance
 
 from nerfkit.models.splat import train as T
 from nerfkit.models.splat.losses import photometric_loss
-from nerfkit.models.splat.model import (
+from nerfkit.models.splat.gaussians import (
     PARAM_NAMES,
     all_sh,
     band_mask,

@@ -66,3 +66,46 @@ def test_each_package_has_its_tests_folder():
     packages = {p.name for p in SRC.iterdir() if p.is_dir() and (p / "__init__.py").is_file()}
     missing = sorted(p for p in packages if not (ROOT / "tests" / p).is_dir())
     assert missing == []
+
+
+# Where a method may be named: its own package, and the presets that pick one.
+METHOD_NAMES_ALLOWED = ("models/", "core/presets.py")
+
+
+def method_name_comparisons(root: Path, names: set[str]) -> list[str]:
+    """["path:line"] of every comparison that tests a method's kind against its name: a Compare with a
+    `kind` (a name or an attribute) on one side and a string of `names` (alone or in a tuple, list or set)
+    on another, in the modules under root outside METHOD_NAMES_ALLOWED."""
+
+    def mentions_kind(node) -> bool:
+        return any(isinstance(n, ast.Name) and n.id == "kind" or isinstance(n, ast.Attribute) and n.attr == "kind"
+                   for n in ast.walk(node))
+
+    def method_strings(node) -> bool:
+        elts = node.elts if isinstance(node, (ast.Tuple, ast.List, ast.Set)) else [node]
+        return any(isinstance(e, ast.Constant) and e.value in names for e in elts)
+
+    found = []
+    for p in sorted(root.rglob("*.py")):
+        rel = p.relative_to(root).as_posix()
+        if rel.startswith(METHOD_NAMES_ALLOWED):
+            continue
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.Compare):
+                sides = [node.left, *node.comparators]
+                if any(mentions_kind(a) for a in sides) and any(method_strings(b) for b in sides):
+                    found.append(f"{rel}:{node.lineno}")
+    return found
+
+
+def test_callers_ask_what_a_model_supports_not_which_method_it_is(tmp_path):
+    from nerfkit.models.registry import METHODS
+
+    names = set(METHODS)
+    assert {"mlp", "ngp", "splat"} <= names
+    # The check finds what it looks for: a planted comparison, in each of its forms, is reported.
+    planted = tmp_path / "pkg" / "mod.py"
+    planted.parent.mkdir()
+    planted.write_text('if cfg.field.kind == "splat": pass\nif kind in ("mlp", "mip"): pass\nif x == "ngp": pass\n')
+    assert method_name_comparisons(tmp_path, names) == ["pkg/mod.py:1", "pkg/mod.py:2"]
+    assert method_name_comparisons(SRC, names) == []

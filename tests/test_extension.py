@@ -4,6 +4,9 @@ through `nerfkit train`, evaluates through `nerfkit eval`, and reloads through R
 
 import json
 import math
+import shutil
+
+import jax
 
 import numpy as np
 import pytest
@@ -67,3 +70,47 @@ def test_a_toy_method_trains_on_a_toy_format_through_the_cli(toy_capture, tmp_pa
     expected = np.mean([psnr(np.broadcast_to(colour, (24, 24, 3)), imread(p) / 255) for p in held])
     assert ev["n_views"] == len(held) == 3
     assert abs(ev["psnr"] - expected) < 0.05
+
+
+def test_a_toy_exporter_runs_through_the_cli_and_the_report(procedural_run, tmp_path, capsys, monkeypatch):
+    """tests/toy_exporter.py plus one registry line: `nerfkit export toy RUN` parses its own flags, writes its
+    files and record, and the run report shows it; `nerfkit export --help` lists it."""
+    from nerfkit.export import registry as exporters
+
+    monkeypatch.setitem(exporters.EXPORTERS, "toy", "toy_exporter")  # the exporter's registry line
+    run = tmp_path / "run"
+    shutil.copytree(procedural_run[0], run)
+    assert main(["export", "toy", str(run), "--scale", "2"]) == 0
+    rec = json.loads((run / "exports" / "export_toy.json").read_text())
+    trained = RunFolder(run).load()
+    count = sum(int(np.size(p)) for p in jax.tree_util.tree_leaves(trained.params))
+    assert rec["count"] == 2 * count > 0
+    assert f"wrote {run / 'exports' / 'toy.json'}: {2 * count:g} parameters" in capsys.readouterr().out
+    assert imread(run / "exports" / "toy.png").std() > 0  # a render, not a blank image
+    from nerfkit.report.run import write_report
+
+    assert f"{2 * count:g} parameters" in write_report(run).read_text()
+    assert main(["export", "--help"]) == 0
+    assert "toy" in capsys.readouterr().out
+
+
+def test_a_toy_rasteriser_backend_trains_splats_through_the_cli(tmp_path, monkeypatch):
+    """tests/toy_backend.py plus one registry line: `nerfkit train --preset splat --backend toy` trains and
+    evaluates through it (the toy records each trace), and an unknown backend is one clear error."""
+    import toy_backend
+
+    from nerfkit.models.splat import backends
+
+    monkeypatch.setitem(backends.BACKENDS, "toy", "toy_backend")  # the backend's registry line
+    scene = make_scene(tmp_path / "scene", size=24, n_train=6, n_val=2, n_test=2)
+    run = tmp_path / "run"
+    assert main(["train", str(scene), "--out", str(run), "--preset", "splat", "--backend", "toy", "--max-steps", "20",
+                 "--capacity", "2000", "--val-every", "20", "--no-progress"]) == 0
+    assert (24, 24) in toy_backend.TRACED
+    assert json.loads((run / "config.json").read_text())["splat"]["backend"] == "toy"
+    assert main(["eval", str(run), "--split", "test", "--downscale", "2"]) == 0  # a new size: traced again
+    assert (12, 12) in toy_backend.TRACED
+    assert json.loads((run / "eval_test.json").read_text())["psnr"] > 10
+    assert main(["train", str(scene), "--out", str(tmp_path / "bad"), "--preset", "splat", "--backend", "nope",
+                 "--max-steps", "2", "--no-progress"]) == 1
+    assert not (tmp_path / "bad").exists()

@@ -28,6 +28,7 @@ class ConstantColour:
     def __init__(self, cfg):
         self.cfg = cfg
         self.rays_per_step = cfg.train.batch_rays
+        self.loss_name = "MSE"
 
     @staticmethod
     def describe(cfg) -> str:

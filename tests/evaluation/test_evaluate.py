@@ -39,5 +39,5 @@ def test_eval_table_lists_every_view_and_the_mean():
 
 def test_chunk_is_refused_for_splats_only():
     refuse_chunk(preset("ngp"), 4096)
-    with pytest.raises(ConfigError, match="--chunk has no effect on a splat run"):
+    with pytest.raises(ConfigError, match="--chunk has no effect on this run: its method renders whole images"):
         refuse_chunk(preset("splat"), 4096)

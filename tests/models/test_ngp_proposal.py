@@ -10,7 +10,7 @@ import numpy as np
 
 from nerfkit.core.config import Config
 from nerfkit.core.presets import preset
-from nerfkit.models.nerf import NGPModel
+from nerfkit.models.ngp import NGPModel
 from nerfkit.models.ngp_proposal import ProposalNGPModel
 from nerfkit.models.registry import build_model
 from nerfkit.rays.cameras import look_at

@@ -41,6 +41,7 @@ from nerfkit.training.flags import (
     setting_names,
     unused,
 )
+from nerfkit.training.setup import refuse_given
 from nerfkit.training.step import (
     draw_batch,
     init_state,
@@ -69,6 +70,7 @@ def alternative(name: str, cfg) -> list[str]:
         "train.devices": "2", "train.precrop_frac": "0.3",
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
         "splat.strategy": "mcmc" if v == "classic" else "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
+        "splat.backend": "reference",
         "splat.coarse": "0.25", "splat.ssim_lambda": "0.2", "splat.pixel_loss": "rmse" if v == "l1" else "l1",
         "sampler.sampling": "proposal" if v != "proposal" else "occupancy",
     }
@@ -114,7 +116,7 @@ def observe_splat(trainer):
     """observe() for a Gaussian-splatting run (one view per step, density control on the host): the data, the
     host's schedule (SH degree, the means' rate, the density-control window, at a few steps and progresses),
     the initial state (values) and the jitted view step (as a jaxpr)."""
-    from nerfkit.models.splat.method import schedule_at
+    from nerfkit.models.splat.train import schedule_at
     from nerfkit.models.splat.train import make_step
 
     model, cfg, td = trainer.model, trainer.cfg, trainer.train_data
@@ -183,8 +185,8 @@ def _same(a, b) -> bool:
 
 def _trainer(scene, out, argv):
     args = parse_train_args([str(scene), "--out", str(out), *argv])
-    return Trainer(args.data_dir, args.out, args.cfg, progress=False, given=explicit_settings(argv),
-                   preset=args.preset)
+    refuse_given(args.data_dir, args.cfg, explicit_settings(argv), args.preset, False)  # what nerfkit train does
+    return Trainer(args.data_dir, args.out, args.cfg, progress=False)
 
 
 MODEL_SETTINGS = [n for n in setting_names() if n not in LOOP]

@@ -24,7 +24,7 @@ from nerfkit.core.metrics import psnr
 from nerfkit.core.presets import preset
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.evaluation.evaluate import render_run
-from nerfkit.models.splat.model import PARAM_NAMES, render
+from nerfkit.models.splat.gaussians import PARAM_NAMES, render
 from nerfkit.rays.camera_path import read_camera_path
 from nerfkit.rays.cameras import Camera
 from nerfkit.render.images import make_renderer

@@ -156,9 +156,9 @@ def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: 
     check_out(out, overwrite)
     t0 = time.perf_counter()
     run = RunFolder(run_dir).load()
-    if run.cfg.field.kind != "ngp" or run.model.unbounded:
+    if not run.model.supports.bake or run.model.unbounded:
         raise ConfigError(f"{run_dir}: bake needs a bounded fast-field run (ngp preset on a Blender scene or a "
-                          f"masked capture); this one is {run.cfg.field.kind}, {run.cfg.field.scene_type}")
+                          f"masked capture); this one is {run.model.title}, {run.cfg.field.scene_type}")
     poses = training_poses(run)  # reads the capture: a missing data folder fails here, before any work
     resolution, bricks = choose_grid(run, resolution, sh_bands, max_mb, log)
     bricks, dens, sh = sample_field(run, bricks, resolution, sh_bands, progress)

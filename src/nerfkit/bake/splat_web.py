@@ -34,7 +34,7 @@ FLOATS = 64
 
 
 def pack_gaussians(params: dict, sh_degree: int) -> np.ndarray:
-    """[N, 64] float32 rows of the layout above, from model.py's parameters (numpy)."""
+    """[N, 64] float32 rows of the layout above, from gaussians.py's parameters (numpy)."""
     n = len(params["means"])
     cov = np.asarray(covariance_3d(jnp.asarray(params["log_scales"]), jnp.asarray(params["quats"])), np.float64)
     sh = np.concatenate([params["sh_dc"], params["sh_rest"]], axis=1).astype(np.float32)  # [N, 16, 3]

@@ -4,7 +4,7 @@ The viewer is three static files, web/index.html, web/render.js (loading, textur
 ray-marching shader) and web/baked.js (the page: orbit controls, frame time, test API), with no
 build step and no network access: the page fetches baked.json and the three .npy arrays from
 its own folder and ray-marches them in a fragment shader exactly as the reference renderer
-(model.py) does (see render.js for the texture layout and the marching). `write_web` copies the page into a baked
+(models/baked/model.py) does (see render.js for the texture layout and the marching). `write_web` copies the page into a baked
 scene folder, which any static file server can then serve (python -m http.server).
 
 `nerfkit view --baked DIR` calls `serve_baked`: the folder must be a baked scene (baked.json of

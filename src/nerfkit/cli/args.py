@@ -1,4 +1,4 @@
-"""The arguments of each `nerfkit` verb, as typed dataclasses that tyro parses (cli.py calls)."""
+"""The arguments of each `nerfkit` verb, as typed dataclasses that tyro parses (main.py and train.py call)."""
 
 from __future__ import annotations
 

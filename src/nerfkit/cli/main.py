@@ -84,9 +84,10 @@ def cmd_bake(argv: list[str]) -> int:
 
     a = parse(BakeArgs, argv, "nerfkit bake")
     if (a.run_dir / "config.json").is_file():
+        from nerfkit.models.registry import method_class
         from nerfkit.run.folder import RunFolder
 
-        if RunFolder(a.run_dir).config().field.kind == "splat":
+        if method_class(RunFolder(a.run_dir).config()).supports.gaussians:  # a page that draws the Gaussians
             from nerfkit.bake.splat_web import write_splat_page
 
             for flag in FIELD_BAKE_ONLY:

@@ -81,6 +81,7 @@ def parse_train_args(argv: list[str]) -> TrainArgs:
 
 
 def cmd_train(argv: list[str]) -> int:
+    from nerfkit.training.setup import refuse_given
     from nerfkit.training.trainer import Trainer
 
     if any(a in ("-h", "--help", "--help-all") for a in argv):
@@ -93,12 +94,18 @@ def cmd_train(argv: list[str]) -> int:
 
     if init_distributed() > 1 and args.viewer:
         raise ConfigError("--viewer: not in a multi-process run; view the run folder with `nerfkit view` instead")
+    given = explicit_settings(argv)
+    refuse_given(args.data_dir, args.cfg, given, args.preset, args.resume)
     trainer = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress and is_primary(),
-                      overwrite=args.overwrite, given=explicit_settings(argv), preset=args.preset)
+                      overwrite=args.overwrite)
+    default_budget = not given.keys() & {"train.max_minutes", "train.max_steps"} and not args.resume
+    if default_budget and args.progress and is_primary():
+        print(f"budget: the {args.preset or 'preset'} default; --max-minutes M or --max-steps N changes it", flush=True)
+    viewer = None
     if args.viewer:
         from nerfkit.viewer.run import attach_viewer
 
-        attach_viewer(trainer, args.viewer_host, args.viewer_port)
+        viewer = attach_viewer(trainer, args.viewer_host, args.viewer_port)
     try:
         res = trainer.run()
         from nerfkit.report.run import write_report_or_warn
@@ -109,13 +116,13 @@ def cmd_train(argv: list[str]) -> int:
         print(f"step {res.step}, {res.steps_per_second:.2f} steps/s, val PSNR {val}; run folder: {res.run_dir}")
         if not res.interrupted:
             print(f"next: nerfkit render {shlex.quote(str(res.run_dir))} --orbit 60")
-        if trainer.viewer is not None and not res.interrupted:
+        if viewer is not None and not res.interrupted:
             from nerfkit.viewer.run import linger
 
-            linger(trainer.viewer)
+            linger(viewer)
     finally:
-        if trainer.viewer is not None:
-            trainer.viewer.close()
+        if viewer is not None:
+            viewer.close()
     return 130 if res.interrupted else 0
 
 

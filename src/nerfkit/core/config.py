@@ -246,6 +246,10 @@ class SplatSettings:
     """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D), hull (uniform in the
     visual hull of the masks or alpha channel), random (uniform in the scene box) or auto (sfm where the
     capture has points, else hull where it has masks or alpha, else random)."""
+    backend: str = "auto"
+    """The rasteriser: auto (numba), numba (CPU tile kernels through a host callback) or reference (pure JAX,
+    every pixel against every Gaussian: slow, the definition the tests hold numba to); the table of backends
+    is models/splat/backends.py."""
 
     def loss_name(self) -> str:
         """The photometric loss in words: "L1", "RMSE" or "0.8 L1 + 0.2 D-SSIM"."""
@@ -277,8 +281,8 @@ class Config:
         try:
             sections = {k: {n: v for n, v in d[k].items() if f"{k}.{n}" not in RETIRED}
                         for k in ("data", "field", "sampler", "train")}
-            if d["field"].get("kind") == "ngp":  # ngp runs of earlier versions marched the occupancy grid
-                sections["sampler"].setdefault("sampling", "occupancy")
+            # configs written before --sampling existed: their samples came from the occupancy grid
+            sections["sampler"].setdefault("sampling", "occupancy")
             splat = dict(d.get("splat", {}))  # runs of earlier versions may have no splat section
             if splat:
                 splat.setdefault("pixel_loss", "l1")

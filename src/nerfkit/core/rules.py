@@ -1,6 +1,6 @@
 """The rules a nerfkit Config must satisfy (config.validate runs them): every value of the type its dataclass
 annotates, and the ranges and combinations each setting allows. Each rule raises ConfigError naming the flag
-and the fix."""
+and the fix. Rules that belong to one method live with it (its `check`, run by models/registry.check)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,6 @@ def check(cfg) -> None:
     """ConfigError for the first value of cfg (a config.Config) that breaks a rule."""
     s, t, f, d = cfg.sampler, cfg.train, cfg.field, cfg.data
     _check_types(cfg)
-    _check_field_kind(f, s)
     _check_sampling(s, f, d)
     _check_training(t)
     _check_field_sizes(f, s)
@@ -67,18 +66,6 @@ def _need(ok: bool, msg: str) -> None:
         raise ConfigError(msg)
 
 
-def _check_field_kind(f, s) -> None:
-    """Settings that only some field kinds take (--antialias, --no-pe, the MLP's fixed interval)."""
-    _need(not f.antialias or f.kind == "ngp", "--antialias is for the hash-grid field (--preset ngp); the mipnerf "
-                                              "preset anti-aliases with its own encoding")
-    _need(f.kind != "mip" or f.pe, "--no-pe does not apply to mipnerf (its encoding is the integrated one)")
-    if f.kind in ("mlp", "mip"):
-        _need(s.near is not None and s.far is not None, "--near and --far must be set for the mlp field")
-        _need(not f.unbounded(), "--scene-type unbounded needs the ngp field (--preset ngp); the MLP presets sample "
-                                 "a fixed [near, far] interval")
-        _need(f.n_appearance() == 0 or f.viewdirs, "appearance embeddings need --viewdirs with the mlp field")
-
-
 def _check_sampling(s, f, d) -> None:
     """The ray interval, the appearance table, the hold-out period and the sample counts."""
     for name in ("near", "far"):
@@ -112,20 +99,10 @@ def _check_training(t) -> None:
 
 
 def _check_field_sizes(f, s) -> None:
-    """The MLP's size and frequencies; for the hash grid, its levels, table and the occupancy grid."""
+    """The MLP's size and frequencies (the methods check their own settings: their `check`)."""
     _need(f.depth >= 1, f"--depth must be >= 1 (got {f.depth})")
     _need(f.width >= 1, f"--width must be >= 1 (got {f.width})")
     _need(f.l_xyz >= 0 and f.l_dir >= 0, f"--l-xyz and --l-dir must be >= 0 (got {f.l_xyz}, {f.l_dir})")
-    if f.kind == "ngp":
-        _need(f.bound is None or f.bound > 0, f"--bound must be positive (got {f.bound})")
-        _need(1 <= f.hash_levels and 1 <= f.hash_features and 10 <= f.hash_log2_size <= 24,
-              "--hash-levels, --hash-features must be >= 1 and --hash-log2-size in [10, 24]")
-        _need(2 <= f.hash_base_res <= f.hash_max_res, "need 2 <= --hash-base-res <= --hash-max-res")
-        _need(s.occ_res >= 2 and s.occ_update_every >= 1 and s.march_steps >= 2,
-              "need --occ-res >= 2, --occ-update-every >= 1, --march-steps >= 2")
-        _need(s.max_samples >= s.march_steps, f"--max-samples must be >= --march-steps ({s.march_steps})")
-        _need(s.proposal_samples >= 4 and s.field_samples >= 2,
-              "need --proposal-samples >= 4 and --field-samples >= 2")
 
 
 def _check_splat_and_images(g, d) -> None:

@@ -87,7 +87,8 @@ class Capture:
     splits: split name -> frames; `where(split)` names the file a split comes from.
     normalize: whether poses must be normalised (the Blender scenes already are).
     alpha: whether images carry their own alpha (the Blender scenes).
-    points: optional [P, 3] sparse points (capture coordinates), e.g. from SfM.
+    points: optional [P, 3] sparse points (capture coordinates) from SfM; point_colors [P, 3] in [0, 1]
+            (grey where the file has none); points_file: the file or model they were read from.
     source: split name -> the file it comes from (for error messages).
     """
 
@@ -97,6 +98,8 @@ class Capture:
     normalize: bool = True
     alpha: bool = False
     points: np.ndarray | None = None
+    point_colors: np.ndarray | None = None
+    points_file: str | None = None
     source: dict[str, str] = field(default_factory=dict)
     hint: str | None = None
     """"bounded" when the files say the scene fits a box (instant-ngp's aabb_scale 1)."""
@@ -204,3 +207,17 @@ class SceneData:
     def focal(self) -> float:
         """Horizontal focal length in pixels of the first frame."""
         return self.cameras[0].fx
+
+
+def scene_type(setting: str, cap: Capture) -> tuple[str, str]:
+    """(bounded | unbounded, why) of a capture under --scene-type `setting` (auto: from the data: Blender
+    scenes, masked captures and aabb_scale 1 are bounded; photos without masks are not)."""
+    if setting != "auto":
+        return setting, "--scene-type"
+    if cap.format == "blender":
+        return "bounded", "Blender scene"
+    if cap.has_masks:
+        return "bounded", "masked capture"
+    if cap.hint == "bounded":
+        return "bounded", "aabb_scale 1"
+    return "unbounded", "photos without masks"

@@ -70,7 +70,7 @@ def scene_cameras(cap: Capture, spec: str, downscale: int | None = None, target_
     with `undistort`, the pinhole cameras the photos are resampled to (undistort.pinhole_cameras)."""
     frames = cap.frames(spec)
     first = frames[0].camera
-    if not cap.levels:  # multiscale data: every level keeps its own size (data/multiscale.py)
+    if not cap.levels:  # multiscale data: every level keeps its own size (data/formats/multiscale.py)
         check_one_size([(f.image, (f.camera.width, f.camera.height)) for f in frames])
     exact = cap.format == "blender"
     factor = resolve_downscale(first.width, first.height, downscale, target_width, str(frames[0].image), exact=exact,

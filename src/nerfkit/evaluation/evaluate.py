@@ -23,6 +23,7 @@ from nerfkit.core.viz import (
 from nerfkit.data.formats.multiscale import level_specs
 from nerfkit.data.loader import load_frames, read_capture, scene_cameras
 from nerfkit.models.baked.format import load_baked
+from nerfkit.models import registry
 from nerfkit.models.baked.model import BakedModel
 from nerfkit.rays.camera_path import focal_from_fov_y, read_camera_path
 from nerfkit.rays.cameras import Camera, ellipse_orbit_poses, orbit_poses
@@ -37,10 +38,10 @@ def split_slug(spec: str) -> str:
 
 
 def refuse_chunk(cfg, chunk: int | None) -> None:
-    """ConfigError for --chunk on a Gaussian-splat run (it renders whole images with the tile rasteriser)."""
-    if chunk is not None and cfg.field.kind == "splat":
-        raise ConfigError("--chunk has no effect on a splat run (whole images go through the tile rasteriser, not "
-                          "ray chunks); drop it")
+    """ConfigError for --chunk on a run whose method renders whole images (rasterised Gaussian splats)."""
+    if chunk is not None and registry.method_class(cfg).supports.renders_images:
+        raise ConfigError("--chunk has no effect on this run: its method renders whole images (the tile rasteriser), "
+                          "not ray chunks; drop it")
 
 
 def appearance_note(cfg) -> str | None:
@@ -56,7 +57,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
                  write: bool = True, baked: Path | None = None, overwrite: bool = False) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
-    Multiscale data (data/multiscale.py): every level is scored at its own size, and the mean
+    Multiscale data (data/formats/multiscale.py): every level is scored at its own size, and the mean
     over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
     `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
     is replaced only with `overwrite` (otherwise ConfigError before any work)."""

@@ -140,9 +140,14 @@ def pe_ablation(data_dir: str | Path, out: str | Path, preset: str = "seed", bud
 
 
 def check_mlp_preset(preset: str) -> None:
-    """ConfigError unless `preset` uses the MLP field (the only one with a positional encoding to ablate)."""
-    if make_preset(preset).field.kind != "mlp":
-        mlp = [p for p in PRESETS if make_preset(p).field.kind == "mlp"]
+    """ConfigError unless `preset`'s method reads --pe (the MLP field: the only positional encoding to ablate)."""
+    from nerfkit.models.registry import method_class
+
+    def ablates(p: str) -> bool:
+        return "field.pe" in method_class(make_preset(p)).reads
+
+    if not ablates(preset):
+        mlp = [p for p in PRESETS if ablates(p)]
         raise ConfigError(f"pe-ablation compares positional encodings of the MLP field; preset {preset!r} uses the "
                           f"{make_preset(preset).field.kind!r} field. Pick an MLP preset ({', '.join(mlp)}).")
 

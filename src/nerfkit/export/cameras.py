@@ -7,15 +7,18 @@ test_filenames (nerfkit's nerfstudio reader and nerfstudio's both keep those spl
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import tyro
 
 from nerfkit.core.errors import ConfigError
 from nerfkit.data.formats.blender import every_split
 from nerfkit.data.formats.nerfstudio import write_nerfstudio
 from nerfkit.data.loader import read_capture
 from nerfkit.export.files import check_out, write_atomic
+from nerfkit.export.registry import Exporter
 from nerfkit.process.plot import plot_cameras
 from nerfkit.run.folder import RunFolder
 
@@ -81,3 +84,26 @@ def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = N
               "coordinates": "the capture's own (OpenGL camera-to-world)"}
     folder.write_record("cameras", record)
     return record
+
+
+@dataclass
+class ExportCamerasArgs:
+    """Export the run's cameras as nerfstudio's transforms.json (OpenGL camera-to-world in the capture's own
+    coordinates, intrinsics and lens at the photos' size, image paths relative to the written file)."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    out: Path | None = None
+    """JSON file (default: RUN_DIR/exports/cameras.json)."""
+    split: str | None = None
+    """Export only these frames, e.g. 'test' (default: every frame, each listed under its split in the run)."""
+    data: Path | None = None
+    """The data folder; default: the one the run was trained on."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
+
+EXPORTER = Exporter(
+    name="cameras", summary="the run's cameras as nerfstudio's transforms.json", args=ExportCamerasArgs,
+    accepts=lambda supports: True, needs="cameras", outputs=("cameras.json", "cameras.png"),
+    export=lambda a, given: export_cameras(a.run_dir, a.out, a.split, a.data, overwrite=a.overwrite),
+    wrote=lambda rec: f"wrote {rec['file']}: {rec['frames']} cameras", facts="{frames} cameras".format_map)

@@ -11,7 +11,6 @@ import jax
 import numpy as np
 
 from nerfkit.run.folder import TrainedRun
-from nerfkit.sampling import occupancy
 
 CHUNK = 65536
 
@@ -45,22 +44,8 @@ def field_functions(run: TrainedRun):
     """(density_fn, color_fn, occupied_fn or None, occupancy cell size) of a trained model,
     jitted, in the normalised frame. color_fn(x, d) is the field's colour at x seen along unit d
     (held-out appearance: the mean embedding)."""
-    model, params, aux = run.model, run.params, run.aux
-    if run.cfg.field.kind == "ngp":
-        field, p = model.field, params["field"]
-        cell = model.occ.cell_size * (field.radius if field.unbounded else 1.0)
-
-        def occupied(x):
-            return occupancy.query_occupancy(aux, field.to_grid(x), model.occ)
-
-        occupied_fn = jax.jit(occupied)
-    elif run.cfg.field.kind == "mip":  # mip-NeRF's one MLP at points (a Gaussian of zero variance: IPE = PE)
-        field, p = model.field, params["field"]
-        occupied_fn, cell = None, 0.0
-    else:  # the MLP NeRF: the fine field when there is one; no occupancy grid, every point is sampled
-        key = "fine" if model.fine is not None else "coarse"
-        field, p = getattr(model, key), params[key]
-        occupied_fn, cell = None, 0.0
+    field, p, occupied, cell = run.model.surface_field(run.params, run.aux)
+    occupied_fn = None if occupied is None else jax.jit(occupied)
     emb = field.embedding(p, None)
     density_fn = jax.jit(lambda x: field.density(p, x))
     color_fn = jax.jit(lambda x, d: field(p, x, d, emb)[0])

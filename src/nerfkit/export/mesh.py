@@ -19,9 +19,11 @@ field's, seen straight at the surface (surface.py): per vertex, or with `--textu
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import tyro
 
 from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.core.outputs import check_new_file
@@ -29,6 +31,7 @@ from nerfkit.export.files import check_out, to_capture
 from nerfkit.export.grid import chunked, field_functions
 from nerfkit.export.levelset import levelset_surface
 from nerfkit.export.pictures import mesh_picture
+from nerfkit.export.registry import Exporter, check_accepts
 from nerfkit.export.surface import (
     closed_and_manifold,
     drop_specks,
@@ -87,9 +90,7 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
                       overwrite)
     t0 = time.perf_counter()
     run = RunFolder(run_dir).load()
-    if run.cfg.field.kind == "splat":
-        raise ConfigError(f"{run_dir}: Gaussian splats have no density field to mesh; export them with nerfkit "
-                          f"export splat (or export pointcloud for points)")
+    check_accepts(EXPORTER, run_dir, run.model.supports, run.model.title)
     bound = run.bound if box is None else float(box)
     h = 2.0 * bound / (resolution - 1)
     if method == "tsdf":
@@ -170,3 +171,95 @@ def write_coloured(run, out: Path, verts, faces, h: float, texture: bool, textur
     else:
         write_mesh(out, to_capture(verts, run.transform), faces, colors)
     return colors
+
+
+@dataclass
+class ExportMeshArgs:
+    """Export the run's surface as a coloured triangle mesh, in the capture's own coordinates; a picture from two
+    sides goes into RUN_DIR/exports/mesh.png. The default fuses the field's rendered depth from about 64
+    training views (TSDF) and closes nothing it did not see; --watertight closes it, --texture bakes a UV
+    texture."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    out: Path | None = None
+    """Mesh file: .ply, .obj or .glb (default: RUN_DIR/exports/mesh.ply; with --texture .glb or .obj, default
+    RUN_DIR/exports/mesh.glb)."""
+    method: str = "tsdf"
+    """tsdf: fuse rendered depth into a signed distance (whole surfaces, closable); levelset: marching cubes of the
+    density at one level (the last round's export; holes where the field is soft)."""
+    resolution: int = 256
+    """Grid points per axis of the box."""
+    box: float | None = None
+    """Half-size of the exported box in the run's normalised units (default: the field's box; for an unbounded
+    scene its inner ball, where the cameras look)."""
+    watertight: bool = False
+    """tsdf: a closed manifold mesh (for 3D printing): what no view saw behind a surface is filled, the box closes
+    what it cuts."""
+    texture: bool = False
+    """Bake the colour into a UV texture (xatlas atlas; .glb with the image inside, or .obj + .mtl + .png),
+    decimated to 100,000 faces unless --max-faces says otherwise."""
+    texture_size: int = 1024
+    """Texels per side of the texture atlas, roughly: xatlas scales the charts to it, and the padding between
+    many small charts can make the atlas up to about twice as wide (the record gives the size)."""
+    max_faces: int | None = None
+    """Simplify the mesh to at most this many faces (quadric decimation)."""
+    every: int | None = None
+    """Render every K-th training view (default: about 64 views for tsdf, 32 for the levelset's visibility)."""
+    threshold: float | None = None
+    """levelset: density level of the surface (default: ln 2 / grid spacing, where one grid cell is half opaque)."""
+    visible_only: bool = True
+    """levelset: keep only faces some training view sees (drops the arbitrary surfaces inside objects and under
+    them)."""
+    snap: bool = True
+    """levelset: move each vertex along its normal (within one grid cell) to where a ray from outside turns half
+    opaque."""
+    carve: bool = True
+    """levelset: where the capture has masks or an alpha channel, move vertices that fall outside the training
+    silhouettes into them (up to two grid cells or two pixels); drop faces the photos show background through."""
+    data: Path | None = None
+    """The data folder (for the training cameras); default: the one the run was trained on."""
+    progress: bool = True
+    """Show progress bars."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
+
+MESH_LEVELSET_FLAGS = ("--threshold", "--visible-only", "--no-visible-only", "--snap", "--no-snap", "--carve",
+                       "--no-carve")
+
+
+def _export(a: ExportMeshArgs, given: set[str]) -> dict:
+    """export_mesh with the flags a user typed checked against each other (`given`: the flags typed)."""
+    if a.method != "levelset":
+        moot = [f for f in MESH_LEVELSET_FLAGS if f in given]
+        if moot:
+            raise ConfigError(f"{moot[0]} belongs to --method levelset (this export uses --method {a.method}); "
+                              f"drop it or pass --method levelset")
+    if a.method == "levelset" and not a.visible_only and "--every" in given:
+        raise ConfigError("--every thins the training views of the visibility pass, which --no-visible-only "
+                          "turns off; drop one of them")
+    if not a.texture and "--texture-size" in given:
+        raise ConfigError("--texture-size sets the texture of --texture; pass --texture too, or drop it")
+    return export_mesh(a.run_dir, a.out, a.resolution, a.threshold, a.max_faces, a.visible_only, a.snap, a.every,
+                       a.data, progress=a.progress, carve=a.carve, overwrite=a.overwrite, method=a.method, box=a.box,
+                       watertight=a.watertight, texture=a.texture, texture_size=a.texture_size)
+
+
+def _wrote(rec: dict) -> str:
+    closed = "closed manifold" if rec["closed_manifold"] else "open where no view saw the surface"
+    files = rec["texture"]["files"] if "texture" in rec else [rec["file"]]
+    return (f"wrote {', '.join(files)}: {rec['vertices']} vertices, {rec['faces']} faces, {closed} "
+            f"({rec['method']}, {rec['seconds']:.1f} s)")
+
+
+def _facts(rec: dict) -> str:
+    if rec.get("method", "levelset") == "levelset":
+        return "{vertices} vertices, {faces} faces, threshold {threshold:.4g}".format(**rec)
+    closed = ", closed" if rec.get("closed_manifold") else ""
+    return "{vertices} vertices, {faces} faces, {method} of {views} views".format(**rec) + closed
+
+
+EXPORTER = Exporter(
+    name="mesh", summary="a coloured triangle mesh (.ply, .obj, .glb; TSDF or level set, optionally textured)",
+    args=ExportMeshArgs, accepts=lambda supports: supports.mesh, needs="a density field to mesh",
+    outputs=("mesh.ply", "mesh.png"), export=_export, wrote=_wrote, facts=_facts)

@@ -12,13 +12,16 @@ downsampling: one point per occupied voxel of size v, the mean of its points and
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import tyro
 
 from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.export.files import check_out, to_capture, write_atomic
 from nerfkit.export.pictures import pointcloud_picture
+from nerfkit.export.registry import Exporter
 from nerfkit.export.splat import active_gaussians
 from nerfkit.export.visibility import render_views, view_points
 from nerfkit.models.splat.project import SH_C0
@@ -70,7 +73,7 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
     run = RunFolder(run_dir).load()
     scale = float(np.cbrt(np.linalg.det(run.transform[:3, :3])))  # capture -> normalised lengths
     voxel_n = 2.0 * run.bound / VOXELS_PER_BOX if voxel_size is None else voxel_size * scale
-    if run.cfg.field.kind == "splat":
+    if run.model.supports.gaussians:
         given = [f for f, v in (("--split", split), ("--every", every), ("--data", data), ("--chunk", chunk))
                  if v is not None]
         if given:
@@ -124,3 +127,45 @@ def splat_centres(run, out: Path, min_opacity: float, voxel_n: float, scale: flo
               "coordinates": "the capture's own (pose normalisation undone)"}
     RunFolder(run.run_dir).write_record("pointcloud", record)
     return record
+
+
+@dataclass
+class ExportPointcloudArgs:
+    """Export a coloured point cloud (PLY): the rendered depth of every K-th view of a split, back-projected,
+    fused and voxel-downsampled, in the capture's own coordinates."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train`."""
+    out: Path | None = None
+    """PLY file (default: RUN_DIR/exports/pointcloud.ply)."""
+    split: str | None = None
+    """Views to render (default: the run's training split)."""
+    every: int | None = None
+    """Use every K-th view (default: about 32 views, evenly spaced)."""
+    min_opacity: float = 0.9
+    """Keep pixels at least this opaque."""
+    voxel_size: float | None = None
+    """Fuse points into voxels of this size, in the capture's units (default: the box side / 512; 0: keep all)."""
+    data: Path | None = None
+    """The data folder; default: the one the run was trained on."""
+    chunk: int | None = None
+    """Rays per rendering chunk (default: the run's --chunk)."""
+    progress: bool = True
+    """Show progress bars."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
+
+def _export(a: ExportPointcloudArgs, given: set[str]) -> dict:
+    return export_pointcloud(a.run_dir, a.out, a.split, a.every, a.min_opacity, a.voxel_size, a.data, a.chunk,
+                             progress=a.progress, overwrite=a.overwrite)
+
+
+def _facts(rec: dict) -> str:
+    return ("{points} points ({source})" if "source" in rec else "{points} points from {views} views").format(**rec)
+
+
+EXPORTER = Exporter(
+    name="pointcloud", summary="a coloured point cloud (.ply): rendered depth back-projected, or a splat run's centres",
+    args=ExportPointcloudArgs, accepts=lambda supports: supports.mesh or supports.gaussians,
+    needs="a density field or Gaussians", outputs=("pointcloud.ply", "pointcloud.png"), export=_export,
+    wrote=lambda rec: f"wrote {rec['file']}: {rec['points']} points ({rec['seconds']:.1f} s)", facts=_facts)

@@ -14,27 +14,25 @@ the run's frame and rendered from the first training camera: the round trip, sho
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import tyro
 
 from nerfkit.core.errors import ConfigError
 from nerfkit.core.viz import save_png
 from nerfkit.export.files import check_out, write_atomic
-from nerfkit.models.splat.model import PARAM_NAMES, render
+from nerfkit.export.registry import Exporter, check_accepts
+from nerfkit.models.splat.gaussians import PARAM_NAMES, render
 from nerfkit.models.splat.ply import export_ply, import_ply
 from nerfkit.models.splat.transform import invert_similarity
 from nerfkit.rays.cameras import Camera
 from nerfkit.run.folder import RunFolder
 
 
-def is_splat_run(run) -> bool:
-    """Whether a loaded run (export.run.TrainedRun) holds Gaussian splats rather than a radiance field."""
-    return run.cfg.field.kind == "splat"
-
-
 def active_gaussians(run) -> dict:
-    """The run's Gaussians in use (numpy, model.py's layout, normalised frame)."""
+    """The run's Gaussians in use (numpy, gaussians.py's layout, normalised frame)."""
     active = np.asarray(run.aux["active"], bool)
     return {k: np.asarray(run.params[k])[active] for k in PARAM_NAMES}
 
@@ -49,9 +47,7 @@ def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False
     t0 = time.perf_counter()
     folder = RunFolder(run_dir)
     run = folder.load()
-    if not is_splat_run(run):
-        raise ConfigError(f"{run_dir}: a {run.cfg.field.kind} radiance field, not Gaussian splats; export splat "
-                          f"needs a run of --preset splat (for this run: nerfkit export mesh or pointcloud)")
+    check_accepts(EXPORTER, run_dir, run.model.supports, run.model.title)
     gaussians = active_gaussians(run)
     degree = run.cfg.splat.sh_degree
     to_capture = invert_similarity(run.transform)
@@ -68,3 +64,27 @@ def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False
               "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name, "step": run.step}
     folder.write_record("splat", record)
     return record
+
+
+@dataclass
+class ExportSplatArgs:
+    """Export a splat run's Gaussians as a .ply in the Inria 3DGS layout (what SuperSplat, gsplat, nerfstudio and
+    other splat viewers open), in the capture's own coordinates; a picture of the file read back goes into
+    RUN_DIR/exports/splat.png."""
+
+    run_dir: tyro.conf.Positional[Path]
+    """A run folder written by `nerfkit train --preset splat`."""
+    out: Path | None = None
+    """PLY file (default: RUN_DIR/exports/splat.ply)."""
+    overwrite: bool = False
+    """Replace --out if it exists."""
+
+def _wrote(rec: dict) -> str:
+    return f"wrote {rec['file']}: {rec['gaussians']} Gaussians, SH degree {rec['sh_degree']} ({rec['seconds']:.1f} s)"
+
+
+EXPORTER = Exporter(
+    name="splat", summary="a splat run's Gaussians as an Inria-layout .ply (SuperSplat, gsplat, nerfstudio)",
+    args=ExportSplatArgs, accepts=lambda supports: supports.gaussians, needs="Gaussians (a run of --preset splat)",
+    outputs=("splat.ply", "splat.png"), export=lambda a, given: export_splat(a.run_dir, a.out, overwrite=a.overwrite),
+    wrote=_wrote, facts="{gaussians} Gaussians, SH degree {sh_degree}, read back and rendered".format_map)

@@ -49,11 +49,12 @@ def dense_init(key, n_in: int, n_out: int) -> jnp.ndarray:
 class MLPField:
     """F(x, d) -> (rgb, sigma) of NeRF; `density(params, x)` evaluates sigma alone."""
 
-    def __init__(self, cfg: FieldConfig):
+    def __init__(self, cfg: FieldConfig, integrated: bool = False):
+        """integrated: x arrives encoded by the integrated positional encoding (mip-NeRF), whatever cfg.pe."""
         self.cfg = cfg
         # 0-based index of the layer whose input gets gamma(x) again (5 for D=8, 3 for D=4).
         self.skip = cfg.depth // 2 + 1 if cfg.depth // 2 + 1 < cfg.depth else None
-        self.x_dim = encoded_size(3, cfg.l_xyz, cfg.pe or cfg.kind == "mip")
+        self.x_dim = encoded_size(3, cfg.l_xyz, cfg.pe or integrated)
         self.d_dim = encoded_size(3, cfg.l_dir, cfg.pe)
         self.n_appearance = cfg.n_appearance() if cfg.viewdirs else 0
 

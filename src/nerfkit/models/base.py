@@ -4,14 +4,14 @@ Two families share one `Model` interface (init, per-step aux updates, a declarat
 method supports):
 
     RayModel      renders batches of rays: render_rays(params, aux, o [R,3], d [R,3], key, train)
-                  -> {"rgb" [R,3], "depth" [R], "acc" [R], ...}, and losses(out, target). The
+                  -> {"rgb" [R,3], "depth" [R], "opacity" [R], ...}, and losses(out, target). The
                   trainer's ray step, the one-pass image renderer and per-ray evaluation use it.
     MarchingModel a RayModel that marches an occupancy grid: it exposes its field, grid and sampler
                   (candidates, sample_scale, MIN_TRANSMITTANCE), which the wavefront image renderer,
                   baking and mesh export read.
     ImageModel    renders whole images itself (rasterising primitives: Gaussian splats): its own
                   optimiser and train step, and an image renderer (render_camera(params, aux, c2w,
-                  camera) -> {"rgb" [H,W,3], "depth" [H,W], "acc" [H,W]}).
+                  camera) -> {"rgb" [H,W,3], "depth" [H,W], "opacity" [H,W]}).
 
 Fields (F(x, d) -> rgb, sigma) share one call signature, `Field`, whose `footprint` argument is each kind's
 size of a sample (see Field).
@@ -33,26 +33,35 @@ Aux = dict[str, Any]  # non-trained state (occupancy grid, density-control stati
 
 @dataclass(frozen=True)
 class Supports:
-    """What a method can do.
+    """What a method can do; callers outside models/ read these instead of asking which method it is.
 
     family:     "rays" (RayModel), "marching" (MarchingModel) or "image" (ImageModel)
     parallel:   what data-parallel training splits over devices: "rays" (each device a slice of the
                 batch), "samples" (the packed samples of one batch) or "views" (one view per step)
     step_metrics: the ray step reports extra per-step metrics (model.step_metrics(out) -> dict)
-    antialias:  renders cones (pixel footprints), so multiscale training and --antialias mean something
-    bake:       `nerfkit bake` can turn it into a WebGL page of a baked density grid
-    mesh:       a density field that `export mesh|pointcloud` can sample
+    bake:       `nerfkit bake` can turn a bounded run into a WebGL page of a baked density grid
+                (model.field, model.occ: a MarchingModel's field and occupancy grid)
+    mesh:       a density field that `export mesh|pointcloud` and grids sample (model.surface_field)
     lens:       renders through any COLMAP lens model (rays/cameras.py); without, photos of distorted
                 cameras are undistorted for it (data/undistort.py, DataConfig.undistort)
+    unbounded:  renders unbounded scenes (--scene-type unbounded, contracted space): the scene type and
+                its bound are resolved from the data for it (training/resolve.py)
+    sampling:   its samples along a ray are placed by --sampling occupancy|proposal (resolved from the scene)
+    appearance: per-image appearance embeddings (--appearance-dim)
+    gaussians:  its parameters are 3D Gaussians (splat/gaussians.py's layout): export splat, the splat web page and
+                the viewer's splat layer read them; its point cloud is their centres
     """
 
     family: str = "rays"
     parallel: str = "rays"
     step_metrics: bool = False
-    antialias: bool = False
     bake: bool = False
     mesh: bool = True
     lens: bool = True
+    unbounded: bool = False
+    sampling: bool = False
+    appearance: bool = True
+    gaussians: bool = False
 
     @property
     def marching(self) -> bool:
@@ -99,10 +108,16 @@ class Model(Protocol):
     supports: ClassVar[Supports]
     title: ClassVar[str]  # its name in messages: "hash-grid (ngp)"
     reads: ClassVar[frozenset[str]]  # the settings ("section.field") it reads beyond those every method reads
+    loss_name: str  # its training loss in words ("MSE"), the label of the loss curve
 
     @staticmethod
     def describe(cfg) -> str:
         """One line naming the model that `cfg` makes, with the settings it reads (and only those)."""
+
+    # Optional (models/registry.py supplies "no rule" where a method has none):
+    #   check(cfg) -> None: ConfigError for a combination of its settings it cannot run with
+    #   unused(cfg, capture) -> {setting: why}: settings it leaves unread at these values (e.g. --l-dir
+    #       without view directions); training/flags.py refuses them when given
 
     def init(self, key) -> tuple[Params, Aux]:
         """Initial (params, aux)."""
@@ -118,7 +133,7 @@ class RayModel(Model, Protocol):
         """aux after a training step (e.g. an occupancy-grid refresh); identity where nothing changes."""
 
     def render_rays(self, params: Params, aux: Aux, o, d, key, train: bool, image_idx=None, radii=None) -> dict:
-        """{"rgb" [R, 3], "depth" [R], "acc" [R], ...} for rays o + t d."""
+        """{"rgb" [R, 3], "depth" [R], "opacity" [R], ...} for rays o + t d."""
 
     def losses(self, out: dict, target, weights=None) -> tuple:
         """(total loss, fine-image mse) of a batch against target [R, 3]."""
@@ -143,7 +158,7 @@ class MarchingModel(RayModel, Protocol):
 @runtime_checkable
 class ImageRenderer(Protocol):
     def render_camera(self, params: Params, aux: Aux, c2w, camera) -> dict:
-        """{"rgb" [H, W, 3], "depth" [H, W], "acc" [H, W]} of one camera."""
+        """{"rgb" [H, W, 3], "depth" [H, W], "opacity" [H, W]} of one camera."""
 
 
 @runtime_checkable

@@ -36,7 +36,8 @@ import numpy as np
 from nerfkit.core.config import Config
 from nerfkit.fields.proposal import ProposalField, ProposalFieldConfig
 from nerfkit.models.base import Supports
-from nerfkit.models.nerf import NGPModel, weighted_mse
+from nerfkit.models.ngp import NGPModel
+from nerfkit.models.ray_method import weighted_mse
 from nerfkit.rays.coord import spacing_inverse
 from nerfkit.render.volume import composite, compositing_weights
 from nerfkit.sampling.proposal import distortion_loss, interlevel_loss, resample_edges, uniform_edges
@@ -57,7 +58,7 @@ class ProposalNGPModel(NGPModel):
     """NGPModel's field sampled by proposal fields (module docstring). Same interface as NGPModel, but a
     plain RayModel: render_rays renders every ray (no packing, no incomplete rays)."""
 
-    supports = Supports(family="rays", parallel="rays", step_metrics=True, bake=True)
+    supports = Supports(family="rays", parallel="rays", step_metrics=True, bake=True, unbounded=True, sampling=True)
 
     def __init__(self, cfg: Config):
         super().__init__(cfg)

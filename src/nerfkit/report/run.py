@@ -8,8 +8,9 @@ import json
 from pathlib import Path
 
 from nerfkit.core.config import Config
-from nerfkit.core.errors import NerfkitError
+from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.core.viz import read_jsonl
+from nerfkit.export.registry import EXPORTERS, exporter
 from nerfkit.report import html as h
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.flags import describe_model
@@ -190,19 +191,14 @@ def _exports_html(run: Path) -> str:
     """The latest export of each kind (nerfkit export): its picture, file and figures."""
 
     figs = []
-    for kind, rec in RunFolder(run).records().items():
+    order = list(EXPORTERS)
+    records = RunFolder(run).records()
+    for kind in sorted(records, key=lambda k: order.index(k) if k in order else len(order)):
+        rec = records[kind]
         pic = run / "exports" / str(rec.get("picture", ""))
-        facts = {"mesh": "{vertices} vertices, {faces} faces, " + (
-                     "threshold {threshold:.4g}" if rec.get("method", "levelset") == "levelset" else
-                     "{method} of {views} views" + (", closed" if rec.get("closed_manifold") else "")),
-                 "pointcloud": "{points} points from {views} views",
-                 "cameras": "{frames} cameras",
-                 "splat": "{gaussians} Gaussians, SH degree {sh_degree}, read back and rendered"}[kind]
-        if kind == "pointcloud" and "source" in rec:  # a splat run's centres
-            facts = "{points} points ({source})"
         try:
-            facts = facts.format(**rec)
-        except (KeyError, ValueError, TypeError):
+            facts = exporter(kind).facts(rec)
+        except (ConfigError, KeyError, ValueError, TypeError):  # an exporter no longer listed, an older record
             facts = ""
         caption = h.e(f"{kind}: {Path(str(rec.get('file', ''))).name} ({facts}, step {rec.get('step', '-')})")
         if pic.is_file():

@@ -28,7 +28,6 @@ from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.step import init_state, make_optimizer
 
 SCENE_KEYS = ("data_dir", "format", "height", "width", "camera", "transform", "scale", "train_poses")
-EXPORT_KINDS = ("mesh", "pointcloud", "cameras", "splat")
 
 
 @dataclass
@@ -143,11 +142,14 @@ class RunFolder:
         return path
 
     def records(self) -> dict[str, dict]:
-        """The export records of the run, by kind (only those that exist and parse)."""
+        """The export records of the run (RUN/exports/export_<kind>.json), by kind, in name order: those that
+        exist and parse as a JSON object."""
         out = {}
-        for kind in EXPORT_KINDS:
+        for path in sorted((self.path / "exports").glob("export_*.json")):
             try:
-                out[kind] = json.loads((self.path / "exports" / f"export_{kind}.json").read_text())
+                rec = json.loads(path.read_text())
             except (OSError, ValueError):
                 continue
+            if isinstance(rec, dict):
+                out[path.stem.removeprefix("export_")] = rec
         return out

@@ -8,12 +8,12 @@ model will not read, with the reason:
                   field.hash_*, field.bound, sampler.occ_*, sampler.march_steps, ... by ngp only;
                   the ray and NeRF-optimiser settings (near, far, batch_rays, lr, ...) by the fields only,
                   splat.* by the Gaussian splats (splat) only
-    by value      field.l_xyz without positional encoding (--no-pe), field.l_dir without view
+    by value      what each method leaves unread at the values given (its `unused`, models/registry.py):
+                  field.l_xyz without positional encoding (--no-pe), field.l_dir without view
                   directions, train.precrop_frac without a warm-up (--precrop-steps 0),
-                  data.target_width when --downscale is given, sampler.occ_warmup_decay
-                  without a warm-up (--occ-warmup 0), sampler.proposal_samples and field_samples
-                  where the occupancy grid places the samples (--sampling occupancy, or auto on a
-                  bounded scene)
+                  sampler.occ_warmup_decay without a warm-up (--occ-warmup 0), sampler.proposal_samples
+                  and field_samples where the occupancy grid places the samples; here, data.target_width
+                  when --downscale is given
     by the data   data.holdout_every for captures with their own splits (Blender, *_filenames), data.masks
                   for captures without object masks
 
@@ -31,8 +31,6 @@ from nerfkit.core.errors import ConfigError
 from nerfkit.core.presets import PRESETS
 
 SECTIONS = ("data", "field", "sampler", "train", "splat")
-MLP_KINDS = frozenset({"mlp", "mip"})
-FIELD_KINDS = frozenset({"mlp", "mip", "ngp"})  # radiance fields, rendered by marching rays
 
 
 def by_kind() -> dict[str, frozenset[str]]:
@@ -98,36 +96,17 @@ def presets_using(name: str) -> list[str]:
 
 
 def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]:
-    """{setting: why the configured model does not read it}; with a capture (data/capture.Capture),
-    also the data settings it makes moot. `where` names the model in the reasons ("--preset ngp")."""
-    f, s, t, d = cfg.field, cfg.sampler, cfg.train, cfg.data
-    kind = f.kind
+    """{setting: why the configured model does not read it}: the settings its method does not list in
+    `reads`, those its method leaves unread at these values (its `unused`, models/registry.py); with a
+    capture (data/capture.Capture), also the data settings it makes moot. `where` names the model in the
+    reasons ("--preset ngp")."""
+    from nerfkit.models import registry  # deferred: the CLI parses flags before JAX loads
+
+    d = cfg.data
+    kind = cfg.field.kind
     out = {n: f"the {kind_name(kind)} model of {where} does not read it" for n, kinds in by_kind().items()
            if kind not in kinds}
-    if kind == "mlp" and not f.pe:
-        out["field.l_xyz"] = out["field.l_dir"] = "positional encoding is off (--no-pe)"
-    if kind in MLP_KINDS and not f.viewdirs:
-        out["field.l_dir"] = "the colour does not depend on the view direction (--no-viewdirs)"
-    if kind == "splat":
-        out["field.kind"] = "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"
-        if cfg.splat.sh_degree == 0:
-            out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
-    if kind == "ngp" and s.occ_warmup == 0:
-        out["sampler.occ_warmup_decay"] = "there is no occupancy warm-up (--occ-warmup 0)"
-    if kind == "ngp" and (s.sampling != "auto" or capture is not None):
-        sampling = s.sampling
-        if sampling == "auto":  # decided by the scene (resolve.py): proposal for unbounded ones
-            from nerfkit.training.resolve import (
-                scene_type,  # deferred: the CLI parses flags before JAX loads
-            )
-
-            sampling = "proposal" if scene_type(cfg, capture)[0] == "unbounded" else "occupancy"
-        if sampling == "occupancy":
-            why = (f"the occupancy grid places the samples here (--sampling {s.sampling}"
-                   f"{'' if s.sampling != 'auto' else ': a bounded scene'}); --sampling proposal reads it")
-            out["sampler.proposal_samples"] = out["sampler.field_samples"] = why
-    if t.precrop_steps == 0 and kind in FIELD_KINDS:
-        out["train.precrop_frac"] = "there is no centre-crop warm-up (--precrop-steps 0)"
+    out.update(registry.unused(cfg, capture))
     if d.downscale is not None:
         out["data.target_width"] = "--downscale sets the image size"
     if capture is not None:
@@ -135,14 +114,6 @@ def unused(cfg: Config, capture=None, where: str = "this run") -> dict[str, str]
             out["data.holdout_every"] = f"the {capture.format} capture {capture.root} has its own splits"
         if not capture.has_masks and not capture.masks_dropped:
             out["data.masks"] = f"the capture {capture.root} has no object masks"
-        if kind == "splat" and cfg.splat.init_points == "auto":
-            from nerfkit.models.splat.method import find_sfm_points
-
-            if find_sfm_points(capture) is None:
-                where = ("in the visual hull of its silhouettes" if capture.has_masks or capture.alpha
-                         else "random in the box")
-                out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
-                                            f"points3D): the Gaussians start {where}")
     return out
 
 
@@ -166,10 +137,13 @@ def refuse_family_switch(cfg: Config, given: dict[str, str], preset: str | None)
     radiance field, or back): their settings have nothing in common; the preset picks the family."""
     if "field.kind" not in given or preset not in PRESETS:
         return
-    if (PRESETS[preset]().field.kind == "splat") != (cfg.field.kind == "splat"):
-        raise ConfigError(f"{given['field.kind']} {cfg.field.kind} with --preset {preset}: Gaussian splats and "
-                          f"radiance fields are different methods; pick the preset instead (--preset splat, "
-                          f"--preset ngp, ...) and drop {given['field.kind']}")
+    from nerfkit.models import registry  # deferred: the CLI parses flags before JAX loads
+
+    ours, theirs = registry.method_class(PRESETS[preset]()).supports, registry.method_class(cfg).supports
+    if ours.renders_images != theirs.renders_images:  # rasterised primitives against rays through a field
+        raise ConfigError(f"{given['field.kind']} {cfg.field.kind} with --preset {preset}: the preset's method "
+                          f"and the {kind_name(cfg.field.kind)} model are different families; pick the preset instead "
+                          f"(--preset splat, --preset ngp, ...) and drop {given['field.kind']}")
 
 
 def describe_model(cfg: Config) -> str:

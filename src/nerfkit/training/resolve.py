@@ -28,8 +28,9 @@ import numpy as np
 
 from nerfkit.core.config import Config, validate
 from nerfkit.data.capture import Capture, SceneData
+from nerfkit.data.capture import scene_type as capture_scene_type
 from nerfkit.data.normalize import masked_bound
-from nerfkit.models.registry import METHODS
+from nerfkit.models import registry
 
 UNBOUNDED_NEAR, UNBOUNDED_FAR = 0.05, 1e4
 APPEARANCE_DIM = 16
@@ -51,36 +52,30 @@ def lens_plan(cfg: Config, cap: Capture, spec: str) -> tuple[bool, str | None]:
     if not distorted:
         return False, None
     model = distorted[0].model
-    if METHODS[cfg.field.kind].supports.lens:
+    method = registry.method_class(cfg)
+    if method.supports.lens:
         return False, f"lens: {model} camera with distortion; every ray goes through the lens model"
-    return True, (f"lens: {model} camera with distortion; {METHODS[cfg.field.kind].title} renders pinhole cameras, "
+    return True, (f"lens: {model} camera with distortion; {method.title} renders pinhole cameras, "
                   f"so the photos are undistorted (COLMAP's undistorter; held-out views alike)")
 
 
 def scene_type(cfg: Config, cap: Capture) -> tuple[str, str]:
-    """(bounded | unbounded, why)."""
-    if cfg.field.scene_type != "auto":
-        return cfg.field.scene_type, "--scene-type"
-    if cap.format == "blender":
-        return "bounded", "Blender scene"
-    if cap.has_masks:
-        return "bounded", "masked capture"
-    if cap.hint == "bounded":
-        return "bounded", "aabb_scale 1"
-    return "unbounded", "photos without masks"
+    """(bounded | unbounded, why) of the capture under cfg's --scene-type (data/capture.py)."""
+    return capture_scene_type(cfg.field.scene_type, cap)
 
 
 def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Config:
     """A copy of cfg with every data-dependent default filled in (see module docstring)."""
     cfg = copy.deepcopy(cfg)
     f, s = cfg.field, cfg.sampler
-    kind, why = scene_type(cfg, cap)
+    supports = registry.method_class(cfg).supports
+    scene, why = scene_type(cfg, cap)
     notes = []
-    if f.kind == "ngp" or f.scene_type != "auto":
-        f.scene_type = kind
+    if supports.unbounded or f.scene_type != "auto":
+        f.scene_type = scene
     dist = np.linalg.norm(train.poses[:, :3, 3], axis=-1)
     if f.bound is None:
-        if kind == "unbounded":
+        if scene == "unbounded":
             f.bound = _round_up(1.1 * float(dist.max()))
             where = "inner ball: 1.1 x the farthest camera"
         elif cap.format != "blender" and train.alphas is not None and train.has_masks:
@@ -90,23 +85,23 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
         else:
             f.bound = 1.5
             where = "the Blender scenes' box"
-        notes.append(f"{'radius' if kind == 'unbounded' else 'box'} {f.bound:g} ({where})")
-    if f.kind == "ngp":
+        notes.append(f"{'radius' if scene == 'unbounded' else 'box'} {f.bound:g} ({where})")
+    if supports.sampling:
         s.sampling = s.resolved_sampling(f)
     if s.near is None:
-        s.near = UNBOUNDED_NEAR if kind == "unbounded" else 0.0
+        s.near = UNBOUNDED_NEAR if scene == "unbounded" else 0.0
     if s.far is None:
-        s.far = UNBOUNDED_FAR if kind == "unbounded" else _round_up(float(dist.max()) + math.sqrt(3) * f.bound)
-    if f.appearance_dim is None and f.kind == "splat":  # not (yet) for Gaussian splats
+        s.far = UNBOUNDED_FAR if scene == "unbounded" else _round_up(float(dist.max()) + math.sqrt(3) * f.bound)
+    if f.appearance_dim is None and not supports.appearance:
         f.appearance_dim = 0
     if f.appearance_dim is None:
         f.appearance_dim = 0 if cap.format == "blender" or cap.has_masks else APPEARANCE_DIM
         if cap.has_masks:
             log("appearance embeddings: off for a masked object capture (--appearance-dim 16 turns them on)")
     f.appearance_count = len(train) if f.appearance_dim else 0
-    if f.kind == "ngp" or f.scene_type != "auto":
-        log(f"scene: {kind} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
-    if f.kind == "ngp" and kind == "unbounded" and s.sampling == "occupancy":
+    if supports.unbounded or f.scene_type != "auto":
+        log(f"scene: {scene} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
+    if supports.sampling and scene == "unbounded" and s.sampling == "occupancy":
         rays = s.proposal_batch(cfg.train.batch_rays)
         log(f"slow: --sampling occupancy in an unbounded scene keeps every occupied cell a ray crosses, behind the "
             f"first surface too (buddha: 476 of 512 samples per ray, 137 rays per step); --sampling proposal (the "
@@ -114,7 +109,9 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     if f.appearance_dim:
         log(f"appearance embeddings: {f.appearance_dim} per training image ({len(train)}); held-out views use the "
             f"mean embedding")
-    return validate(cfg)
+    validate(cfg)
+    registry.check(cfg)
+    return cfg
 
 
 def _round_up(x: float, step: float = 0.05) -> float:

@@ -14,7 +14,7 @@ from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.training import checkpoint as ckpt_lib
-from nerfkit.training.flags import refuse_unused
+from nerfkit.training.flags import refuse_family_switch, refuse_unused
 from nerfkit.training.resolve import default_splits, lens_plan, resolve_config
 
 # What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
@@ -53,18 +53,29 @@ def refuse_earlier_run(run_dir: Path, resume: bool, overwrite: bool) -> bool:
     return bool(old)
 
 
-def load_splits(data_dir: Path, cfg: Config, given: dict[str, str], where: str, progress: bool,
-                say) -> tuple[Capture, SceneData, SceneData, Config]:
+def refuse_given(data_dir: Path, cfg: Config, given: dict[str, str], preset: str | None, resume: bool) -> None:
+    """ConfigError for the first setting the user gave (`given`: setting -> the flag as typed) that the model or
+    this capture will not read, or a --kind that leaves the preset's family (flags.py); `preset` names where
+    the model came from in the message. The CLI calls it before it builds the Trainer."""
+    where = f"--preset {preset}" if preset and not resume else "this run's model"
+    refuse_family_switch(cfg, given, None if resume else preset)
+    refuse_unused(cfg, given, where)
+    if given:
+        d = cfg.data
+        spec_train, spec_val = default_splits(cfg)
+        capture = read_capture(data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
+        refuse_unused(cfg, given, where, capture)
+
+
+def load_splits(data_dir: Path, cfg: Config, progress: bool, say) -> tuple[Capture, SceneData, SceneData, Config]:
     """(capture, training frames, validation frames, cfg resolved from them) of the capture in data_dir.
 
-    The splits are cfg's (default: the capture's train split, and val, else test); a setting the user
-    gave that this capture makes unused is refused (flags.refuse_unused, `where` names its origin).
+    The splits are cfg's (default: the capture's train split, and val, else test).
     Validation images must have the training images' size (except multiscale data). `say` gets a line
     describing the data, and resolve_config's lines."""
     d = cfg.data
     spec_train, spec_val = default_splits(cfg)
     capture = read_capture(data_dir, f"{spec_train},{spec_val}", d.format, d.masks, d.holdout_every)
-    refuse_unused(cfg, given, where, capture)
     spec_train, spec_val = default_splits(cfg, list(capture.splits))
     cfg = copy.deepcopy(cfg)
     d = cfg.data

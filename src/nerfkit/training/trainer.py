@@ -33,12 +33,7 @@ from nerfkit.models.registry import build_model
 from nerfkit.render.images import make_renderer
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training import parallel
-from nerfkit.training.flags import (
-    describe_budget,
-    describe_model,
-    refuse_family_switch,
-    refuse_unused,
-)
+from nerfkit.training.flags import describe_budget, describe_model
 from nerfkit.training.setup import clear_run, load_splits, refuse_earlier_run
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
 from nerfkit.training.stopping import StopFlag
@@ -78,29 +73,24 @@ class Loop:
 
 class Trainer:
     def __init__(self, data_dir: str | Path, run_dir: str | Path, cfg: Config, resume: bool = False,
-                 progress: bool = True, overwrite: bool = False, given: dict[str, str] | None = None,
-                 preset: str | None = None):
-        """`given`: the settings the user set explicitly ({"field.width": "--width"}, flags.explicit_settings)
-        and `preset` the preset they started from: a given setting the model or the data will not read
-        is refused (flags.refuse_unused). `overwrite`: a fresh run into a folder that holds an earlier
-        run's files removes them first (otherwise it is refused)."""
+                 progress: bool = True, overwrite: bool = False):
+        """Load the data, resolve cfg from it, build the model and say the plan. `overwrite`: a fresh run into a
+        folder that holds an earlier run's files removes them first (otherwise it is refused). Flags a user
+        typed are checked before (setup.refuse_given, called by the CLI). Callbacks (self.callbacks) join
+        the loop: each one's after_step(state, step) runs after every step (the viewer's, nerfkit train
+        --viewer)."""
         self.cfg = validate(cfg)
         self.data_dir = Path(data_dir)
         self.run_dir = Path(run_dir)
         self.resume = resume
         self.progress = progress
         self.ckpt_dir = self.run_dir / "checkpoints"
-        given = given or {}
-        where = f"--preset {preset}" if preset and not resume else "this run's model"
-        refuse_family_switch(cfg, given, None if resume else preset)
-        refuse_unused(cfg, given, where)
         self.overwrite = refuse_earlier_run(self.run_dir, resume, overwrite)
         say = tqdm.write if progress else (lambda *_: None)
-        self.capture, self.train_data, self.val_data, self.cfg = load_splits(self.data_dir, cfg, given, where,
-                                                                             progress, say)
+        self.capture, self.train_data, self.val_data, self.cfg = load_splits(self.data_dir, cfg, progress, say)
         self._set_up_model(say)
-        self._say_plan(given, preset, resume, say)
-        self.viewer = None  # a nerfkit.viewer.server.Viewer, served between steps (nerfkit train --viewer)
+        self._say_plan(say)
+        self.callbacks: list = []  # objects with after_step(state, step), run after every step
 
     def _set_up_model(self, say) -> None:
         """The model of self.cfg, the device mesh its data-parallel split runs on (none for whole views, which
@@ -122,7 +112,7 @@ class Trainer:
         self.optimizer, self.schedule = make_optimizer(cfg, self.model)
         self.renderer = make_renderer(self.model, cfg.train.chunk)
 
-    def _say_plan(self, given: dict[str, str], preset: str | None, resume: bool, say) -> None:
+    def _say_plan(self, say) -> None:
         """Pick the views periodic validation renders (self.val_ids) and say them and the budget."""
         cfg, spec_val = self.cfg, self.cfg.data.val_split
         self.val_ids = evenly_spaced(len(self.val_data), cfg.train.val_views)
@@ -135,9 +125,7 @@ class Trainer:
             f"; nerfkit eval {shlex.quote(str(self.run_dir))} --split {shlex.quote(spec_val)} scores all "
             f"{len(self.val_data)} at full size")
         say(f"validation: {validation_views(self.val_ids, len(self.val_data), spec_val)}{small}{whole}")
-        default = "" if given.keys() & {"train.max_minutes", "train.max_steps"} or resume else \
-            f" (the {preset or 'preset'} default; --max-minutes M or --max-steps N changes it)"
-        say(f"budget: {describe_budget(cfg)}{default}")
+        say(f"budget: {describe_budget(cfg)}")
 
     # -- run folder -------------------------------------------------------------------
     def _write_run_files(self):
@@ -173,8 +161,7 @@ class Trainer:
         vrows = read_jsonl(self.run_dir / "val_metrics.jsonl")
         plots = self.run_dir / "plots"
         steps = [r["step"] for r in rows]
-        g = self.cfg.splat
-        what = g.loss_name() if self.cfg.field.kind == "splat" else "MSE"
+        what = self.model.loss_name
         plot_curves({"train": (steps, [r["loss"] for r in rows])}, plots / "train_loss.png", "step", f"loss ({what})",
                     "Training loss", logy=True)
         plot_curves({"train": (steps, [r["psnr"] for r in rows])}, plots / "train_psnr.png", "step", "PSNR (dB)",
@@ -248,8 +235,8 @@ class Trainer:
         images, poses, state = parallel.replicate(
             (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)
         step_fn = make_train_step(self.model, self.optimizer, self.train_data, self.cfg, self.mesh)
-        if self.viewer is not None:
-            self.viewer.set_params(state["params"], state["aux"], step)
+        for c in self.callbacks:  # what they show before the first step
+            c.after_step(state, step)
         t = self.cfg.train
         start = time.perf_counter()
         loop = Loop(step, step, elapsed0, start, start + 60 * t.max_minutes if t.max_minutes else math.inf)
@@ -285,9 +272,8 @@ class Trainer:
             loop.step += 1
             loop.pending.append((loop.step, m))
             self._advance_bar(loop)
-            if self.viewer is not None:  # renders only when its duty-cycle gate is open
-                self.viewer.set_params(state["params"], state["aux"], loop.step)
-                self.viewer.render_pending()
+            for c in self.callbacks:
+                c.after_step(state, loop.step)
             if loop.step % t.log_every == 0 or loop.step == t.max_steps or stop.signal_name:
                 self._log_and_show(loop)
             if parallel.agree(bool(stop.signal_name)):

@@ -16,7 +16,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.models.splat.model import PARAM_NAMES
+from nerfkit.models.splat.gaussians import PARAM_NAMES
 from nerfkit.models.splat.project import SH_C0, covariance_3d
 
 

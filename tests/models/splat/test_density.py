@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.models.splat import densify, mcmc
-from nerfkit.models.splat.model import init_random
+from nerfkit.models.splat.gaussians import init_random
 from nerfkit.models.splat.optim import (
     LearningRates,
     init_state,

@@ -13,7 +13,7 @@ import pytest
 from plyfile import PlyData
 
 from nerfkit.encoding.sh import sh_encode
-from nerfkit.models.splat.model import init_random, render
+from nerfkit.models.splat.gaussians import init_random, render
 from nerfkit.models.splat.ply import export_ply, import_ply
 from nerfkit.models.splat.project import quaternion_to_rotation
 from nerfkit.models.splat.transform import (

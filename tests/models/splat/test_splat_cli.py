@@ -12,8 +12,8 @@ from nerfkit.cli.main import main
 from nerfkit.data.formats.nerfstudio import write_nerfstudio
 from nerfkit.data.loader import load_scene, read_capture
 from nerfkit.data.procedural.scene import make_scene
-from nerfkit.models.splat.method import SplatModel, find_sfm_points
-from nerfkit.models.splat.model import render
+from nerfkit.models.splat.method import SplatModel
+from nerfkit.models.splat.gaussians import render
 from nerfkit.models.splat.ply import import_ply
 from nerfkit.run.folder import RunFolder
 
@@ -138,7 +138,9 @@ def test_init_from_sfm_points(tmp_path):
     rgba = np.concatenate([np.full((200, 3), 200, np.uint8), np.full((200, 1), 255, np.uint8)], 1)
     trimesh.PointCloud(pts, colors=rgba).export(scene / "sparse_pc.ply")
     cap = read_capture(scene, "train", "nerfstudio")
-    assert find_sfm_points(cap) == scene / "sparse_pc.ply"
+    assert cap.points_file == str(scene / "sparse_pc.ply")  # the format hands its points to the model
+    np.testing.assert_allclose(cap.points, pts, atol=1e-5)
+    np.testing.assert_allclose(cap.point_colors, 200 / 255, atol=1e-6)
     data = load_scene(scene, "train", format="nerfstudio")
     from nerfkit.core.presets import preset
 

@@ -16,6 +16,7 @@ from nerfkit.data.loader import load_scene
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.models.splat import densify
 from nerfkit.models.splat.optim import LearningRates, init_state, make_optimizers
+from nerfkit.models.splat.strategy import MCMC, Classic, Window
 from nerfkit.models.splat.train import (
     SplatConfig,
     evaluate,
@@ -36,8 +37,8 @@ def scene(tmp_path_factory):
 
 def test_trains_to_floor(scene):
     train, val = scene
-    cfg = SplatConfig(capacity=3000, init_count=1500, sh_interval=100, control_from=100, control_every=50,
-                      grow_rate=0.2, log_every=10)
+    cfg = SplatConfig(capacity=3000, init_count=1500, sh_interval=100, log_every=10,
+                      strategy=MCMC(window=Window(every=50, start=100), grow_rate=0.2))
     params, log = train_splats(train.images, train.poses, train.cameras, (1.0, 1.0, 1.0), cfg, steps=STEPS)
     assert [r[0] for r in log] == list(range(10, STEPS + 1, 10))
     elapsed = [r[1] for r in log]
@@ -64,8 +65,8 @@ def test_refuses_bad_arguments(scene):
 
 def _host_schedule(reset_every: int, steps: int, control_until: float = 0.8) -> list[tuple[int, list[str]]]:
     """(step, what host_control did) for every step that did something, on 40 random Gaussians."""
-    cfg = SplatConfig(capacity=40, strategy="classic", control_from=100, control_every=100, control_until=control_until,
-                      classic=densify.ClassicSchedule(reset_every=reset_every))
+    cfg = SplatConfig(capacity=40, strategy=Classic(window=Window(every=100, start=100, until=control_until),
+                                                    schedule=densify.ClassicSchedule(reset_every=reset_every)))
     p0, active = initial_params(cfg)
     params = {k: jnp.asarray(v) for k, v in p0.items()}
     opts = make_optimizers(LearningRates(), 1.0)
@@ -93,7 +94,7 @@ def test_half_resolution_averages_pixels_and_keeps_the_geometry():
     pixels 2j and 2j + 1 (centres at half-integers), so a point the full camera puts at u lands at u / 2. Checked
     on renders: one small dark Gaussian, off the pixel grid, has its darkness centroid at (u, v) in the full
     image and at (u, v) / 2 in the half one (to 0.02 px), and the averaged image is the blocks' mean."""
-    from nerfkit.models.splat.model import init_from_points, render_arrays
+    from nerfkit.models.splat.gaussians import init_from_points, render_arrays
     from nerfkit.models.splat.train import half_resolution
     from nerfkit.data.procedural.scene import look_at
 

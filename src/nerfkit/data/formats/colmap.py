@@ -83,7 +83,9 @@ def read_colmap(root: Path, holdout_every: int = 8, masks: bool = True) -> Captu
         raise DataError(f"{model}: no registered images in this model")
     attach_masks(root, frames, masks)
     pts = np.array([p.xyz for p in rec.points3D.values()], np.float64).reshape(-1, 3)
+    cols = np.array([p.color for p in rec.points3D.values()], np.float32).reshape(-1, 3) / 255.0
     return Capture(root, "colmap", holdout_splits(frames, holdout_every), points=pts if len(pts) else None,
+                   point_colors=cols if len(pts) else None, points_file=str(model) if len(pts) else None,
                    source={"all": str(model)})
 
 

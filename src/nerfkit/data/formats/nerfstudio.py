@@ -25,6 +25,7 @@ from nerfkit.core.errors import DataError
 from nerfkit.data.capture import Capture, Frame, holdout_splits
 from nerfkit.data.formats.blender import check_pose
 from nerfkit.data.images import image_size, is_file, one_line
+from nerfkit.data.points import read_points
 from nerfkit.rays.cameras import Camera
 
 _MODELS = ("OPENCV", "OPENCV_FISHEYE", "PINHOLE", "SIMPLE_PINHOLE")
@@ -128,8 +129,24 @@ def read_nerfstudio(root: Path, holdout_every: int = 8, masks: bool = True) -> C
         mask = resolve_path(root, fr["mask_path"], where, "mask_path") if masks and "mask_path" in fr else None
         frames.append(Frame(img, check_pose(fr["transform_matrix"], where).astype(float), cam, mask, where))
     named = named_splits(root, meta, frames, path)
+    pts, cols, ply = sfm_points(root, meta, path)
     return Capture(root, "nerfstudio", named or holdout_splits(frames, holdout_every), source={"all": str(path)},
-                   hint="bounded" if meta.get("aabb_scale") == 1 else None, own_splits=named is not None)
+                   hint="bounded" if meta.get("aabb_scale") == 1 else None, own_splits=named is not None,
+                   points=pts, point_colors=cols, points_file=ply)
+
+
+def sfm_points(root: Path, meta: dict, path: Path) -> tuple:
+    """(points [P, 3], colours [P, 3], file) of the capture's SfM cloud: transforms.json's ply_file_path, else
+    sparse_pc.ply beside it (nerfstudio's and process-data's layout); (None, None, None) without one."""
+    for name in (meta.get("ply_file_path"), "sparse_pc.ply"):
+        if isinstance(name, str) and name and (root / name).is_file():
+            try:
+                pts, cols = read_points(root / name)
+            except (OSError, ValueError, KeyError) as e:
+                raise DataError(f"{root / name}: not a readable point cloud ({e}); fix or remove it "
+                                f"(named by {path})") from None
+            return (pts, cols, str(root / name)) if len(pts) else (None, None, None)
+    return None, None, None
 
 
 SPLIT_KEYS = ("train", "val", "test")

@@ -1,6 +1,6 @@
 """Photo-like captures of the procedural scene, with exact rays and depth, for tests and demos.
 
-`make_capture` renders the scene of data/scene.py through any `Camera` (lens models
+`make_capture` renders the scene of data/procedural/scene.py through any `Camera` (lens models
 included: each pixel's ray comes from the camera's own unprojection) and writes it in a
 photo-capture format: nerfstudio transforms.json, LLFF poses_bounds.npy or a COLMAP
 model, with the images under images/ and the exact z-depth under depth/.

@@ -9,7 +9,7 @@ Statistics, accumulated over the steps between two densifications for visible Ga
 g = |dL/dmu' * (W/2, H/2)| (mu' the pixel coordinates: NDC spans W/2 px per unit), its
 count, and the largest screen radius seen.
 
-Every `control_every` steps from `control_from` until `control_until` of the run (train.SplatConfig;
+Every `window.every` steps from `window.start` until progress `window.until` (strategy.Classic;
 3DGS: every 100 steps from 500 to 15000 of 30000), with E the scene extent:
 
     mean g >= grad_threshold (2e-4) and max scale <= percent_dense E (0.01 E):  clone (a copy)

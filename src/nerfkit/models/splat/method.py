@@ -1,7 +1,8 @@
-"""Gaussian splatting as a nerfkit method: the object train.py, inference.py and the exports hold.
+"""Gaussian splatting as a nerfkit method: the model object the trainer (training/trainer.py), the image
+renderer (render/images.make_renderer) and the exports hold.
 
-nerfkit's run loop (train.Trainer) asks a model for five things; the radiance fields (model.py)
-answer with rays, this class with whole views:
+nerfkit's run loop (training/trainer.Trainer) asks a model for five things; the radiance fields
+(models/nerf.py, mipnerf.py, ngp.py) answer with rays, this class with whole views:
 
     bind_data(capture, data, log)   the training data it initialises from (SfM points, scene extent)
     init(key) -> (params, aux)      parameters and non-trainable state (checkpointed together)
@@ -9,9 +10,9 @@ answer with rays, this class with whole views:
     make_train_step(optimizer, data, cfg)  step(state, step, images, poses) -> (state, metrics)
     renderer(chunk)                 .render_camera(params, aux, c2w, camera) -> rgb, depth, opacity
 
-One step renders one training view (a random order per epoch, fixed by the seed), takes an
-Adam step (train.make_step) and, on the host, the density control of 3DGS-MCMC or classic 3DGS
-(train.host_control). params are all `capacity` slots; aux["active"] marks the slots in use, aux
+One step is train.ViewStep, the step train_splats (tests, benchmarks) drives too: it renders one
+training view (a random order per epoch, fixed by the seed), takes an Adam step (train.make_step)
+and, on the host, the density control of its strategy (strategy.py: 3DGS-MCMC or classic 3DGS). params are all `capacity` slots; aux["active"] marks the slots in use, aux
 holds the classic statistics and aux["clock"] the seconds spent in steps, so that progress
 t = max(step / max_steps, clock / budget), which schedules the means' learning rate and the
 density-control window, survives --resume.
@@ -22,22 +23,16 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.errors import DataError
-from nerfkit.data.formats.colmap import find_model
 from nerfkit.data.normalize import sample_visual_hull
+from nerfkit.data.points import transform_points
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
-from nerfkit.models.splat.model import (
-    PARAM_NAMES,
-    init_from_points,
-    intrinsics_of,
-    read_points,
-    render,
-)
+from nerfkit.models.splat.backends import backend
+from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, intrinsics_of, render
 from nerfkit.models.splat.optim import (
     LearningRates,
     init_state,
@@ -45,14 +40,7 @@ from nerfkit.models.splat.optim import (
     means_lr,
     scene_extent,
 )
-from nerfkit.models.splat.train import (
-    SplatConfig,
-    half_resolution,
-    half_step,
-    host_control,
-    initial_params,
-    make_step,
-)
+from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.rays.cameras import Camera
 
 RANDOM_INIT = 100_000  # random Gaussians in the box without SfM points (3DGS's Blender init), fewer if capacity is
@@ -90,23 +78,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
     g = cfg.splat
     return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
                        ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
-                       seed=cfg.train.seed, init_box=cfg.field.resolved_bound())
-
-
-def find_sfm_points(capture) -> Path | None:
-    """The capture's SfM points: transforms.json's ply_file_path or sparse_pc.ply beside it (nerfstudio,
-    process-data), or the COLMAP model (colmap); None for captures without (Blender, LLFF)."""
-    root = Path(capture.root)
-    if capture.format == "nerfstudio":
-        import json
-
-        meta = json.loads((root / "transforms.json").read_text(encoding="utf-8"))
-        for name in (meta.get("ply_file_path"), "sparse_pc.ply"):
-            if name and (root / name).is_file():
-                return root / name
-    if capture.format == "colmap":
-        return find_model(root)
-    return None
+                       seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -114,15 +86,6 @@ def progress_of(step: int, clock: float, cfg) -> float:
     t = cfg.train
     by_time = clock / (60.0 * t.max_minutes) if t.max_minutes else 0.0
     return float(min(1.0, max(step / max(t.max_steps, 1), by_time)))
-
-
-def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
-    """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
-    learning rate per unit of scene extent, whether density control may run (the window) and whether the
-    step trains at half resolution (coarse to fine). sc: the model's SplatConfig (bound to its data)."""
-    return {"sh_degree": min(sc.sh_degree, step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
-            "control": step >= sc.control_from and step % sc.control_every == 0 and progress < sc.control_until,
-            "half_resolution": progress < sc.coarse_until}
 
 
 def _describe_coarse(coarse: float | None) -> str:
@@ -155,7 +118,7 @@ class SplatRenderer:
             intrinsics_of(camera)
         except ValueError as e:
             raise DataError(str(e)) from None
-        r = render(p, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree)
+        r = render(p, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree, self.model.cfg.splat.backend)
         opacity = r["alpha"]
         return {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
                 "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
@@ -167,10 +130,11 @@ class SplatRenderer:
 class SplatModel:
     """3D Gaussian splatting behind nerfkit's model interface (see the module docstring)."""
 
-    supports = Supports(family="image", parallel="views", mesh=False, lens=False)
+    supports = Supports(family="image", parallel="views", mesh=False, lens=False, appearance=False, gaussians=True)
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
-        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points"))
+        "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
+        "backend"))
 
     @staticmethod
     def describe(cfg) -> str:
@@ -179,10 +143,31 @@ class SplatModel:
         return (f"splat: up to {g.capacity} Gaussians ({g.strategy} density control), SH degree {g.sh_degree}"
                 f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, loss {g.loss_name()}, "
                 f"{_describe_coarse(g.coarse)}"
-                f"{g.init_points} init, one view per step")
+                f"{g.init_points} init, one view per step"
+                f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
+
+    @staticmethod
+    def check(cfg) -> None:
+        """ConfigError for a --backend that is not in the table (backends.py)."""
+        backend(cfg.splat.backend)
+
+    @staticmethod
+    def unused(cfg, capture=None) -> dict[str, str]:
+        """Settings left unread at these values: field.kind (splats are no field), sh_interval at SH degree 0,
+        init_points auto on a capture without SfM points."""
+        out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
+        if cfg.splat.sh_degree == 0:
+            out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
+        if capture is not None and cfg.splat.init_points == "auto" and capture.points is None:
+            where = ("in the visual hull of its silhouettes" if capture.has_masks or capture.alpha
+                     else "random in the box")
+            out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
+                                        f"points3D): the Gaussians start {where}")
+        return out
 
     def __init__(self, cfg):
         self.cfg = cfg
+        self.loss_name = cfg.splat.loss_name()
         self.sc = splat_config(cfg)
         self.background = (1.0, 1.0, 1.0) if cfg.data.background == "white" else (0.0, 0.0, 0.0)
         self.extent = 1.0
@@ -205,18 +190,17 @@ class SplatModel:
             except ValueError as e:
                 raise DataError(f"{capture.root}: {e}") from None
         choice = self.cfg.splat.init_points
-        path = find_sfm_points(capture) if choice in ("auto", "sfm") else None
-        if choice == "sfm" and path is None:
+        has_points = capture.points is not None and choice in ("auto", "sfm")
+        if choice == "sfm" and not has_points:
             raise DataError(f"{capture.root}: --init-points sfm, but the capture has no SfM points (sparse_pc.ply "
                             f"or a COLMAP model); use --init-points random")
         if choice == "hull" and data.alphas is None:
             raise DataError(f"{capture.root}: --init-points hull, but the capture has neither masks nor an alpha "
                             f"channel; use --init-points random")
-        if path is not None:
-            pts, cols = read_points(path, transform=data.transform)
-            if len(pts) >= 4:
-                self.init_gaussians = init_from_points(pts, cols)
-                self.init_note = f"{len(pts)} SfM points of {path.name}"
+        if has_points and len(capture.points) >= 4:  # the capture's SfM points (data/capture.py), normalised
+            pts = transform_points(capture.points, data.transform)
+            self.init_gaussians = init_from_points(pts, capture.point_colors)
+            self.init_note = f"{len(pts)} SfM points of {Path(capture.points_file).name}"
         if self.init_gaussians is None and choice in ("auto", "hull") and data.alphas is not None:
             self._init_in_hull(data)
             if self.init_gaussians is None and choice == "hull":
@@ -268,54 +252,15 @@ class SplatModel:
     def make_train_step(self, optimizer, data, cfg, mesh=None):
         """step(state, step, images, poses) -> (state, metrics: loss, mse, finite, lr, gaussians); runs the
         jitted view step (train.make_step) and then the host's density control."""
-        sc, width, height = self.sc, data.width, data.height
-        jitted = make_step(sc, optimizer.opts, width, height, with_health=True)
-        intr = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
-        half: dict = {}  # coarse to fine: the half-resolution step and views, made at the first coarse step
-
-        def at_resolution(half_resolution_now: bool, images):
-            """(compiled step, images, intrinsics, width) for this step: the half-resolution ones when the schedule
-            says so (coarse to fine)."""
-            if not half_resolution_now:
-                return jitted, images, intr, width
-            if half.get("of") is not images:
-                small, small_intr = half_resolution(images, intr)
-                half.update({"of": images, "images": small, "intr": small_intr})
-                if "step" not in half:
-                    half["step"] = half_step(sc, optimizer.opts, width, height, with_health=True)
-            return half["step"], half["images"], half["intr"], width // 2
-        bg = jnp.asarray(self.background, jnp.float32)
-        base_key = jax.random.PRNGKey(sc.seed)
-        n_views = len(data.poses)
-
-        def view_of(step: int) -> int:
-            epoch, k = divmod(step, n_views)
-            return int(np.random.default_rng([sc.seed, epoch]).permutation(n_views)[k])
+        view_step = ViewStep(self.sc, optimizer.opts, data.width, data.height, self.background, self.extent)
+        intrinsics = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
 
         def step_fn(state, step, images, poses):
             t0 = time.perf_counter()
-            step = int(step)
-            aux = dict(state["aux"])
-            active = np.asarray(aux["active"], bool)
-            clock = float(aux["clock"])
-            progress = progress_of(step, clock, cfg)
-            plan = schedule_at(step, progress, sc)
-            deg = plan["sh_degree"]
-            lr = means_lr(progress, self.extent, sc.lrs)
-            stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
-            params = {k: jnp.asarray(v) for k, v in state["params"].items()}
-            fn, views, view_intr, w_now = at_resolution(plan["half_resolution"], images)
-            params, opt_state, stats, photo, mse, finite = fn(
-                params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, bg, view_of(step),
-                jax.random.fold_in(base_key, step), lr, deg)
-            rng = np.random.default_rng([sc.seed, step + 1])
-            params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats,
-                                                               active, rng, self.extent, w_now)
-            aux.update({k: stats[k] for k in stats}, active=active,
-                       clock=np.float32(clock + time.perf_counter() - t0))
-            metrics = {"loss": photo, "mse": mse, "finite": finite, "lr": jnp.float32(lr),
-                       "gaussians": jnp.int32(active.sum())}
-            return {"params": params, "opt_state": opt_state, "aux": aux}, metrics
+            clock = float(state["aux"]["clock"])
+            state, metrics = view_step(state, int(step), progress_of(int(step), clock, cfg), images, poses, intrinsics)
+            state["aux"]["clock"] = np.float32(clock + time.perf_counter() - t0)
+            return state, metrics
 
         return step_fn
 

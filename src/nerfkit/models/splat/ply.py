@@ -11,7 +11,7 @@ One binary little-endian `vertex` element with float32 properties, in this order
     scale_0 scale_1 scale_2   log scales
     rot_0 rot_1 rot_2 rot_3   quaternion w, x, y, z (the viewer normalises)
 
-These are exactly model.py's parameters, so the file is written and read without conversion
+These are exactly gaussians.py's parameters, so the file is written and read without conversion
 except the channel-major reordering of f_rest. `transform` (a 4 x 4 similarity) moves the
 Gaussians on the way out or in (transform.py: positions, rotations, log scales and the SH
 coefficients), e.g. invert_similarity(SceneData.transform) to write in the capture's coordinates.
@@ -36,7 +36,7 @@ def _rest_count(names) -> int:
 
 
 def export_ply(path: str | Path, params: dict, transform: np.ndarray | None = None, sh_degree: int = 3) -> Path:
-    """Write Gaussians (numpy dict, model.py's layout) to an Inria-layout .ply; returns the path.
+    """Write Gaussians (numpy dict, gaussians.py's layout) to an Inria-layout .ply; returns the path.
 
     transform: optional [4, 4] similarity applied first. sh_degree: bands written (0..3; 45
     f_rest properties at 3)."""
@@ -64,7 +64,7 @@ def export_ply(path: str | Path, params: dict, transform: np.ndarray | None = No
 
 
 def import_ply(path: str | Path, transform: np.ndarray | None = None) -> dict:
-    """Read an Inria-layout .ply into model.py's parameters (numpy float32; SH bands the file lacks are 0).
+    """Read an Inria-layout .ply into gaussians.py's parameters (numpy float32; SH bands the file lacks are 0).
 
     transform: optional [4, 4] similarity applied after reading (e.g. SceneData.transform to bring
     capture coordinates into nerfkit's normalised frame)."""

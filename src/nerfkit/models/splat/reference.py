@@ -30,6 +30,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from nerfkit.models.splat.backends import Backend
 from nerfkit.models.splat.project import SIGMA_CUTOFF
 
 ALPHA_MAX = 0.99
@@ -100,3 +101,7 @@ def rasterize_reference(means2d, conics, colors, opacities, depths, radii, backg
     color, t_final = jax.lax.map(render_block, pix)
     color = color.reshape(-1, colors.shape[1])[:n_pix].reshape(height, width, -1)
     return color, 1.0 - t_final.reshape(-1)[:n_pix].reshape(height, width)
+
+
+BACKEND = Backend(name="reference", summary="pure JAX, every pixel blends every Gaussian (O(pixels x N)), autodiff",
+                  rasterize=rasterize_reference)

@@ -1,4 +1,5 @@
-"""CPU tile rasteriser kernels (numba): binning, forward blend and backward pass.
+"""The CPU tile rasteriser's passes, on the host: binning, the forward blend and the backward pass, each
+running tiles_kernels.py's numba kernels over the tiles in parallel threads.
 
 Same image as reference.py (see its docstring for the blending rules), computed per 16 x 16
 pixel tile over only the Gaussians that can reach the tile. A Gaussian of opacity o passes

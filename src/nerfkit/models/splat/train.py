@@ -15,7 +15,7 @@ with the screen dilation a quarter in half-pixels^2, the photos' footprint: proj
 quarter of the rasteriser's work, so the early, coarse fitting takes more steps.
 
 Views are visited in a fresh random order every epoch (3DGS draws one camera per step). The SH
-degree rises by one every `sh_interval` steps up to 3. Every `control_every` steps the host runs
+degree rises by one every `sh_interval` steps up to 3. Every `window.every` steps the host runs
 the density control (mcmc.py: relocation and growth; densify.py: clone/split/prune) on numpy
 copies and resets the Adam moments of the slots it wrote.
 
@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 from dataclasses import dataclass, field
 from functools import partial
 
@@ -34,11 +35,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from nerfkit.core.config import SplatSettings
 from nerfkit.core.metrics import psnr, ssim
 from nerfkit.models.splat import densify as classic
-from nerfkit.models.splat import mcmc
-from nerfkit.models.splat.losses import PIXEL_LOSSES, SSIM_LAMBDA, photometric_loss
-from nerfkit.models.splat.model import (
+from nerfkit.models.splat.losses import PIXEL_LOSSES, photometric_loss
+from nerfkit.models.splat.gaussians import (
     PARAM_NAMES,
     all_sh,
     band_mask,
@@ -58,39 +59,37 @@ from nerfkit.models.splat.optim import (
 )
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
+from nerfkit.models.splat.strategy import strategy_named
+
+
+_USER = SplatSettings()  # the user-facing defaults
 
 
 @dataclass(frozen=True)
 class SplatConfig:
-    """Settings of train_splats (defaults: the CPU lego choices measured in benchmarks/splat_lego.py)."""
+    """The whole of a splat run's settings (the step's, the schedule's and the strategy's). The ones a user sets
+    take their defaults from the one place they are declared, core/config.SplatSettings (--preset splat's flags;
+    method.splat_config copies a run's values in); the rest are the method's own."""
 
-    capacity: int = 50_000  # fixed number of Gaussian slots (static shapes)
+    capacity: int = _USER.capacity  # fixed number of Gaussian slots (static shapes)
     init_count: int | None = None  # slots active at the start (None: all); MCMC grows to capacity
-    strategy: str = "mcmc"  # "mcmc", "classic" or "none"
+    strategy: Any = _USER.strategy  # a strategy.py object (MCMC, Classic, NoControl), or its name: its defaults
     lrs: LearningRates = field(default_factory=LearningRates)
-    ssim_lambda: float = SSIM_LAMBDA
-    pixel_loss: str = "l1"  # losses.PIXEL_LOSSES: "l1" (3DGS) or "rmse"
-    sh_degree: int = 3
-    sh_interval: int = 500  # steps per SH band (3DGS: 1000 of 30k; a CPU run is ~5k steps)
-    control_every: int = 100  # steps between density-control rounds
-    control_from: int = 500  # first step with density control
-    control_until: float = 0.8  # progress after which density control stops (MCMC: 25k of 30k)
+    ssim_lambda: float = _USER.ssim_lambda
+    pixel_loss: str = _USER.pixel_loss  # losses.PIXEL_LOSSES: "l1" (3DGS) or "rmse"
+    sh_degree: int = _USER.sh_degree
+    sh_interval: int = _USER.sh_interval  # steps per SH band (3DGS: 1000 of 30k; a CPU run is ~5k steps)
     coarse_until: float = 0.0  # progress before which views train at half resolution (coarse to fine; 0: never)
-    opacity_reg: float = mcmc.OPACITY_REG
-    scale_reg: float = mcmc.SCALE_REG
-    noise_lr: float = mcmc.NOISE_LR
-    grow_rate: float = 0.05
-    classic: classic.ClassicSchedule = field(default_factory=classic.ClassicSchedule)
     init_box: float = 1.5  # random init in [-box, box]^3 when no points are given
     init_opacity: float = 0.1
     init_scale: float = 1.0  # initial scales = this x the nearest-neighbour distance (gsplat's init_scale)
     seed: int = 0
-    backend: str = "auto"
+    backend: str = _USER.backend
     log_every: int = 10
 
     def __post_init__(self):
-        if self.strategy not in ("mcmc", "classic", "none"):
-            raise ValueError(f"strategy must be mcmc, classic or none, got {self.strategy!r}")
+        if isinstance(self.strategy, str):
+            object.__setattr__(self, "strategy", strategy_named(self.strategy))
         if self.pixel_loss not in PIXEL_LOSSES:
             raise ValueError(f"pixel_loss must be one of {sorted(PIXEL_LOSSES)}, got {self.pixel_loss!r}")
         if not 0 <= self.sh_degree <= 3:
@@ -98,7 +97,7 @@ class SplatConfig:
 
 
 def initial_params(cfg: SplatConfig, init: dict | None = None) -> tuple[dict, np.ndarray]:
-    """(params with cfg.capacity slots, active mask [capacity]) from `init` (e.g. model.init_from_points)
+    """(params with cfg.capacity slots, active mask [capacity]) from `init` (e.g. gaussians.init_from_points)
     or random points in the box. More init Gaussians than slots: a random subset; fewer: the rest of
     the slots are filled with random ones (inactive when the init is given, else all active)."""
     rng = np.random.default_rng(cfg.seed)
@@ -125,9 +124,7 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, *, cfg, widt
     rgb, _ = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii, bg, width, height,
                        backend=cfg.backend)
     photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
-    loss = photo
-    if cfg.strategy == "mcmc":
-        loss = loss + mcmc.regularizer(params, cfg.opacity_reg, cfg.scale_reg, active)
+    loss = photo + cfg.strategy.regularizer(params, active)
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
 
 
@@ -155,12 +152,8 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
         for g in jax.tree_util.tree_leaves(grads):
             finite = finite & jnp.all(jnp.isfinite(g))
         new_params, new_opt = adam_step(opts, opt_state, grads, params, lr_means)
-        new_stats = stats
-        if cfg.strategy == "mcmc":
-            noise = mcmc.position_noise(key, new_params, lr_means, cfg.noise_lr)
-            new_params = dict(new_params, means=new_params["means"] + jnp.where(active[:, None], noise, 0.0))
-        elif cfg.strategy == "classic":
-            new_stats = classic.accumulate(stats, g_m2d, radii, width, height)
+        new_params, new_stats = cfg.strategy.after_adam(key, new_params, stats, g_m2d, radii, active, lr_means, width,
+                                                        height)
         keep = partial(jax.tree_util.tree_map, lambda new, old: jnp.where(finite, new, old))
         out = (keep(new_params, params), keep(new_opt, opt_state), keep(new_stats, stats), photo)
         return (*out, mse, finite) if with_health else out
@@ -187,44 +180,91 @@ def _host(params: dict) -> dict:
     return {k: np.asarray(v) for k, v in params.items()}
 
 
-def _control(cfg, step, params, opt_state, stats, active, rng, extent, width, opacity_resets):
-    """One density-control round on the host; returns (params, opt_state, stats, active)."""
-    n = cfg.capacity
-    p = _host(params)
-    if cfg.strategy == "mcmc":
-        p, touched = mcmc.relocate(p, active, rng)
-        if not active.all():
-            p, active, grown = mcmc.grow(p, active, rng, cfg.grow_rate)
-            touched = np.union1d(touched, grown)
-    else:
-        p, active, touched = classic.densify(p, active, stats, extent, rng, cfg.classic, width, opacity_resets > 0)
-        stats = classic.zero_stats(n)
-    opt_state = reset_rows(opt_state, touched, n) if len(touched) else opt_state
-    return {k: jnp.asarray(v) for k, v in p.items()}, opt_state, stats, active
-
-
 def host_control(cfg: SplatConfig, step: int, progress: float, params, opt_state, stats, active, rng, extent: float,
                  width: int):
-    """What the host does after step `step` (1-based count of steps done) at progress in [0, 1]: a
-    density-control round every cfg.control_every steps from cfg.control_from while progress <
-    cfg.control_until, and (classic, when classic.reset_every > 0) the opacity reset every reset_every steps
-    in that window.
-    Returns (params, opt_state, stats, active, what: list of "control" / "reset")."""
-    what = []
-    window = progress < cfg.control_until
-    every = cfg.classic.reset_every if cfg.strategy == "classic" else 0
-    reset_now = every > 0 and step % every == 0 and window
-    resets = step // every - reset_now if every > 0 else 0  # resets done before this step
-    if cfg.strategy != "none" and step >= cfg.control_from and step % cfg.control_every == 0 and window:
-        params, opt_state, stats, active = _control(cfg, step, params, opt_state, stats, active, rng, extent, width,
-                                                    resets)
+    """What the host does after step `step` (1-based count of steps done) at progress in [0, 1]: the strategy's
+    density-control round when its window says so, and its opacity reset every reset_every steps inside the
+    window (when reset_every > 0). Returns (params, opt_state, stats, active, what: list of "control" / "reset")."""
+    what, s = [], cfg.strategy
+    reset_now = s.reset_every > 0 and step % s.reset_every == 0 and s.window.open(progress)
+    resets = step // s.reset_every - reset_now if s.reset_every > 0 else 0  # resets done before this step
+    if s.window.due(step, progress):
+        p, active, stats, touched = s.control(_host(params), active, stats, rng, extent, width, resets)
+        opt_state = reset_rows(opt_state, touched, cfg.capacity) if len(touched) else opt_state
+        params = {k: jnp.asarray(v) for k, v in p.items()}
         what.append("control")
     if reset_now:
-        params = dict(params, opacity=jnp.asarray(classic.reset_opacity(_host(params), cfg.classic.reset_opacity)
-                                                  ["opacity"]))
+        params = dict(params, opacity=jnp.asarray(classic.reset_opacity(_host(params), s.reset_opacity)["opacity"]))
         opt_state = dict(opt_state, opacity=reset_rows(opt_state["opacity"], np.arange(cfg.capacity), cfg.capacity))
         what.append("reset")
     return params, opt_state, stats, active, what
+
+
+def view_of(seed: int, n_views: int, step: int) -> int:
+    """The training view of step `step` (0-based): every epoch of n_views steps visits the views in a fresh
+    random order, fixed by (seed, epoch), so a resumed run continues the same sequence."""
+    epoch, k = divmod(step, n_views)
+    return int(np.random.default_rng([seed, epoch]).permutation(n_views)[k])
+
+
+class ViewStep:
+    """The one training step of the splat method, whoever drives it (SplatModel.make_train_step for nerfkit
+    train; train_splats for tests and benchmarks):
+
+        state, metrics = view_step(state, step, progress, images, poses, intrinsics)
+
+    state: {"params", "opt_state", "aux": {"active" [capacity] bool, "grad_sum", "count", "max_radius"}};
+    step: steps done before this one; progress t in [0, 1] (the budget used). It trains view
+    view_of(seed, V, step) at the SH degree and resolution the schedule gives for (step, t)
+    (schedule_at: coarse to fine at half resolution), then runs the host's density control.
+    metrics: loss (photometric), mse, finite, lr (the means' rate), gaussians (active after control)."""
+
+    def __init__(self, sc: SplatConfig, opts: dict, width: int, height: int, background, extent: float):
+        self.sc, self.opts, self.width, self.height, self.extent = sc, opts, width, height, extent
+        self.fine = make_step(sc, opts, width, height, with_health=True)
+        self.background = jnp.asarray(background, jnp.float32)
+        self.base_key = jax.random.PRNGKey(sc.seed)
+        self._half: dict = {}  # the half-resolution step and views, made at the first coarse step
+
+    def _at_resolution(self, half_now: bool, images, intrinsics):
+        """(compiled step, images, intrinsics, width) for this step: the half-resolution ones in the coarse phase."""
+        if not half_now:
+            return self.fine, images, intrinsics, self.width
+        half = self._half
+        if half.get("of") is not images:
+            small, small_intr = half_resolution(images, intrinsics)
+            half.update({"of": images, "images": small, "intr": small_intr})
+            if "step" not in half:
+                half["step"] = half_step(self.sc, self.opts, self.width, self.height, with_health=True)
+        return half["step"], half["images"], half["intr"], self.width // 2
+
+    def __call__(self, state: dict, step: int, progress: float, images, poses, intrinsics) -> tuple[dict, dict]:
+        sc, aux = self.sc, dict(state["aux"])
+        active = np.asarray(aux["active"], bool)
+        plan = schedule_at(step, progress, sc)
+        lr = means_lr(progress, self.extent, sc.lrs)
+        stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
+        params = {k: jnp.asarray(v) for k, v in state["params"].items()}
+        fn, views, view_intr, w_now = self._at_resolution(plan["half_resolution"], images, intrinsics)
+        params, opt_state, stats, photo, mse, finite = fn(
+            params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, self.background,
+            view_of(sc.seed, len(poses), step), jax.random.fold_in(self.base_key, step), lr, plan["sh_degree"])
+        rng = np.random.default_rng([sc.seed, step + 1])
+        params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats, active,
+                                                           rng, self.extent, w_now)
+        aux.update({k: stats[k] for k in stats}, active=active)
+        metrics = {"loss": photo, "mse": mse, "finite": finite, "lr": jnp.float32(lr),
+                   "gaussians": jnp.int32(active.sum())}
+        return {"params": params, "opt_state": opt_state, "aux": aux}, metrics
+
+
+def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
+    """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
+    learning rate per unit of scene extent, whether density control may run (the window) and whether the
+    step trains at half resolution (coarse to fine)."""
+    return {"sh_degree": min(sc.sh_degree, step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
+            "control": sc.strategy.window.due(step, progress),
+            "half_resolution": progress < sc.coarse_until}
 
 
 def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: SplatConfig = SplatConfig(), *,
@@ -237,7 +277,7 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
       train_images [V, H, W, 3] float in [0, 1]; poses [V, 4, 4] camera-to-world (OpenGL, nerfkit's
       normalised frame); cameras: V pinhole Cameras of one size (H, W); background [3].
       cfg: SplatConfig. minutes / steps: budget of training time (compilation included, callbacks
-      excluded) and/or steps; at least one. init: initial Gaussians (model.init_from_points), else
+      excluded) and/or steps; at least one. init: initial Gaussians (gaussians.init_from_points), else
       random in the box. log: called with a progress line every ~10 s.
       callback(step, elapsed_s, params, active): called every callback_every_s seconds of training
       time (and at the end); its own time is not counted.
@@ -248,55 +288,38 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
     width, height = _image_size(minutes, steps, cameras)
     budget = None if minutes is None else 60.0 * minutes
     extent = scene_extent(poses)
-    rng, base_key = np.random.default_rng(cfg.seed), jax.random.PRNGKey(cfg.seed)
     params, active, opts, opt_state, stats = _initial_state(cfg, init, extent)
-    data = (jnp.asarray(train_images, jnp.float32), jnp.asarray(poses, jnp.float32),
-            jnp.asarray([intrinsics_of(c) for c in cameras], jnp.float32), jnp.asarray(background, jnp.float32))
-    fine, coarse = _steps(cfg, opts, width, height, data)
-    order, records, losses = np.zeros(0, int), [], []
+    state = {"params": params, "opt_state": opt_state, "aux": {"active": active, **stats}}
+    images, poses = jnp.asarray(train_images, jnp.float32), jnp.asarray(poses, jnp.float32)
+    intrinsics = jnp.asarray([intrinsics_of(c) for c in cameras], jnp.float32)
+    view_step = ViewStep(cfg, opts, width, height, background, extent)
+    records, losses = [], []
     clock, step, next_cb, next_log, last_cb = _Clock(time.perf_counter()), 0, callback_every_s, 10.0, -1
     while True:
         elapsed = clock.elapsed()
         progress = max(step / steps if steps else 0.0, elapsed / budget if budget else 0.0)
         if callback and next_cb is not None and elapsed >= next_cb:
-            clock.call_paused(callback, step, elapsed, params, active)
+            clock.call_paused(callback, step, elapsed, state["params"], state["aux"]["active"])
             next_cb += callback_every_s
             last_cb = step
         if progress >= 1.0:
             break
-        if len(order) == 0:
-            order = rng.permutation(len(train_images))
-        idx, order = int(order[0]), order[1:]
-        deg = min(cfg.sh_degree, step // cfg.sh_interval)
-        fn, views, w_now = coarse if progress < cfg.coarse_until else fine
-        params, opt_state, stats, photo = fn(params, opt_state, stats, jnp.asarray(active), *views, idx,
-                                             jax.random.fold_in(base_key, step), means_lr(progress, extent, cfg.lrs), deg)
+        state, metrics = view_step(state, step, progress, images, poses, intrinsics)
         step += 1
-        losses.append(photo)
+        losses.append(metrics["loss"])
         if step % cfg.log_every == 0:
             records.append((step, clock.elapsed(), _mean_loss(losses)))
             losses = []
-        params, opt_state, stats, active, _ = host_control(cfg, step, progress, params, opt_state, stats, active, rng,
-                                                          extent, w_now)
         if log and elapsed >= next_log:
-            log(f"step {step}  {elapsed:.0f} s  loss {records[-1][2] if records else float(photo):.4f}  "
-                f"active {int(active.sum())}")
+            log(f"step {step}  {elapsed:.0f} s  loss {records[-1][2] if records else float(metrics['loss']):.4f}  "
+                f"active {int(metrics['gaussians'])}")
             next_log += 10.0
     if losses:  # the last partial logging interval
         records.append((step, clock.elapsed(), _mean_loss(losses)))
+    active = state["aux"]["active"]
     if callback and last_cb != step:
-        callback(step, clock.elapsed(), params, active)
-    return {k: np.asarray(v)[active] for k, v in params.items()}, records
-
-
-def _steps(cfg: SplatConfig, opts: dict, width: int, height: int, data: tuple):
-    """((step, views, width) at full resolution, the same at half resolution or None without a coarse phase):
-    views = (images, poses, intrinsics, background) on the device."""
-    fine = (make_step(cfg, opts, width, height), data, width)
-    if cfg.coarse_until <= 0:
-        return fine, None
-    small, small_intr = half_resolution(data[0], data[2])
-    return fine, (half_step(cfg, opts, width, height), (small, data[1], small_intr, data[3]), width // 2)
+        callback(step, clock.elapsed(), state["params"], active)
+    return {k: np.asarray(v)[active] for k, v in state["params"].items()}, records
 
 
 def _image_size(minutes: float | None, steps: int | None, cameras) -> tuple[int, int]:

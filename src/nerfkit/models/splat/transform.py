@@ -109,7 +109,7 @@ def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def transform_gaussians(params: dict, m: np.ndarray) -> dict:
-    """The Gaussians `params` (numpy dict, model.py's layout) moved by the similarity M [4, 4]."""
+    """The Gaussians `params` (numpy dict, gaussians.py's layout) moved by the similarity M [4, 4]."""
     s, rot, t = similarity_parts(m)
     out = dict(params)
     out["means"] = (np.asarray(params["means"], np.float64) * s @ rot.T + t).astype(np.float32)

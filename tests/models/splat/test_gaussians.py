@@ -3,15 +3,13 @@
 import jax.numpy as jnp
 import numpy as np
 import pytest
-import trimesh
 
-from nerfkit.models.splat.model import (
+from nerfkit.models.splat.gaussians import (
     INIT_OPACITY,
     N_REST,
     init_from_points,
     init_random,
     knn_log_scales,
-    read_points,
     render,
 )
 from nerfkit.models.splat.project import sh_colors
@@ -46,17 +44,6 @@ def test_init_random_in_box():
     p = init_random(500, box=1.5, seed=3)
     assert p["means"].shape == (500, 3) and np.abs(p["means"]).max() <= 1.5
     assert np.all(np.isfinite(p["log_scales"])) and p["means"].dtype == np.float32
-
-
-def test_read_points_ply_with_transform(tmp_path):
-    pts = np.random.default_rng(1).normal(size=(30, 3))
-    rgba = np.concatenate([np.random.default_rng(2).integers(0, 256, (30, 3)), np.full((30, 1), 255)], 1)
-    trimesh.PointCloud(pts, colors=rgba.astype(np.uint8)).export(tmp_path / "sparse_pc.ply")
-    m = np.diag([2.0, 2.0, 2.0, 1.0])
-    m[:3, 3] = [1, 2, 3]
-    xyz, col = read_points(tmp_path / "sparse_pc.ply", transform=m)
-    np.testing.assert_allclose(xyz, 2 * pts + [1, 2, 3], atol=2e-6)  # float32 in the file
-    np.testing.assert_allclose(col, rgba[:, :3] / 255.0, atol=1e-6)
 
 
 def test_render_outputs_and_depth():

@@ -1,4 +1,4 @@
-"""mip-NeRF's model (nerfkit.models.nerf.MipNeRFModel) and how cones reach the models: the renderer passes each
+"""mip-NeRF's model (nerfkit.models.mipnerf.MipNeRFModel) and how cones reach the models: the renderer passes each
 camera's pixel radius, the training step each frame's (cameras.ray_table)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.presets import preset
-from nerfkit.models.nerf import MipNeRFModel
+from nerfkit.models.mipnerf import MipNeRFModel
 from nerfkit.models.registry import build_model
 from nerfkit.rays.cameras import Camera, look_at, ray_table
 from nerfkit.rays.frustum import pixel_base_radius

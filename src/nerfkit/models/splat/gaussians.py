@@ -22,7 +22,6 @@ an extra depth channel: rgb [H, W, 3] on the background, depth [H, W] = sum_k w_
 from __future__ import annotations
 
 from functools import lru_cache, partial
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -93,39 +92,6 @@ def init_random(n: int, box: float = BLENDER_BOX, seed: int = 0, opacity: float 
     points = rng.uniform(-box, box, (n, 3)).astype(np.float32)
     colors = 0.5 + SH_C0 * rng.uniform(0, 1 / 255, (n, 3))
     return init_from_points(points, colors.astype(np.float32), opacity)
-
-
-def read_points(path: str | Path, transform: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(points [N, 3] float64, colours [N, 3] float32 in [0, 1]) of an SfM cloud.
-
-    path: a .ply point cloud (x, y, z and red, green, blue, as nerfkit's sparse_pc.ply or a
-    COLMAP export; grey without colours), or a COLMAP sparse model folder (points3D.bin/txt).
-    transform: optional [4, 4] similarity applied to the points, e.g. SceneData.transform to
-    bring capture coordinates into nerfkit's normalised frame."""
-    path = Path(path)
-    if path.is_dir():
-        from nerfkit.rays.colmap_compat import (
-            pycolmap,  # deferred: pycolmap loads only for a COLMAP model
-        )
-
-        rec = pycolmap.Reconstruction(str(path))
-        pts = np.array([p.xyz for p in rec.points3D.values()], np.float64).reshape(-1, 3)
-        cols = np.array([p.color for p in rec.points3D.values()], np.float32).reshape(-1, 3) / 255.0
-    else:
-        from plyfile import PlyData
-
-        v = PlyData.read(str(path))["vertex"]
-        names = v.data.dtype.names
-        pts = np.stack([v["x"], v["y"], v["z"]], -1).astype(np.float64)
-        if all(c in names for c in ("red", "green", "blue")):
-            raw = np.stack([v["red"], v["green"], v["blue"]], -1)
-            cols = raw.astype(np.float32) / (255.0 if raw.dtype.kind in "ui" else 1.0)
-        else:
-            cols = np.full((len(pts), 3), 0.5, np.float32)
-    if transform is not None:
-        t = np.asarray(transform, np.float64)
-        pts = pts @ t[:3, :3].T + t[:3, 3]
-    return pts, cols
 
 
 def count(params: dict) -> int:

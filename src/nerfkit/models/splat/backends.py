@@ -1,0 +1,54 @@
+"""Rasteriser backends, by name (--backend): adding one is a module defining BACKEND (a `Backend`) and one
+line in BACKENDS; `--backend auto` picks AUTO.
+
+The interface. With N projected Gaussians (project.project_gaussians) and static width W, height H:
+
+    rasterize(means2d [N, 2], conics [N, 3], colors [N, C], opacities [N], depths [N], radii [N] int,
+              background [C], W, H) -> (image [H, W, C], alpha [H, W] = 1 - T_final)
+
+is the image reference.py defines (depth-sorted front-to-back blending with the 3DGS skip and
+early-stop rules), in the dtype of `colors`. It must work inside jax.jit and jax.grad, with
+gradients for means2d, conics, colors, opacities and background (by autodiff, or a jax.custom_vjp
+around a forward and a backward kernel); depths and radii get none (the order and the culling are
+piecewise constant).
+
+    contrib(...same arguments) -> (image, alpha, n_contrib [H, W] int32)   optional
+
+also returns each pixel's contributor count (1 + the tile-list position of the last Gaussian it
+blended, 0: none), for backends that bin Gaussians into tiles. A kernel backend is built in three
+parts (tiles_numba.py is the model): bin (the Gaussians each tile may see, in depth order), forward
+(image, T_final and n_contrib per pixel) and backward (from T_final and n_contrib, the gradients
+above), joined by a custom VJP (rasterize_numba.py).
+
+tests/models/splat/test_rasterize.py holds every backend to the reference, image and gradients.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Callable
+
+from nerfkit.core.errors import ConfigError
+
+BACKENDS: dict[str, str] = {  # name -> the module that defines its BACKEND (imported when used)
+    "numba": "nerfkit.models.splat.rasterize_numba",
+    "reference": "nerfkit.models.splat.reference",
+}
+AUTO = "numba"  # on every platform (rasterize_numba.py says why)
+
+
+@dataclass(frozen=True)
+class Backend:
+    name: str
+    summary: str
+    rasterize: Callable
+    contrib: Callable | None = None
+
+
+def backend(name: str) -> Backend:
+    """The backend called `name` ("auto": AUTO); ConfigError naming the ones there are otherwise."""
+    name = AUTO if name == "auto" else name
+    if name not in BACKENDS:
+        raise ConfigError(f"--backend must be auto or one of {', '.join(BACKENDS)} (got {name!r})")
+    return importlib.import_module(BACKENDS[name]).BACKEND

@@ -1,0 +1,505 @@
+"""The figures quoted in the README and the manual are their records' figures: each check below finds a
+quoted number in its paragraph or table row and compares it with the value in the JSON under
+benchmarks/results/ that it cites, formatted (rounded) the way the page writes it. A figure edited by hand, a
+record re-measured without its page, or a figure rounded the wrong way fails here; so does a figure that is no
+longer where its check looks.
+
+A check: (page, anchor, pattern, values). The anchor picks the region: the table row holding it, else the
+paragraph (lines joined by spaces); ("text", n) picks the n-th such region. In the pattern `{}` stands for a
+number (its capture), `{h}` for a commit hash; each value is a (record, key, ...) path with a format, or a
+function of the records with a format."""
+
+from __future__ import annotations
+
+import functools
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+@functools.cache
+def _record(name: str):
+    return json.loads((RESULTS / name).read_text())
+
+
+def R(name: str, *path):
+    """The value at path (keys and list indices) in the record benchmarks/results/<name>."""
+    value = _record(name)
+    for key in path:
+        value = value[key]
+    return value
+
+
+def _curve_psnr(run: str, step: int) -> float:
+    return next(p["psnr"] for p in R("maryrose_real_capture.json", run, "curve") if p["step"] == step)
+
+
+# formats: how the pages round
+f0, f1, f2, f3 = "{:.0f}".format, "{:.1f}".format, "{:.2f}".format, "{:.3f}".format
+d = "{:d}".format
+thousands = "{:,}".format
+
+
+def pct0(v):
+    return f"{100 * v:.0f}"
+
+
+def pct1(v):
+    return f"{100 * v:.1f}"
+
+
+def pct2(v):
+    return f"{100 * v:.2f}"
+
+
+def minutes1(s):
+    return f"{s / 60:.1f}"
+
+
+def minutes2(s):
+    return f"{s / 60:.2f}"
+
+
+def per_s(ms):  # milliseconds to seconds, one decimal
+    return f"{ms / 1000:.1f}"
+
+
+def kilo(v):
+    return f"{v / 1000:.0f}"
+
+
+def commit(name):
+    return (lambda: R(name, "provenance", "commit")[:7], str)
+
+
+NGP, SPLAT = "lego_cli_ngp.json", "lego_cli_splat.json"
+NGP_3F, SPLAT_3F = "lego_cli_ngp_stop33.json", "lego_cli_splat_stop33.json"  # the runs of render_speed*.json, mesh_lego.json
+BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
+REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
+ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.json"
+SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
+
+
+def mesh_cells(name, method):
+    m = ("methods", method)
+    return [((name, *m, "iou_mean"), f3), ((name, *m, "iou_min"), f3), ((name, *m, "precision_mean"), f3),
+            ((name, *m, "recall_mean"), f3), ((name, *m, "depth_within_tol_median_mean"), f3),
+            ((name, *m, "depth_within_tol_mean"), f3), ((name, *m, "faces"), kilo), ((name, *m, "cli_seconds"), f0)]
+
+
+def ms_scales(key):
+    return [((("multiscale_lego.json", key, "scales", i, "psnr")), f2) for i in range(4)] + \
+        [(("multiscale_lego.json", key, "mean_psnr"), f2)]
+
+
+def aa_model(i):
+    return [(("antialias_lego.json", "models", i, "scales", s, "psnr"), f2) for s in range(4)] + \
+        [(("antialias_lego.json", "models", i, "psnr"), f2), (("antialias_lego.json", "models", i, "steps"), d)]
+
+
+def _mary_diff():
+    return [s - n for s, n in zip(R(MCLI, "presets", "splat", "per_view_psnr"), R(MCLI, "presets", "ngp", "per_view_psnr"))]
+
+
+def _aa_gains():
+    models = R("antialias_lego.json", "models")
+    return [a["psnr"] - p["psnr"] for a, p in zip(models[3]["scales"], models[2]["scales"])]
+
+
+CHECKS = [
+    # ---- README.md: the demo paragraph
+    ("README.md", "**Run the demo**", "cores, **{} dB PSNR / SSIM {}**", [(("demo.json", "test_psnr"), f1), (("demo.json", "test_ssim"), f3)]),
+    ("README.md", "**Run the demo**", "; {} minutes end to end", [(("demo.json", "wall_minutes"), f1)]),
+    # ---- README.md: What it measures
+    ("README.md", "(default `ngp` preset), the CLI's wall clock",
+     "**{} dB** after 2 min, **{} dB** after 5 min, **{} dB / SSIM {}** after 10 min ({} steps; {} held-out views)",
+     [((NGP, "runs", 0, "psnr"), f1), ((NGP, "runs", 1, "psnr"), f1), ((NGP, "runs", 2, "psnr"), f1),
+      ((NGP, "runs", 2, "ssim"), f3), ((NGP, "runs", 2, "steps"), d), ((NGP, "runs", 2, "views"), d)]),
+    ("README.md", "the same with `--preset splat`",
+     "**{} dB** after 2 min, **{} dB** after 5 min, **{} dB / SSIM {}** after 10 min ({} steps)",
+     [((SPLAT, "runs", 0, "psnr"), f1), ((SPLAT, "runs", 1, "psnr"), f1), ((SPLAT, "runs", 2, "psnr"), f1),
+      ((SPLAT, "runs", 2, "ssim"), f3), ((SPLAT, "runs", 2, "steps"), d)]),
+    ("README.md", "one 800x800 lego frame, compiled", "trained at commit {h} ({} / {} steps;",
+     [commit(NGP_3F), (("render_speed.json", "step"), d), (("render_speed_splat.json", "step"), d)]),
+    ("README.md", "one 800x800 lego frame, compiled", "| {} s / {} s |",
+     [(("render_speed.json", "seconds_per_frame", "800x800"), f2), (("render_speed_splat.json", "seconds_per_frame", "800x800"), f3)]),
+    ("README.md", "10 min each through the CLI, one sitting", "ngp {} dB / SSIM {}; splat **{} dB / SSIM {}**",
+     [((MCLI, "presets", "ngp", "psnr"), f1), ((MCLI, "presets", "ngp", "ssim"), f3),
+      ((MCLI, "presets", "splat", "psnr"), f1), ((MCLI, "presets", "splat", "ssim"), f3)]),
+    ("README.md", "buddha (13 photos of a head in a room",
+     "{}/{} photos posed in {} min; `ngp` **{} dB / SSIM {}** held out, {} rays per step (proposal sampling), "
+     "validation {}% of the run, `eval` {} s per view ({} s at `--downscale 4`); `splat` {} dB / SSIM {}",
+     [((BUDDHA, "process_data", "registered"), d), ((BUDDHA, "process_data", "photos"), d),
+      ((BUDDHA, "process_data", "wall_s"), minutes1), ((BUDDHA, "presets", "ngp", "eval", "psnr"), f1),
+      ((BUDDHA, "presets", "ngp", "eval", "ssim"), f3), ((BUDDHA, "presets", "ngp", "rays_per_step"), f0),
+      ((BUDDHA, "presets", "ngp", "validation_share"), pct0),
+      ((BUDDHA, "presets", "ngp", "eval", "seconds_per_view"), f0),
+      ((BUDDHA, "presets", "ngp", "eval_downscale4", "seconds_per_view"), f1),
+      ((BUDDHA, "presets", "splat", "eval", "psnr"), f1), ((BUDDHA, "presets", "splat", "eval", "ssim"), f3)]),
+    ("README.md", "the same on maryrose (69 photos, `--masks`, 864x864)",
+     "{}/{} posed in {} min; `ngp` **{} dB / SSIM {}**, `splat` **{} dB / SSIM {}**; `eval` {} s (ngp) / {} s (splat) per view",
+     [((MARY, "process_data", "registered"), d), ((MARY, "process_data", "photos"), d),
+      ((MARY, "process_data", "wall_s"), minutes1), ((MARY, "presets", "ngp", "eval", "psnr"), f1),
+      ((MARY, "presets", "ngp", "eval", "ssim"), f3), ((MARY, "presets", "splat", "eval", "psnr"), f1),
+      ((MARY, "presets", "splat", "eval", "ssim"), f3), ((MARY, "presets", "ngp", "eval", "seconds_per_view"), f0),
+      ((MARY, "presets", "splat", "eval", "seconds_per_view"), f1)]),
+    ("README.md", "`process-data`, then `train` 10 min at 432x432",
+     "{}/{} photos posed in {} min; **{} dB / SSIM {}** on the {} held-out photos (shipped poses), {} dB / {} on the recovered ones",
+     [((REAL, "sfm", "registered"), d), ((REAL, "sfm", "photos"), d), ((REAL, "sfm_seconds"), minutes1),
+      ((REAL, SHIP, "eval", "psnr"), f1), ((REAL, SHIP, "eval", "ssim"), f3), ((REAL, SHIP, "eval", "n_views"), d),
+      ((REAL, SFM, "eval", "psnr"), f1), ((REAL, SFM, "eval", "ssim"), f3)]),
+    ("README.md", "on a lent GPU (one H200)", "`ngp` **{} dB / SSIM {}** (its {} default steps in {} min)",
+     [((GPU, "runs", 0, "psnr"), f1), ((GPU, "runs", 0, "ssim"), f3), ((GPU, "runs", 0, "steps"), thousands),
+      ((GPU, "runs", 0, "train_wall_s"), minutes2)]),
+    ("README.md", "lego mesh (`export mesh`, TSDF fusion)",
+     "({} steps, commit {h}) | silhouette IoU {} (precision {}, recall {}) on the {} held-out views, depth within 1% on "
+     "{}% of the pixels, {} s; maryrose's `--watertight` mesh: IoU {}, closed",
+     [((NGP_3F, "runs", 2, "steps"), d), commit(NGP_3F), ((ML, "methods", "tsdf", "iou_mean"), f3),
+      ((ML, "methods", "tsdf", "precision_mean"), f3), ((ML, "methods", "tsdf", "recall_mean"), f3),
+      ((ML, "views"), d), ((ML, "methods", "tsdf", "depth_within_tol_median_mean"), pct1),
+      ((ML, "methods", "tsdf", "cli_seconds"), f0), ((MW, "methods", "tsdf", "iou_mean"), f3)]),
+    # ---- docs/getting-started.md, docs/troubleshooting.md, docs/methods.md
+    ("docs/getting-started.md", "The fast field (the default preset, `ngp`) trains", "to {} dB in 2 minutes and {} dB in 10",
+     [((NGP, "runs", 0, "psnr"), f1), ((NGP, "runs", 2, "psnr"), f1)]),
+    ("docs/getting-started.md", "buddha at 1368x770", "(buddha at {}x{}: {}%)",
+     [((BUDDHA, "presets", "ngp", "eval", "width"), d), ((BUDDHA, "presets", "ngp", "eval", "height"), d),
+      ((BUDDHA, "presets", "ngp", "validation_share"), pct0)]),
+    ("docs/troubleshooting.md", "about 40 us per pixel", "(a {}x{} photo: {} s; `--downscale 4`: {} s)",
+     [((BUDDHA, "presets", "ngp", "eval", "width"), d), ((BUDDHA, "presets", "ngp", "eval", "height"), d),
+      ((BUDDHA, "presets", "ngp", "eval", "seconds_per_view"), f0),
+      ((BUDDHA, "presets", "ngp", "eval_downscale4", "seconds_per_view"), f1)]),
+    ("docs/methods.md", "| `demo` |", "budget ({} dB on its test views", [(("demo.json", "test_psnr"), f1)]),
+    ("docs/methods.md", "An object in empty space leaves few", "(lego: {} samples per ray over the last 100 steps",
+     [(("lego_speed_ngp.json", "samples_per_ray_mean_last_100"), f0)]),
+    ("docs/methods.md", "What it costs, on 2 CPU cores (buddha",
+     "{} steps of {} rays in {} minutes of the CLI's clock; validation {}% of it; `eval` {} s per {}x{} view and {} s at "
+     "`--downscale 4`; an orbit frame ({}x{}) {} s",
+     [((BUDDHA, "presets", "ngp", "steps"), d), ((BUDDHA, "presets", "ngp", "rays_per_step"), f0),
+      ((BUDDHA, "presets", "ngp", "train_wall_s"), minutes1), ((BUDDHA, "presets", "ngp", "validation_share"), pct0),
+      ((BUDDHA, "presets", "ngp", "eval", "seconds_per_view"), f1), ((BUDDHA, "presets", "ngp", "eval", "width"), d),
+      ((BUDDHA, "presets", "ngp", "eval", "height"), d),
+      ((BUDDHA, "presets", "ngp", "eval_downscale4", "seconds_per_view"), f1),
+      ((BUDDHA, "presets", "ngp", "orbit60", "width"), d), ((BUDDHA, "presets", "ngp", "orbit60", "height"), d),
+      ((BUDDHA, "presets", "ngp", "orbit60", "seconds_per_frame"), f1)]),
+    # ---- docs/measurements.md
+    ("docs/measurements.md", "| `--preset ngp` (hash grid + occupancy grid), through the CLI",
+     "**{} dB** after 2 min ({} steps), **{} dB** after 5 min ({} steps), **{} dB / SSIM {} after 10 min** ({} steps, {} steps/s) "
+     "on all {} views",
+     [((NGP, "runs", 0, "psnr"), f1), ((NGP, "runs", 0, "steps"), d), ((NGP, "runs", 1, "psnr"), f1),
+      ((NGP, "runs", 1, "steps"), d), ((NGP, "runs", 2, "psnr"), f1), ((NGP, "runs", 2, "ssim"), f3),
+      ((NGP, "runs", 2, "steps"), d), ((NGP, "runs", 2, "steps_per_second_cli"), f1), ((NGP, "runs", 2, "views"), d)]),
+    ("docs/measurements.md", "| `--preset ngp` (hash grid + occupancy grid), through the CLI", "`, at {h}, the same sitting",
+     [commit(NGP)]),
+    ("docs/measurements.md", "| `--preset splat` (3D Gaussians, the numba tile rasteriser)",
+     "**{} dB** after 2 min ({} steps), **{} dB** after 5 min ({} steps), **{} dB / SSIM {} after 10 min** ({} steps)",
+     [((SPLAT, "runs", 0, "psnr"), f1), ((SPLAT, "runs", 0, "steps"), d), ((SPLAT, "runs", 1, "psnr"), f1),
+      ((SPLAT, "runs", 1, "steps"), d), ((SPLAT, "runs", 2, "psnr"), f1), ((SPLAT, "runs", 2, "ssim"), f3),
+      ((SPLAT, "runs", 2, "steps"), d)]),
+    ("docs/measurements.md", "One 800x800 lego frame",
+     "trained at commit {h} ({} steps, {} dB: the 10-minute run of",
+     [commit(NGP_3F), ((NGP_3F, "runs", 2, "steps"), d), ((NGP_3F, "runs", 2, "psnr"), f1)]),
+    ("docs/measurements.md", "One 800x800 lego frame",
+     "**{} s** once compiled (256x256: {} s). Profile of the 800x800 frame: {} shading rounds of {} ray slots, {} M samples ({} per pixel)",
+     [(("render_speed.json", "seconds_per_frame", "800x800"), f2), (("render_speed.json", "seconds_per_frame", "256x256"), f2),
+      (("render_speed.json", "rounds_800"), d), (("render_speed.json", "chunk"), d),
+      ((lambda: R("render_speed.json", "samples_shaded_800") / 1e6), f2),
+      ((lambda: R("render_speed.json", "samples_shaded_800") / 800 ** 2), f1)]),
+    ("docs/measurements.md", "One 800x800 lego frame", "kernels, {} s and {} s, the packing gathers {} s",
+     [((lambda i=i: R("render_speed.json", "profile_800_ms", i, 1) / 1000), f2) for i in range(3)]),
+    ("docs/measurements.md", "| `--preset ngp` | **",
+     "**{} dB / SSIM {}** on all {} views: the {}-step default `--max-steps` reached in {} min of wall clock ({} steps/s; "
+     "{} dB at step {}, after {} s; `lego_cli_ngp.json`); an 800x800 frame of that run in {} s, 256x256 in {} s",
+     [((GPU, "runs", 0, "psnr"), f1), ((GPU, "runs", 0, "ssim"), f3), ((GPU, "runs", 0, "views"), d),
+      ((GPU, "runs", 0, "steps"), thousands), ((GPU, "runs", 0, "train_wall_s"), minutes2),
+      ((GPU, "runs", 0, "steps_per_second_cli"), f0), ((GPU, "runs", 0, "validation_curve", 0, "psnr"), f1),
+      ((GPU, "runs", 0, "validation_curve", 0, "step"), d), ((GPU, "runs", 0, "validation_curve", 0, "elapsed_s"), f0),
+      (("gpu_h200/render_speed_ngp.json", "seconds_per_frame", "800x800"), f2),
+      (("gpu_h200/render_speed_ngp.json", "seconds_per_frame", "256x256"), f2)]),
+    ("docs/measurements.md", "| `--preset splat`, the pure-JAX reference rasteriser",
+     "| {} steps ({} steps/s), {} dB; evaluation {} s per 200x200 view",
+     [(("gpu_h200/lego_cli_splat.json", "runs", 0, "steps"), d),
+      (("gpu_h200/lego_cli_splat.json", "runs", 0, "steps_per_second_cli"), f1),
+      (("gpu_h200/lego_cli_splat.json", "runs", 0, "psnr"), f1),
+      ((lambda: R("gpu_h200/lego_cli_splat.json", "runs", 0, "eval_wall_s") / R("gpu_h200/lego_cli_splat.json", "runs", 0, "views")), f1)]),
+    ("docs/measurements.md", "| `nerfkit process-data images .../images --masks .../masks` |",
+     "| {}/{} photos registered in {} min (SIFT {} s, exhaustive matching {} s, mapping {} s); against the shipped COLMAP "
+     "poses (similarity-aligned): camera centres within {}% (median) / {}% (max) of the orbit radius, rotations within {} / {} degrees",
+     [((REAL, "sfm", "registered"), d), ((REAL, "sfm", "photos"), d), ((REAL, "sfm_seconds"), minutes1),
+      ((REAL, "sfm", "seconds", "extract"), f0), ((REAL, "sfm", "seconds", "match"), f0), ((REAL, "sfm", "seconds", "map"), f0),
+      ((REAL, "sfm", "pose_errors", "centre_median"), pct2), ((REAL, "sfm", "pose_errors", "centre_max"), pct2),
+      ((REAL, "sfm", "pose_errors", "rotation_median_deg"), f2), ((REAL, "sfm", "pose_errors", "rotation_max_deg"), f2)]),
+    ("docs/measurements.md", "| `nerfkit train --max-minutes 10` on the shipped poses",
+     "| {} steps, **{} dB / SSIM {}** on the {} held-out photos ({} dB at 500 steps, {} at 1000, {} at 2000)",
+     [((REAL, SHIP, "eval", "step"), d), ((REAL, SHIP, "eval", "psnr"), f2), ((REAL, SHIP, "eval", "ssim"), f3),
+      ((REAL, SHIP, "eval", "n_views"), d)] + [((lambda s=s: _curve_psnr(SHIP, s)), f2) for s in (500, 1000, 2000)]),
+    ("docs/measurements.md", "| the same on the `process-data` poses |",
+     "| {} steps, **{} dB / SSIM {}** ({} dB at 500 steps, {} at 1000, {} at 2000)",
+     [((REAL, SFM, "eval", "step"), d), ((REAL, SFM, "eval", "psnr"), f2), ((REAL, SFM, "eval", "ssim"), f3)]
+     + [((lambda s=s: _curve_psnr(SFM, s)), f2) for s in (500, 1000, 2000)]),
+    ("docs/measurements.md", "`python benchmarks/capture_cli.py` trains both methods",
+     "at {h} ngp {} dB / SSIM {} ({} steps), splat **{} dB / SSIM {}** ({} steps;",
+     [commit(MCLI), ((MCLI, "presets", "ngp", "psnr"), f2), ((MCLI, "presets", "ngp", "ssim"), f3),
+      ((MCLI, "presets", "ngp", "steps"), d), ((MCLI, "presets", "splat", "psnr"), f2),
+      ((MCLI, "presets", "splat", "ssim"), f3), ((MCLI, "presets", "splat", "steps"), d)]),
+    ("docs/measurements.md", "| `process-data` |",
+     "| {} of {} photos registered in {} min, {} points | {} of {} in {} min, {} points |",
+     [((BUDDHA, "process_data", "registered"), d), ((BUDDHA, "process_data", "photos"), d),
+      ((BUDDHA, "process_data", "wall_s"), minutes1), ((BUDDHA, "process_data", "points"), thousands),
+      ((MARY, "process_data", "registered"), d), ((MARY, "process_data", "photos"), d),
+      ((MARY, "process_data", "wall_s"), minutes1), ((MARY, "process_data", "points"), thousands)]),
+    ("docs/measurements.md", "| training size |", "| {}x{} (splat: undistorted to {}x{}) | {}x{} (splat: {}x{}) |",
+     [((rec, "presets", p, "eval", k), d) for rec in (BUDDHA, MARY) for p in ("ngp", "splat") for k in ("width", "height")]),
+    ("docs/measurements.md", "| `ngp`, 10 min |",
+     "| proposal sampling: {} steps of **{} rays** ({} field samples per ray); validation **{}%** of the run ({} rounds of 2 "
+     "views at 456x256, {}-{} s each); held out **{} dB / SSIM {}** | occupancy march: {} steps of {} rays on average ({} "
+     "samples per ray); validation {}%; held out **{} dB / SSIM {}** |",
+     [((BUDDHA, "presets", "ngp", "steps"), d), ((BUDDHA, "presets", "ngp", "rays_per_step"), f0),
+      ((BUDDHA, "presets", "ngp", "samples_per_ray"), f0), ((BUDDHA, "presets", "ngp", "validation_share"), pct1),
+      ((lambda: len(R(BUDDHA, "presets", "ngp", "validations"))), d),
+      ((lambda: min(v["seconds"] for v in R(BUDDHA, "presets", "ngp", "validations"))), f0),
+      ((lambda: max(v["seconds"] for v in R(BUDDHA, "presets", "ngp", "validations"))), f0),
+      ((BUDDHA, "presets", "ngp", "eval", "psnr"), f2), ((BUDDHA, "presets", "ngp", "eval", "ssim"), f3),
+      ((MARY, "presets", "ngp", "steps"), d), ((MARY, "presets", "ngp", "rays_per_step"), f0),
+      ((MARY, "presets", "ngp", "samples_per_ray"), f0), ((MARY, "presets", "ngp", "validation_share"), pct1),
+      ((MARY, "presets", "ngp", "eval", "psnr"), f2), ((MARY, "presets", "ngp", "eval", "ssim"), f3)]),
+    ("docs/measurements.md", "| `ngp` eval, per view |",
+     "| **{} s** at {}x{}, **{} s** at `--downscale 4` | {} s at {}x{}, {} s at `--downscale 4` |",
+     [((BUDDHA, "presets", "ngp", "eval", "seconds_per_view"), f1), ((BUDDHA, "presets", "ngp", "eval", "width"), d),
+      ((BUDDHA, "presets", "ngp", "eval", "height"), d), ((BUDDHA, "presets", "ngp", "eval_downscale4", "seconds_per_view"), f1),
+      ((MARY, "presets", "ngp", "eval", "seconds_per_view"), f1), ((MARY, "presets", "ngp", "eval", "width"), d),
+      ((MARY, "presets", "ngp", "eval", "height"), d), ((MARY, "presets", "ngp", "eval_downscale4", "seconds_per_view"), f1)]),
+    ("docs/measurements.md", "| `ngp` orbit frame (512 px wide) |", "| {} s | {} s |",
+     [((BUDDHA, "presets", "ngp", "orbit60", "seconds_per_frame"), f1), ((MARY, "presets", "ngp", "orbit60", "seconds_per_frame"), f1)]),
+    ("docs/measurements.md", "| `splat`, 10 min |",
+     "| {} steps (from {} SfM points); validation {}%; held out **{} dB / SSIM {}** | {} steps (from {} points); validation {}%; "
+     "held out **{} dB / SSIM {}** |",
+     [((BUDDHA, "presets", "splat", "steps"), d), ((BUDDHA, "process_data", "points"), thousands),
+      ((BUDDHA, "presets", "splat", "validation_share"), pct1), ((BUDDHA, "presets", "splat", "eval", "psnr"), f2),
+      ((BUDDHA, "presets", "splat", "eval", "ssim"), f3), ((MARY, "presets", "splat", "steps"), d),
+      ((MARY, "process_data", "points"), thousands), ((MARY, "presets", "splat", "validation_share"), pct1),
+      ((MARY, "presets", "splat", "eval", "psnr"), f2), ((MARY, "presets", "splat", "eval", "ssim"), f3)]),
+    ("docs/measurements.md", "| `splat` eval / orbit frame |", "| {} s per view / {} s | {} s per view / {} s |",
+     [((BUDDHA, "presets", "splat", "eval", "seconds_per_view"), f1), ((BUDDHA, "presets", "splat", "orbit60", "seconds_per_frame"), f2),
+      ((MARY, "presets", "splat", "eval", "seconds_per_view"), f1), ((MARY, "presets", "splat", "orbit60", "seconds_per_frame"), f2)]),
+    ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "buddha: `own_photos_buddha.json` at {h}", [commit(BUDDHA)]),
+    ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "maryrose: `own_photos_maryrose.json` at {h}", [commit(MARY)]),
+    # ---- docs/splats.md
+    ("docs/splats.md", "| `--preset splat` (classic control",
+     "| {} dB, {} steps | {} dB, {} steps | **{} dB / SSIM {}**, {} steps | `python benchmarks/lego_cli.py --preset splat` (`lego_cli_splat.json`, at {h})",
+     [((SPLAT, "runs", 0, "psnr"), f2), ((SPLAT, "runs", 0, "steps"), d), ((SPLAT, "runs", 1, "psnr"), f2),
+      ((SPLAT, "runs", 1, "steps"), d), ((SPLAT, "runs", 2, "psnr"), f2), ((SPLAT, "runs", 2, "ssim"), f3),
+      ((SPLAT, "runs", 2, "steps"), d), commit(SPLAT)]),
+    ("docs/splats.md", "| `--preset ngp`, the same sitting |",
+     "| {} dB, {} steps | {} dB, {} steps | {} dB / SSIM {}, {} steps | `python benchmarks/lego_cli.py` (`lego_cli_ngp.json`, at {h})",
+     [((NGP, "runs", 0, "psnr"), f2), ((NGP, "runs", 0, "steps"), d), ((NGP, "runs", 1, "psnr"), f2),
+      ((NGP, "runs", 1, "steps"), d), ((NGP, "runs", 2, "psnr"), f2), ((NGP, "runs", 2, "ssim"), f3),
+      ((NGP, "runs", 2, "steps"), d), commit(NGP)]),
+    ("docs/splats.md", "On a real capture: maryrose",
+     "`maryrose_cli.json`, at {h}) splat {} steps, **{} dB / SSIM {}**, ngp {} steps, {} dB / SSIM {} on the {} held-out photos: "
+     "splats ahead by {} dB, on {} of the 9 photos (behind on photo {} by {} dB",
+     [commit(MCLI), ((MCLI, "presets", "splat", "steps"), d), ((MCLI, "presets", "splat", "psnr"), f2),
+      ((MCLI, "presets", "splat", "ssim"), f3), ((MCLI, "presets", "ngp", "steps"), d), ((MCLI, "presets", "ngp", "psnr"), f2),
+      ((MCLI, "presets", "ngp", "ssim"), f3), ((MCLI, "presets", "splat", "views"), d),
+      ((lambda: R(MCLI, "presets", "splat", "psnr") - R(MCLI, "presets", "ngp", "psnr")), f2),
+      ((lambda: sum(x > 0 for x in _mary_diff())), d), ((lambda: min(range(9), key=lambda i: _mary_diff()[i])), d),
+      ((lambda: -min(_mary_diff())), f1)]),
+    ("docs/splats.md", "On a real capture: maryrose", "splats win photos 1 and 4 (by {} and {} dB) and are {} dB behind on 5",
+     [((lambda: _mary_diff()[1]), f1), ((lambda: _mary_diff()[4]), f1), ((lambda: -_mary_diff()[5]), f1)]),
+    ("docs/splats.md", "| one 800x800 lego frame, compiled",
+     "trained at commit {h} (splat {} steps, ngp {}; `lego_cli_splat_stop33.json`, `lego_cli_ngp_stop33.json`) | **{} s** | {} s |",
+     [commit(SPLAT_3F), (("render_speed_splat.json", "step"), d), (("render_speed.json", "step"), d),
+      (("render_speed_splat.json", "seconds_per_frame", "800x800"), f3), (("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
+    ("docs/splats.md", "| the web page in headless Chromium's software WebGL2",
+     "| {} s / {} s per frame | the baked NeRF page: {} s / {} s |",
+     [(("splat_web_lego.json", "sizes", 0, "min_ms"), per_s), (("splat_web_lego.json", "sizes", 1, "min_ms"), per_s),
+      (("bake_lego_web.json", "ms_per_frame", "800x800"), per_s), (("bake_lego_web.json", "ms_per_frame", "400x400"), per_s)]),
+    ("docs/splats.md", "**Where a training step goes**",
+     "the whole compiled step {} ms (the CLI ran that run at {} steps/s, {} ms, with its host-side density control and logging); "
+     "alone, the tile rasteriser's forward {} ms and forward + loss + gradient {} ms, projection + SH colour {} ms ({} ms with its "
+     "gradient), the loss's (L1 + D-SSIM) gradient {} ms, Adam {} ms",
+     [(("splat_step_profile.json", "parts", "whole_step", "median_ms"), f1), ((SPLAT_3F, "runs", 2, "steps_per_second_cli"), f1),
+      ((lambda: 1000 / R(SPLAT_3F, "runs", 2, "steps_per_second_cli")), f0)]
+     + [(("splat_step_profile.json", "parts", p, "median_ms"), f1) for p in
+        ("rasterise_forward", "rasterise_forward_loss_grad", "project_sh_forward", "project_sh_forward_grad", "loss_grad", "adam")]),
+    ("docs/splats.md", "**Where a training step goes**",
+     "50k Gaussians at 200x200, forward {} ms / backward {} ms, against NVIDIA Warp's CPU backend {} / {} ms and a padded "
+     "pure-XLA version {} / {} s",
+     [(("splat_raster.json", "configs", 0, "timings", "numba", "forward_ms_min"), f0),
+      (("splat_raster.json", "configs", 0, "timings", "numba", "backward_ms_min"), f0),
+      (("splat_raster.json", "configs", 0, "timings", "warp", "forward_ms_min"), f0),
+      (("splat_raster.json", "configs", 0, "timings", "warp", "backward_ms_min"), f0),
+      (("splat_raster.json", "configs", 0, "timings", "xla", "forward_ms_min"), per_s),
+      (("splat_raster.json", "configs", 0, "timings", "xla", "backward_ms_min"), per_s)]),
+    ("docs/splats.md", "**Where a training step goes**", "and keep {} of the 2 cores busy",
+     [(("splat_raster.json", "configs", 0, "timings", "numba", "cpu_ratio"), f1)]),
+    ("docs/splats.md", "**When to pick which.**",
+     "(+{} dB at 2 minutes, +{} at 5, +{} at 10, measured in one sitting), and on the real maryrose photos (+{} dB, SSIM {} "
+     "against {}); they render an 800x800 frame about {}x faster",
+     [((lambda i=i: R(SPLAT, "runs", i, "psnr") - R(NGP, "runs", i, "psnr")), f1) for i in range(3)]
+     + [((lambda: R(MCLI, "presets", "splat", "psnr") - R(MCLI, "presets", "ngp", "psnr")), f1),
+        ((MCLI, "presets", "splat", "ssim"), f3), ((MCLI, "presets", "ngp", "ssim"), f3),
+        ((lambda: R("render_speed.json", "seconds_per_frame", "800x800") / R("render_speed_splat.json", "seconds_per_frame", "800x800")), f0)]),
+    ("docs/splats.md", "**When to pick which.**", "{} dB against the splats' {},",
+     [((BUDDHA, "presets", "ngp", "eval", "psnr"), f1), ((BUDDHA, "presets", "splat", "eval", "psnr"), f1)]),
+    ("docs/splats.md", "viser's Gaussian splats draw the exported file",
+     "lego ({} steps, commit {h}, the run of the rendering table below) and maryrose: {} / {} dB and {} / {} dB",
+     [((SPLAT_3F, "runs", 2, "steps"), d), commit(SPLAT_3F)]
+     + [((rec, "views", i, "psnr_viser_vs_nerfkit"), f1) for rec in ("splat_lego_viser.json", "splat_maryrose_viser.json") for i in (0, 1)]),
+    ("docs/splats.md", "- **Limits.**", "trained lego at {} steps/s on an H200", [(("gpu_h200/lego_cli_splat.json", "runs", 0, "steps_per_second_cli"), f1)]),
+    ("docs/splats.md", "- **Limits.**", "ngp reached {} dB in 2 minutes", [((GPU, "runs", 0, "psnr"), f1)]),
+    # ---- docs/verbs/export.md
+    ("docs/verbs/export.md", "| lego, the 10-min CLI run",
+     "trained at commit {h} ({} steps, {} dB; `lego_cli_ngp_stop33.json`), {} views of",
+     [commit(NGP_3F), ((NGP_3F, "runs", 2, "steps"), d), ((NGP_3F, "runs", 2, "psnr"), f1), ((ML, "views"), d)]),
+    ("docs/verbs/export.md", "| lego, the 10-min CLI run",
+     "| **tsdf** | **{}** ({}) | {} / {} | **{}** / {} | {}k | {} s |", mesh_cells(ML, "tsdf")),
+    ("docs/verbs/export.md", ("| | levelset |", 0), "| | levelset | {} ({}) | {} / {} | {} / {} | {}k | {} s |", mesh_cells(ML, "levelset")),
+    ("docs/verbs/export.md", "| maryrose, 10-min run", "| **tsdf** | **{}** ({}) | {} / {} | {} / {} | {}k | {} s |", mesh_cells(MM, "tsdf")),
+    ("docs/verbs/export.md", "| | tsdf `--watertight` |",
+     "| {} ({}) | {} / {}, closed 2-manifold (trimesh) | {} / {} | {}k | {} s |", mesh_cells(MW, "tsdf")),
+    ("docs/verbs/export.md", ("| | levelset |", 1), "| | levelset | {} ({}) | {} / {} | {} / {} | {}k | {} s |", mesh_cells(MM, "levelset")),
+    ("docs/verbs/export.md", "The textured GLBs",
+     "lego's keeps IoU {} and took {} s to export, maryrose's {} in {} s",
+     [(("mesh_lego_textured.json", "methods", "tsdf", "iou_mean"), f3), (("mesh_lego_textured.json", "methods", "tsdf", "cli_seconds"), f0),
+      (("mesh_maryrose_textured.json", "methods", "tsdf", "iou_mean"), f3), (("mesh_maryrose_textured.json", "methods", "tsdf", "cli_seconds"), f0)]),
+    ("docs/verbs/export.md", "The textured GLBs", "{} / {} dB (lego, two training views) and {} / {} dB (maryrose)",
+     [((rec, "views", i, "psnr_browser_vs_python"), f2) for rec in ("mesh_lego_glb.json", "mesh_maryrose_glb.json") for i in (0, 1)]),
+    # ---- docs/verbs/bake.md
+    ("docs/verbs/bake.md", "Measured on a 10-minute lego run", "lego run ({} steps, seed protocol) and a 6-minute maryrose run ({} steps)",
+     [(("bake_quality.json", "lego", "step"), d), (("bake_quality.json", "maryrose", "step"), d)]),
+    ("docs/verbs/bake.md", "| field (`nerfkit eval RUN`) |", "| {} dB / SSIM {} | {} dB / {} |",
+     [(("bake_quality.json", s, k), f) for s in ("lego", "maryrose") for k, f in (("field_psnr", f2), ("field_ssim", f3))]),
+    ("docs/verbs/bake.md", "| baked (`nerfkit eval RUN --baked DIR`) |", "| **{} dB / {}** (fine-tuning beats the field) | {} dB / {} |",
+     [(("bake_quality.json", s, k), f) for s in ("lego", "maryrose") for k, f in (("baked_psnr", f2), ("baked_ssim", f3))]),
+    ("docs/verbs/bake.md", "| size, grid |", "| **{} MB**, {} bricks at {}^3 | {} MB, {} bricks at {}^3",
+     [(("bake_quality.json", s, k), f) for s in ("lego", "maryrose") for k, f in (("mb", f1), ("bricks", d), ("resolution", d))]),
+    ("docs/verbs/bake.md", "| bake time (2 CPU cores) |", "({} fine-tuning steps)", [(("bake_quality.json", "lego", "finetune", "steps"), d)]),
+    ("docs/verbs/bake.md", "For comparison, the field's own renderer", "takes {} s for an 800x800 frame",
+     [(("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
+    # ---- docs/aliasing.md
+    ("docs/aliasing.md", "| `ngp`, 10 min at 200 px", ", {} steps) | {} | {} | {} | {} | {} |",
+     [(("multiscale_lego.json", "ngp_10min_200px", "step"), d)] + ms_scales("ngp_10min_200px")),
+    ("docs/aliasing.md", "| `ngp`, 4 min at 400 px", "{} steps) | {} | {} | {} | {} | {} |",
+     [(("multiscale_lego.json", "ngp_4min_400px", "step"), d)] + ms_scales("ngp_4min_400px")),
+    ("docs/aliasing.md", "| `ngp`, 4 min on all four scales", "({} steps) | {} | {} | {} | {} | {} |",
+     [(("multiscale_lego.json", "ngp_4min_all_scales", "step"), d)] + ms_scales("ngp_4min_all_scales")),
+    ("docs/aliasing.md", "| NeRF |", "| NeRF | {} | {} | {} | {} | {} | {} |", aa_model(0)),
+    ("docs/aliasing.md", "| mip-NeRF |", "| mip-NeRF | {} | {} | {} | {} | **{}** | {} |", aa_model(1)),
+    ("docs/aliasing.md", "| NGP |", "| NGP | {} | {} | {} | {} | {} | {} |", aa_model(2)),
+    ("docs/aliasing.md", "| NGP `--antialias` |", "| NGP `--antialias` | {} | {} | {} | {} | **{}** | {} |", aa_model(3)),
+    ("docs/aliasing.md", "- **`--antialias`** for the fast field", "Same speed as `ngp` ({} vs {} steps in {} min below)",
+     [(("antialias_lego.json", "models", 3, "steps"), d), (("antialias_lego.json", "models", 2, "steps"), d),
+      (("antialias_lego.json", "budget", "max_minutes"), f0)]),
+    ("docs/aliasing.md", "Measured that way on 2 CPU cores", "; {} views per scale;",
+     [(("antialias_lego.json", "models", 0, "scales", 0, "n_views"), d)]),
+    ("docs/aliasing.md", "NGP `--antialias` gains", "NGP `--antialias` gains {}-{} dB at every scale",
+     [((lambda: min(_aa_gains())), f1), ((lambda: max(_aa_gains())), f1)]),
+]
+
+
+def _regions(text: str) -> list[str]:
+    """Table rows one by one, and every other paragraph with its lines joined by spaces."""
+    regions = []
+    for block in re.split(r"\n\s*\n", text):
+        lines = block.splitlines()
+        rows = [line.strip() for line in lines if line.strip().startswith("|")]
+        rest = " ".join(line.strip() for line in lines if not line.strip().startswith("|"))
+        regions += rows + ([rest] if rest else [])
+    return regions
+
+
+@functools.cache
+def _page_regions(page: str) -> list[str]:
+    return _regions((ROOT / page).read_text())
+
+
+def _region(page: str, anchor) -> str:
+    text, n = anchor if isinstance(anchor, tuple) else (anchor, None)
+    found = [r for r in _page_regions(page) if text in r]
+    if n is None:
+        assert len(found) == 1, f"{page}: {len(found)} rows / paragraphs hold {text!r} (want exactly one)"
+        return found[0]
+    assert len(found) > n, f"{page}: fewer than {n + 1} rows / paragraphs hold {text!r}"
+    return found[n]
+
+
+_NUMBER = r"([0-9]+(?:[.,][0-9]+)*)"
+
+
+def _regex(pattern: str) -> re.Pattern:
+    parts = re.split(r"(\{h?\})", pattern)
+    out = []
+    for part in parts:
+        out.append(_NUMBER if part == "{}" else r"([0-9a-f]{7,40})" if part == "{h}" else re.escape(part))
+    return re.compile("".join(out))
+
+
+def _expected(value) -> str:
+    source, fmt = value
+    raw = source() if callable(source) else R(*source)
+    return fmt(raw)
+
+
+def _id(check) -> str:
+    page, anchor, pattern, _ = check
+    text = anchor[0] if isinstance(anchor, tuple) else anchor
+    return f"{page}:{text[:40]}:{pattern[:30]}"
+
+
+@pytest.mark.parametrize("check", CHECKS, ids=[_id(c) for c in CHECKS])
+def test_quoted_figure_equals_its_record(check):
+    page, anchor, pattern, values = check
+    region = _region(page, anchor)
+    m = _regex(pattern).search(region)
+    assert m, f"{page}: {pattern!r} not found in:\n{region}"
+    assert len(m.groups()) == len(values), f"check table: {pattern!r} has {len(m.groups())} figures, {len(values)} values"
+    quoted = list(m.groups())
+    expected = [_expected(v) for v in values]
+    assert quoted == expected, f"{page}: {pattern!r}\nquoted:   {quoted}\nrecorded: {expected}"
+
+
+def test_checks_cover_many_figures():
+    assert sum(len(c[3]) for c in CHECKS) >= 250
+
+
+def test_every_readme_result_row_names_its_record():
+    text = (ROOT / "README.md").read_text()
+    section = text[text.index("## What it measures"):text.index("## Documentation")]
+    rows = [line for line in section.splitlines() if line.startswith("|") and not line.startswith(("| what", "| ---"))]
+    assert len(rows) >= 9
+    for row in rows:
+        records = re.findall(r"`([\w/]+\.json)`", row.split("|")[-2])
+        assert records, f"README row names no record in its last column: {row[:80]}"
+        for name in records:
+            assert (RESULTS / name).is_file(), name
+
+
+def test_named_runs_are_the_records_runs():
+    """Where a page says which run a record measured (steps, commit), the records agree with each other."""
+    assert R("render_speed.json", "step") == R(NGP_3F, "runs", 2, "steps")
+    assert R("render_speed_splat.json", "step") == R(SPLAT_3F, "runs", 2, "steps")
+    assert R("render_speed.json", "run") == R(ML, "run") == R("mesh_lego_textured.json", "run")
+    assert R("render_speed_splat.json", "run") == R("splat_step_profile.json", "run") == R("splat_lego_viser.json", "run")
+    assert R(NGP_3F, "provenance", "commit") == R(SPLAT_3F, "provenance", "commit")
+    assert R(MW, "methods", "tsdf", "closed_manifold") is True
+    assert R(ML, "run") == R(NGP_3F, "provenance", "command").split("--out ")[1].split()[0] + "/ngp_10min"
+
+
+HISTORY = re.compile(r"\bstop \d+|\bthis stop\b|\bprobes?\b|\bsuperseded\b|\blast round\b|\bearlier stop\b|previous stop",
+                     re.IGNORECASE)
+
+
+def test_user_docs_hold_no_development_history():
+    """Stops, probes and superseded records belong in CHANGELOG.md. The README's first paragraphs (the demo and
+    the test commands) are left out: their numbers are kept elsewhere."""
+    pages = sorted((ROOT / "docs").rglob("*.md"))
+    texts = {p.relative_to(ROOT).as_posix(): p.read_text() for p in pages}
+    readme = (ROOT / "README.md").read_text()
+    texts["README.md"] = readme[readme.index("## Your own photos"):]
+    found = [(name, m.group(0)) for name, text in texts.items() for m in HISTORY.finditer(text)]
+    assert not found, found
