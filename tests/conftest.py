@@ -6,6 +6,18 @@ import tempfile
 
 import pytest
 from chromium import CHROMIUM_NAMES, find_chromium
+from shared_data import require_shared
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "needs_shared(path): needs path under ../shared/data (shared_data.py): skips "
+                                       "when it is absent, fails there where $NERFKIT_REQUIRE_SHARED is set (CI)")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    for mark in item.iter_markers("needs_shared"):
+        require_shared(mark.args[0])
 
 
 @pytest.fixture(scope="session", autouse=True)

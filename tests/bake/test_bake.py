@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -171,8 +172,9 @@ def test_training_render_matches_the_reference_renderer(baked):
     data = load_scene(json.loads((run / "scene.json").read_text())["data_dir"], "test")
     ref = make_renderer(bm, 4096).render_camera(bp, ba, data.poses[0], data.cameras[0])["rgb"].reshape(-1, 3)[::4]
     o, d = (a.reshape(-1, 3)[::4].astype(np.float32) for a in camera_rays(data.poses[0], data.cameras[0]))
+    render = jax.jit(bm.render_packed, static_argnums=(4, 5))  # jitted, as in finetune.py (op by op: 700 compiles)
     for live in (None, 128 * len(o), 16 * len(o)):
-        out = bm.render_packed(bp, ba, jnp.asarray(o), jnp.asarray(d), 128 * len(o), live)
+        out = render(bp, ba, jnp.asarray(o), jnp.asarray(d), 128 * len(o), live)
         done = np.asarray(out["complete"])
         assert done.mean() == 1.0 if live != 16 * len(o) else 0.2 < done.mean() < 1.0  # a small budget drops rays
         np.testing.assert_allclose(np.asarray(out["rgb"])[done], np.asarray(ref)[done], atol=1e-4)

@@ -7,6 +7,7 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
+from shared_data import SHARED_DATA, needs_shared
 
 from nerfkit.cli.main import main
 from nerfkit.data.formats.llff import list_images, read_llff
@@ -16,8 +17,8 @@ from nerfkit.process.align import pose_errors
 from nerfkit.process.video import select_frames
 from nerfkit.rays.cameras import Camera
 
-MARYROSE = Path(__file__).resolve().parents[2].parent / "shared/data/real/maryrose"
-needs_maryrose = pytest.mark.skipif(not MARYROSE.is_dir(), reason=f"{MARYROSE} not present (the shared data)")
+MARYROSE = SHARED_DATA / "real" / "maryrose"
+needs_maryrose = needs_shared(MARYROSE)
 SUBSET = 24  # consecutive photos: every part is seen from nearby angles (strided subsets do not register)
 
 

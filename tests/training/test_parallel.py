@@ -23,7 +23,9 @@ SCRIPT = textwrap.dedent('''
     from nerfkit.core.errors import ConfigError
     from nerfkit.training.trainer import Trainer
     from nerfkit.core.viz import read_jsonl
+    from nerfkit.cli.main import enable_compile_cache
 
+    enable_compile_cache()  # the session's cache (conftest.py): a step compiled alike twice here compiles once
     root = Path(sys.argv[1])
     scene = make_scene(root / "scene", size=16, n_train=4, n_val=1, n_test=1)
 

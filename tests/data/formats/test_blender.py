@@ -1,7 +1,7 @@
 """Tests for the Blender-synthetic loader (nerfkit.data.formats.blender).
 
 Most tests use a tiny procedurally generated scene (nerfkit.data.procedural.scene.make_scene); the
-lego tests use the shared dataset when it is present and skip otherwise.
+lego tests use the shared dataset when it is present and skip otherwise (fail in CI: shared_data.py).
 """
 
 import json
@@ -13,6 +13,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 from reference import load_blender, read_split_poses
+from shared_data import SHARED_DATA, require_shared
 
 from nerfkit.core.errors import DataError
 from nerfkit.data.formats.blender import SplitItem, parse_split_spec
@@ -20,7 +21,7 @@ from nerfkit.data.procedural.scene import make_scene
 
 SIZE = 8
 N_TRAIN, N_VAL = 3, 3
-LEGO = Path(__file__).resolve().parents[3].parent / "shared/data/nerf_synthetic/lego"
+LEGO = SHARED_DATA / "nerf_synthetic" / "lego"
 
 
 @pytest.fixture(scope="module")
@@ -222,8 +223,7 @@ def test_not_a_png(scene_copy):
 
 
 def _need_lego():
-    if not (LEGO / "transforms_train.json").is_file():
-        pytest.skip(f"shared lego data not found at {LEGO}")
+    require_shared(LEGO / "transforms_train.json")
 
 
 def _lego_focal(width):
