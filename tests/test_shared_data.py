@@ -3,12 +3,17 @@
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
-import conftest
 import pytest
 import shared_data
 from shared_data import REQUIRE, needs_shared, require_shared
+
+# tests/conftest.py itself, by path: in a whole-suite run the module name "conftest" may be another folder's
+_spec = importlib.util.spec_from_file_location("tests_root_conftest", Path(__file__).with_name("conftest.py"))
+conftest = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(conftest)
 
 
 @pytest.mark.parametrize("value", [None, "", "0"])
