@@ -4,6 +4,7 @@ says which code produced it."""
 
 from __future__ import annotations
 
+import hashlib
 import os
 import platform
 import subprocess
@@ -25,12 +26,18 @@ def _git(*args: str) -> str:
 
 
 def provenance() -> dict:
-    """{commit, dirty (None: unknown), date, command, python, cpus, machine, load_at_start} (the 1-minute load
-    average when the benchmark started: the machine is shared, so a figure measured under load says so)."""
+    """{commit, dirty (None: unknown), diff_sha256, date, command, python, cpus, machine, load_at_start}:
+    diff_sha256 is the SHA-256 of `git diff HEAD` (the uncommitted changes to tracked files) when dirty, so a
+    record measured on a dirty tree names the exact code; load_at_start is the 1-minute load average when the
+    benchmark started (the machine is shared, so a figure measured under load says so)."""
     commit = _git("rev-parse", "HEAD")
     # A copy of the tree without .git (a lent GPU machine): the commit comes from NERFKIT_COMMIT, dirty unknown.
-    dirty = bool(_git("status", "--porcelain", "--untracked-files=no")) if commit else None
-    return {"commit": commit or os.environ.get("NERFKIT_COMMIT", ""), "dirty": dirty,
+    # The records themselves (benchmarks/results) do not count: a benchmark's own output must not make the next
+    # one's tree dirty.
+    code = (".", ":(exclude)benchmarks/results")
+    dirty = bool(_git("status", "--porcelain", "--untracked-files=no", "--", *code)) if commit else None
+    diff = hashlib.sha256(_git("diff", "HEAD", "--", *code).encode()).hexdigest() if dirty else None
+    return {"commit": commit or os.environ.get("NERFKIT_COMMIT", ""), "dirty": dirty, "diff_sha256": diff,
             "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
             "python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine(),
             "load_at_start": LOAD_AT_START}

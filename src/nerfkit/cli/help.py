@@ -26,15 +26,15 @@ from nerfkit.training.flags import (
 from nerfkit.viewer.run import TRAINING_FRACTION
 
 FIRST = ("data.downscale", "train.max_minutes", "train.max_steps")
+TITLES = {"field": "Model", "sampler": "Sampling", "splat": "Splats"}  # a section not named here: its own name
 GROUPS = {
     "Data": ("data.train_split", "data.val_split", "data.target_width", "data.background", "data.format",
              "data.masks", "data.holdout_every"),
-    "Model": tuple(f"field.{f.name}" for f in dataclasses.fields(Config().field)),
-    "Sampling": tuple(f"sampler.{f.name}" for f in dataclasses.fields(Config().sampler)),
+    **{TITLES.get(name, name.title()): tuple(f"{name}.{f.name}" for f in dataclasses.fields(cls))
+       for name, cls in Config.sections().items() if name not in ("data", "train")},
     "Training": ("train.lr", "train.lr_decay_steps", "train.lr_decay_rate", "train.adam_b2", "train.adam_eps",
                  "train.batch_rays", "train.seed", "train.precrop_steps", "train.precrop_frac", "train.devices",
                  "train.max_bad_steps"),
-    "Splats": tuple(f"splat.{f.name}" for f in dataclasses.fields(Config().splat)),
     "Output": ("train.val_every", "train.val_views", "train.val_max_fraction", "train.ckpt_every",
                "train.keep_ckpts", "train.log_every", "train.chunk"),
 }

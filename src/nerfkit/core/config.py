@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import typing
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -274,26 +275,29 @@ class Config:
         return json.dumps(self.to_dict(), indent=2)
 
     @staticmethod
+    def sections() -> dict[str, type]:
+        """{section name: its settings dataclass}, in declaration order: a new section is one dataclass and one
+        field here (flags, --help, the config file and the type check read this)."""
+        hints = typing.get_type_hints(Config)
+        return {f.name: hints[f.name] for f in dataclasses.fields(Config)}
+
+    @staticmethod
     def from_dict(d: dict[str, Any]) -> "Config":
         """Rebuild a config (e.g. a run folder's config.json); ConfigError if it is not a valid one. Settings
         that earlier versions wrote and no model reads any more (RETIRED) are dropped; a splat section written
         before --pixel-loss existed gets "l1", the loss those runs trained with (so --resume keeps it)."""
         try:
-            sections = {k: {n: v for n, v in d[k].items() if f"{k}.{n}" not in RETIRED}
-                        for k in ("data", "field", "sampler", "train")}
+            sections = {k: {n: v for n, v in d.get(k, {}).items() if f"{k}.{n}" not in RETIRED}
+                        for k in Config.sections()}
+            missing = [k for k in ("data", "field", "sampler", "train") if k not in d]  # every version wrote these
+            if missing:
+                raise KeyError(missing[0])
             # configs written before --sampling existed: their samples came from the occupancy grid
             sections["sampler"].setdefault("sampling", "occupancy")
-            splat = dict(d.get("splat", {}))  # runs of earlier versions may have no splat section
-            if splat:
-                splat.setdefault("pixel_loss", "l1")
-            cfg = Config(
-                data=DataConfig(**sections["data"]),
-                field=FieldConfig(**sections["field"]),
-                sampler=SamplerConfig(**sections["sampler"]),
-                train=TrainConfig(**sections["train"]),
-                splat=SplatSettings(**splat),
-            )
-        except (KeyError, TypeError) as e:
+            if sections["splat"]:  # runs of earlier versions may have no splat section
+                sections["splat"].setdefault("pixel_loss", "l1")
+            cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
+        except (KeyError, TypeError, AttributeError) as e:
             raise ConfigError(f"config is not a nerfkit config ({e})") from None
         return validate(cfg)
 

@@ -50,7 +50,7 @@ def _type_name(tp: Any) -> str:
 
 
 def _check_types(cfg) -> None:
-    for section in ("data", "field", "sampler", "train", "splat"):
+    for section in cfg.sections():
         obj = getattr(cfg, section)
         hints = typing.get_type_hints(type(obj))
         for f in dataclasses.fields(obj):

@@ -30,7 +30,7 @@ from nerfkit.core.config import Config
 from nerfkit.core.errors import ConfigError
 from nerfkit.core.presets import PRESETS
 
-SECTIONS = ("data", "field", "sampler", "train", "splat")
+SECTIONS = tuple(Config.sections())  # ("data", "field", "sampler", "train", "splat")
 
 
 def by_kind() -> dict[str, frozenset[str]]:

@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 import math
 import shlex
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,6 +32,7 @@ from nerfkit.models.registry import build_model
 from nerfkit.render.images import make_renderer
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training import parallel
+from nerfkit.training.callbacks import Checkpoints, ProgressBar
 from nerfkit.training.flags import describe_budget, describe_model
 from nerfkit.training.setup import clear_run, load_splits, refuse_earlier_run
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
@@ -63,8 +63,6 @@ class Loop:
     last_val: float | None = None  # the last validation's mean PSNR
     last_val_step: int = -1
     val_gate: float = 0.0  # no periodic validation before this clock time (keeps validation <= val_max_fraction)
-    bar: tqdm | None = None  # made after the first step: its rate and ETA leave the compilation out
-    compiled_at: float | None = None  # perf_counter time the first step (with its compilation) finished
 
     def elapsed(self, now: float | None = None) -> float:
         """Training seconds of the run at perf_counter time `now` (default: now)."""
@@ -76,9 +74,9 @@ class Trainer:
                  progress: bool = True, overwrite: bool = False):
         """Load the data, resolve cfg from it, build the model and say the plan. `overwrite`: a fresh run into a
         folder that holds an earlier run's files removes them first (otherwise it is refused). Flags a user
-        typed are checked before (setup.refuse_given, called by the CLI). Callbacks (self.callbacks) join
-        the loop: each one's after_step(state, step) runs after every step (the viewer's, nerfkit train
-        --viewer)."""
+        typed are checked before (setup.refuse_given, called by the CLI). Callbacks (self.callbacks,
+        callbacks.py) join the loop: the progress bar and the checkpoints by default, the viewer's with
+        nerfkit train --viewer."""
         self.cfg = validate(cfg)
         self.data_dir = Path(data_dir)
         self.run_dir = Path(run_dir)
@@ -90,7 +88,7 @@ class Trainer:
         self.capture, self.train_data, self.val_data, self.cfg = load_splits(self.data_dir, cfg, progress, say)
         self._set_up_model(say)
         self._say_plan(say)
-        self.callbacks: list = []  # objects with after_step(state, step), run after every step
+        self.callbacks: list = [ProgressBar(progress), Checkpoints(self.cfg.train.ckpt_every)]  # callbacks.Callback
 
     def _set_up_model(self, say) -> None:
         """The model of self.cfg, the device mesh its data-parallel split runs on (none for whole views, which
@@ -235,14 +233,12 @@ class Trainer:
         images, poses, state = parallel.replicate(
             (jnp.asarray(self.train_data.images), jnp.asarray(self.train_data.poses), state), self.mesh)
         step_fn = make_train_step(self.model, self.optimizer, self.train_data, self.cfg, self.mesh)
-        for c in self.callbacks:  # what they show before the first step
-            c.after_step(state, step)
         t = self.cfg.train
         start = time.perf_counter()
         loop = Loop(step, step, elapsed0, start, start + 60 * t.max_minutes if t.max_minutes else math.inf)
         self._bad_streak = 0
-        if step < t.max_steps and self.progress:
-            tqdm.write("compiling the training step (a one-off; the next run of this model starts faster)...")
+        for c in self.callbacks:
+            c.begin(self, loop, state)
         with StopFlag() as stop:
             state, interrupted, reason = self._loop(loop, state, step_fn, images, poses, stop)
             self._end(loop, state, interrupted, reason)
@@ -271,39 +267,21 @@ class Trainer:
             jax.block_until_ready(m)  # keeps the bar's rate and ETA honest (steps are compute-bound)
             loop.step += 1
             loop.pending.append((loop.step, m))
-            self._advance_bar(loop)
             for c in self.callbacks:
-                c.after_step(state, loop.step)
+                c.after_step(self, loop, state)
             if loop.step % t.log_every == 0 or loop.step == t.max_steps or stop.signal_name:
-                self._log_and_show(loop)
+                self._log_pending(loop)
             if parallel.agree(bool(stop.signal_name)):
                 return state, True, f"--max-steps {t.max_steps} reached"
             self._validate_on_schedule(loop, state)
-            if loop.step % t.ckpt_every == 0:
-                self.save(state, loop.step, loop.elapsed())
         return state, False, f"--max-steps {t.max_steps} reached"
 
-    def _advance_bar(self, loop: Loop) -> None:
-        """Count a step on the progress bar, made at the first step (its rate and ETA leave the compilation out)."""
-        if loop.bar is None:
-            loop.compiled_at = time.perf_counter()
-            loop.bar = tqdm(total=self.cfg.train.max_steps, initial=loop.step, disable=not self.progress,
-                            dynamic_ncols=True, desc="train", unit="step", file=sys.stderr, mininterval=1.0)
-        else:
-            loop.bar.update(1)
-
-    def _log_and_show(self, loop: Loop) -> None:
-        """Log the pending steps (_log) and show the last row on the bar, whose end moves to where the time runs
-        out (at the measured step rate) under a time budget."""
-        t = self.cfg.train
+    def _log_pending(self, loop: Loop) -> None:
+        """Log the pending steps (_log), note the row's rays per step, and hand the row to the callbacks."""
         row = self._log(loop.pending, loop.elapsed())
         loop.rays += [(row["rays"], row["samples_per_ray"])] if "rays" in row else []
-        now = time.perf_counter()
-        if math.isfinite(loop.deadline) and loop.step > loop.first_step + 1:  # the bar ends where time runs out
-            rate = (loop.step - loop.first_step - 1) / max(now - loop.compiled_at, 1e-9)
-            loop.bar.total = min(t.max_steps, loop.step + int(rate * max(loop.deadline - now, 0.0)))
-        loop.bar.set_postfix(loss=f"{row['loss']:.4f}", psnr=f"{row['psnr']:.2f}",
-                             val=f"{loop.last_val:.2f}" if loop.last_val is not None else "-")
+        for c in self.callbacks:
+            c.after_log(self, loop, row)
 
     def _validate_on_schedule(self, loop: Loop, state) -> None:
         """Validate every --val-every steps (process 0), but not before loop.val_gate: after a validation that
@@ -320,20 +298,18 @@ class Trainer:
 
     def _end(self, loop: Loop, state, interrupted: bool, reason: str) -> None:
         """After the loop: log what is pending (the last step is always in metrics.jsonl), validate the last
-        step unless interrupted or just done, and save the checkpoint."""
+        step unless interrupted or just done, and end the callbacks (the last checkpoint is theirs)."""
         step = loop.step
-        if loop.bar is not None:
-            loop.bar.close()
-        elapsed = loop.elapsed()
         if loop.pending:  # the last step is always in metrics.jsonl (summaries quote it)
-            row = self._log(loop.pending, elapsed)
-            loop.rays += [(row["rays"], row["samples_per_ray"])] if "rays" in row else []
+            self._log_pending(loop)
+        elapsed = loop.elapsed()
         if not interrupted:
             tqdm.write(f"{reason} at step {step}")
         if not interrupted and loop.last_val_step != step and step > 0 and self.primary:
             loop.last_val = self.validate(state, step, elapsed)
             tqdm.write(f"step {step}: val PSNR {loop.last_val:.2f} dB")
-        self.save(state, step, elapsed)
+        for c in self.callbacks:
+            c.end(self, loop, state, interrupted)
 
     def _result(self, loop: Loop, interrupted: bool) -> TrainResult:
         """The plots (when no validation drew them), the closing lines, and the TrainResult."""

@@ -16,6 +16,7 @@ from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.rays.cameras import Camera
 from nerfkit.render.images import check_chunk, make_renderer
 from nerfkit.run.folder import RunFolder
+from nerfkit.training.callbacks import Callback
 from nerfkit.viewer.server import SceneView, Viewer
 
 THUMB = 96  # longest side of the photos shown in the training-camera frustums
@@ -127,18 +128,18 @@ TRAINING_FRACTION = 0.04
 
 
 @dataclass
-class LiveView:
-    """The training loop's callback for a viewer: after every step, the new parameters, and a render when the
-    viewer's duty-cycle gate is open."""
+class LiveView(Callback):
+    """The training loop's callback for a viewer (training/callbacks.py): the parameters it starts from, then after
+    every step the new ones, and a render when the viewer's duty-cycle gate is open."""
 
     viewer: Viewer
-    started: bool = False  # the loop's first call comes before its first step: parameters only
 
-    def after_step(self, state, step: int) -> None:
-        self.viewer.set_params(state["params"], state["aux"], step)
-        if self.started:
-            self.viewer.render_pending()
-        self.started = True
+    def begin(self, trainer, loop, state) -> None:
+        self.viewer.set_params(state["params"], state["aux"], loop.step)
+
+    def after_step(self, trainer, loop, state) -> None:
+        self.viewer.set_params(state["params"], state["aux"], loop.step)
+        self.viewer.render_pending()
 
 
 def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
