@@ -31,7 +31,7 @@ from nerfkit.core.presets import preset
 from nerfkit.core.viz import plot_curves
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.models.registry import build_model
-from nerfkit.render.images import Renderer
+from nerfkit.render.chunked import Renderer
 from nerfkit.training.resolve import resolve_config
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
 from nerfkit.training.validation import evenly_spaced

@@ -1,8 +1,11 @@
-"""Test-session set-up: one persistent JAX compilation cache for the whole session (in a temporary
-folder, not the user's ~/.cache), so functions that several tests compile alike compile once."""
+"""Test-session set-up: one persistent JAX compilation cache per test process (in a temporary folder, not the
+user's ~/.cache), so functions that several tests compile alike compile once; the session's shared runs, made
+once for all test processes (pytest-xdist runs the suite in one process per core, at most MAX_WORKERS)."""
 
 import os
+import shutil
 import tempfile
+from pathlib import Path
 
 import pytest
 from chromium import CHROMIUM_NAMES, find_chromium
@@ -18,6 +21,41 @@ def pytest_configure(config):
 def pytest_runtest_setup(item):
     for mark in item.iter_markers("needs_shared"):
         require_shared(mark.args[0])
+
+
+MAX_WORKERS = 4  # each test process peaks at about 6 GB of memory
+
+
+def pytest_xdist_auto_num_workers(config):
+    """`-n auto` (pyproject.toml's addopts): one test process per core, at most MAX_WORKERS."""
+    return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1,
+                      MAX_WORKERS))
+
+
+def made_once(tmp_path_factory, name: str, make) -> Path:
+    """A folder filled by make(folder) once per test session. Under pytest-xdist the first test process to ask
+    makes it in a folder all of them share (the others wait on a file lock) and each process gets its own copy,
+    so that a test may write into it (exports, eval records) without racing another process."""
+    base = tmp_path_factory.getbasetemp()
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        root = tmp_path_factory.mktemp(name)
+        make(root)
+        return root
+    import fcntl
+
+    shared = base.parent / f"shared-{name}"
+    shared.mkdir(exist_ok=True)
+    with open(base.parent / f"shared-{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            if not (shared / ".done").exists():
+                make(shared)
+                (shared / ".done").touch()
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+    own = tmp_path_factory.mktemp(name)
+    shutil.copytree(shared, own, dirs_exist_ok=True, symlinks=True)
+    return own
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -46,18 +84,20 @@ def splat_run(tmp_path_factory):
     from nerfkit.cli.main import main
     from nerfkit.data.procedural.scene import make_scene
 
-    root = tmp_path_factory.mktemp("splat_run")
-    scene = make_scene(root / "scene", size=32, n_train=8, n_val=2, n_test=2)
-    assert main(["train", str(scene), "--out", str(root / "run"), *SPLAT_TRAIN]) == 0
-    return scene, root / "run"
+    def make(root):
+        scene = make_scene(root / "scene", size=32, n_train=8, n_val=2, n_test=2)
+        assert main(["train", str(scene), "--out", str(root / "run"), *SPLAT_TRAIN]) == 0
+
+    root = made_once(tmp_path_factory, "splat_run", make)
+    return root / "scene", root / "run"
 
 
 @pytest.fixture(scope="session")
 def procedural_run(tmp_path_factory):
     """(run, moved copy, training poses) of the shared procedural-scene run (procedural_run.py)."""
-    from procedural_run import train_scene
+    from procedural_run import shared_run, train_scene
 
-    return train_scene(tmp_path_factory.mktemp("procedural_run"))
+    return shared_run(made_once(tmp_path_factory, "procedural_run", train_scene))
 
 
 @pytest.fixture

@@ -34,7 +34,7 @@ def similarity() -> np.ndarray:
 
 
 def train_scene(root):
-    """(run folder, a copy whose capture frame is moved by S, the training poses)."""
+    """Train the run into root/run and make its moved copy root/moved (shared_run reads them)."""
     scene = make_scene(root / "scene", size=SIZE, n_train=24, n_val=2, n_test=2)
     cfg = preset("demo")
     cfg.field.hash_log2_size = 14
@@ -47,6 +47,10 @@ def train_scene(root):
     info = json.loads((moved / "scene.json").read_text())
     info["transform"] = np.linalg.inv(similarity()).tolist()  # capture x_c = S x_n, so M = S^-1
     (moved / "scene.json").write_text(json.dumps(info))
-    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
+
+
+def shared_run(root):
+    """(run folder, a copy whose capture frame is moved by S, the training poses) of a root train_scene filled."""
+    frames = json.loads((root / "scene" / "transforms_train.json").read_text())["frames"]
     poses = np.array([f["transform_matrix"] for f in frames])
-    return root / "run", moved, poses
+    return root / "run", root / "moved", poses

@@ -11,7 +11,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "nerfkit"
-MAX_LINES = 400  # "no module over ~400 lines"; the largest today is render/images.py (393)
+MAX_LINES = 400  # "no module over ~400 lines"; the largest today is viewer/server.py (389)
 
 MAX_FUNCTION_LINES = 60  # "no function over ~60 lines": from `def` to the end of the body, docstring included
 # Functions allowed to be longer, each with its reason ("path:Class.function", relative to src/nerfkit).

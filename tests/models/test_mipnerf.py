@@ -12,7 +12,7 @@ from nerfkit.models.mipnerf import MipNeRFModel
 from nerfkit.models.registry import build_model
 from nerfkit.rays.cameras import Camera, look_at, ray_table
 from nerfkit.rays.frustum import pixel_base_radius
-from nerfkit.render.images import Renderer
+from nerfkit.render.chunked import Renderer
 
 
 def _mip_config():

@@ -11,7 +11,7 @@ from nerfkit.core.presets import preset
 from nerfkit.core.viz import read_jsonl
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.models.registry import build_model
-from nerfkit.render.images import Renderer
+from nerfkit.render.chunked import Renderer
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.trainer import Trainer
 
@@ -138,7 +138,7 @@ def _ball_model(scene_type: str, march_steps: int = 256):
 def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
     """The wavefront renderer (rays retire once their transmittance is spent, empty space costs
     only look-ups) shades the same samples with the same weights as the one-pass renderer."""
-    from nerfkit.render.images import WavefrontRenderer
+    from nerfkit.render.wavefront import WavefrontRenderer
 
     model, params, aux, o, d = _ball_model(scene_type)
     ref = Renderer(model, chunk=256).render_rays(params, aux, o, d, median=True)
@@ -160,7 +160,7 @@ def test_wavefront_renderer_gives_the_one_pass_pixels(scene_type):
 def test_a_coarser_march_is_the_march_of_fewer_steps(scene_type, stride):
     """coarser(renderer, s) (the viewer's moving previews) marches s fine steps as one: the pixels of the
     same model built with march_steps / s, rendered in one pass; and not the fine march's pixels."""
-    from nerfkit.render.images import WavefrontRenderer, coarser
+    from nerfkit.render.wavefront import WavefrontRenderer, coarser
 
     model, params, aux, o, d = _ball_model(scene_type, march_steps=240)
     fewer = _ball_model(scene_type, march_steps=240 // stride)[0]
@@ -179,7 +179,7 @@ def test_antialiased_field_renders_cones_alike_in_both_renderers():
     from reference import image_rays
 
     from nerfkit.rays.cameras import look_at
-    from nerfkit.render.images import WavefrontRenderer
+    from nerfkit.render.wavefront import WavefrontRenderer
 
     cfg = _ngp_config()
     cfg.field.hash_levels, cfg.field.hash_max_res = 4, 32
@@ -209,7 +209,7 @@ def test_antialiased_field_renders_cones_alike_in_both_renderers():
 
 def test_warm_up_compiles_every_round_function_a_render_uses():
     """After warm_up (the viewer's idle-time compile), rendering compiles nothing more."""
-    from nerfkit.render.images import WavefrontRenderer, coarser
+    from nerfkit.render.wavefront import WavefrontRenderer, coarser
 
     model, params, aux, o, d = _ball_model("bounded")
     for renderer in (WavefrontRenderer(model, chunk=64), coarser(WavefrontRenderer(model, chunk=64), 2)):

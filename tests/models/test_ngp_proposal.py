@@ -14,7 +14,8 @@ from nerfkit.models.ngp import NGPModel
 from nerfkit.models.ngp_proposal import ProposalNGPModel
 from nerfkit.models.registry import build_model
 from nerfkit.rays.cameras import look_at
-from nerfkit.render.images import Renderer, make_renderer
+from nerfkit.render.chunked import Renderer
+from nerfkit.render.images import make_renderer
 from nerfkit.sampling.proposal import interlevel_loss
 from nerfkit.training.step import init_state, make_optimizer, ray_loss
 

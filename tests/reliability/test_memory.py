@@ -1,6 +1,6 @@
 """Item 6: full-image rendering memory is set by --chunk, not by the image size.
 
-A subprocess renders views of a tiny model with nerfkit.render.images.Renderer and reports,
+A subprocess renders views of a tiny model with nerfkit.render.chunked.Renderer and reports,
 for each, the peak resident memory above the memory it held just before (the kernel's
 high-water mark is reset through /proc/self/clear_refs). Then:
 
@@ -36,7 +36,7 @@ CHILD = textwrap.dedent(
     import jax, numpy as np
     from nerfkit.rays.cameras import look_at
     from nerfkit.core.presets import preset
-    from nerfkit.render.images import Renderer
+    from nerfkit.render.chunked import Renderer
     from nerfkit.models.registry import build_model
 
     def vm(key):

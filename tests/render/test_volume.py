@@ -309,7 +309,7 @@ from nerfkit.core.presets import preset  # noqa: E402
 from nerfkit.models.nerf import NeRFModel  # noqa: E402
 from nerfkit.models.registry import build_model  # noqa: E402
 from nerfkit.rays.cameras import look_at  # noqa: E402
-from nerfkit.render.images import Renderer  # noqa: E402
+from nerfkit.render.chunked import Renderer  # noqa: E402
 from nerfkit.sampling.intervals import midpoints, sample_pdf, stratified_samples  # noqa: E402
 
 N_COARSE, N_FINE = 16, 8

@@ -11,7 +11,7 @@ from reference import load_blender
 from nerfkit.core.metrics import psnr
 from nerfkit.core.presets import preset
 from nerfkit.data.procedural.scene import make_scene
-from nerfkit.render.images import Renderer
+from nerfkit.render.chunked import Renderer
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.trainer import Trainer
 

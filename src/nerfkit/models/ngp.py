@@ -129,8 +129,8 @@ class NGPModel:
         self.occ = occupancy.OccupancyConfig(resolution=s.occ_res, bound=self.field.grid_bound,
                                              threshold=0.01 / self.step_size, warmup_decay=s.occ_warmup_decay)
         self.background = background_color(cfg.data.background)
-        # Sample budget per ray of render_rays(train=False), the one-pass renderer (render/images.Renderer): only
-        # tests and references use it (images are rendered by render/images.WavefrontRenderer); rays that overflow
+        # Sample budget per ray of render_rays(train=False), the one-pass renderer (render/chunked.Renderer): only
+        # tests and references use it (images are rendered by render/wavefront.WavefrontRenderer); rays that overflow
         # are re-queued, so it changes the speed, not the result.
         self.eval_samples_per_ray = 48
         # Unresolved (no data seen): the defaults of resolve.py.

@@ -10,7 +10,7 @@ seconds while training.
 
 Progressive rendering. While a camera moves (its last update is younger than STILL_AFTER s),
 frames are previews that adapt to keep TARGET_FPS (preview_quality): first the march coarsens
-(render/images.coarser: stride s marches s steps as one, ~s times fewer samples; on lego s = 3 renders
+(render/wavefront.coarser: stride s marches s steps as one, ~s times fewer samples; on lego s = 3 renders
 256x256 in 0.15 s instead of 0.35 s, 30 dB against the full frame), then the resolution drops
 (preview_size: the side scaled by sqrt(target / seconds), clamped to [1/2, 2] per frame and to
 [16 px, the chosen resolution], as nerfstudio's viewer does; the browser stretches the image);
@@ -38,7 +38,7 @@ import numpy as np
 from nerfkit.core.viz import save_png, to_uint8
 from nerfkit.rays.camera_path import write_camera_path
 from nerfkit.rays.cameras import look_at
-from nerfkit.render.images import WavefrontRenderer, coarser
+from nerfkit.render.wavefront import WavefrontRenderer, coarser
 from nerfkit.viewer.frames import (
     DRAWN_BY,
     MODES,
@@ -116,7 +116,7 @@ class Viewer:
         self.frames_rendered = 0
         self.preview_side = 64  # adapted by preview_quality() after every preview, with the march stride
         self.preview_stride = 1
-        self._renderers = {1: renderer}  # by march stride (render/images.coarser), compiled on first use
+        self._renderers = {1: renderer}  # by march stride (render/wavefront.coarser), compiled on first use
         self._compiled: set[int] = set()  # strides whose renderer has compiled (a frame or warm_up)
         self.keyframes: list[tuple[np.ndarray, float]] = []
         self.server = viser.ViserServer(host=host, port=port, verbose=False)

@@ -12,7 +12,7 @@
 // arrays as in a 3D texture's rows.
 //
 // Rendering: a full-screen fragment shader marches each pixel's ray as the reference renderer
-// (models/baked/model.py through render/images.py) does: d = R ((u - cx) / fx, -(v - cy) / fy, -1) at pixel
+// (models/baked/model.py through render/chunked.py) does: d = R ((u - cx) / fx, -(v - cy) / fy, -1) at pixel
 // centres, t_lo = max(near, box entry), t_hi = min(far, box exit), sample k on [t_lo + k step,
 // min(t_lo + (k + 1) step, t_hi)] shaded at that interval's midpoint, sigma = exp(min(a, 15)),
 // delta = interval length * |d|, colour = clip(sum_k coeff_k Y_k(d / |d|), 0, 1), stop once T < 1e-4,

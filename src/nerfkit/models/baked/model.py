@@ -1,7 +1,7 @@
 """A baked scene as a renderable model: the reference renderer of the baked format.
 
 `BakedModel` has the fast field's marching interface (candidates, an occupancy grid, a
-field returning (rgb, sigma)), so the wavefront renderer of render/images.py renders it: the
+field returning (rgb, sigma)), so the wavefront renderer of render/wavefront.py renders it: the
 occupancy grid is the brick index (a brick is occupied when it is stored), the field is the
 trilinear look-up of format.py with the spherical-harmonics colour. What this renders is what
 `nerfkit eval --baked` scores and what a browser renderer of the format must reproduce.

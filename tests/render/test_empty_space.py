@@ -8,7 +8,7 @@ import reference
 from reference import image_rays
 
 from nerfkit.rays.cameras import look_at
-from nerfkit.render.images import empty_distance, first_set_bits, pack_bits, skip_empty
+from nerfkit.render.empty_space import empty_distance, first_set_bits, pack_bits, skip_empty
 from nerfkit.sampling import occupancy
 
 
