@@ -1,4 +1,4 @@
-"""Test-session set-up: one persistent JAX compilation cache per test process (in a temporary folder, not the
+"""Test-session set-up: one persistent JAX compilation cache for the session (in a temporary folder, not the
 user's ~/.cache), so functions that several tests compile alike compile once; the session's shared runs, made
 once for all test processes (pytest-xdist runs the suite in one process per core, at most MAX_WORKERS)."""
 
@@ -59,18 +59,30 @@ def made_once(tmp_path_factory, name: str, make) -> Path:
 
 
 @pytest.fixture(scope="session", autouse=True)
-def compile_cache():
-    with tempfile.TemporaryDirectory(prefix="nerfkit-jax-cache-") as path:
-        old = os.environ.get("NERFKIT_COMPILE_CACHE")
-        os.environ["NERFKIT_COMPILE_CACHE"] = path
-        from nerfkit.cli.main import enable_compile_cache
+def compile_cache(tmp_path_factory):
+    """A persistent JAX compilation cache for the session, in a temporary folder (not the user's ~/.cache) that
+    every test process shares under pytest-xdist, so that a function two processes compile alike compiles
+    once. (JAX reads an entry a concurrent write left unfinished as a miss: it warns and compiles.)"""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        path = tmp_path_factory.getbasetemp().parent / "jax-cache"
+        path.mkdir(exist_ok=True)
+        yield from _with_compile_cache(str(path))
+    else:
+        with tempfile.TemporaryDirectory(prefix="nerfkit-jax-cache-") as path:
+            yield from _with_compile_cache(path)
 
-        enable_compile_cache()
-        yield path
-        if old is None:
-            os.environ.pop("NERFKIT_COMPILE_CACHE", None)
-        else:
-            os.environ["NERFKIT_COMPILE_CACHE"] = old
+
+def _with_compile_cache(path: str):
+    old = os.environ.get("NERFKIT_COMPILE_CACHE")
+    os.environ["NERFKIT_COMPILE_CACHE"] = path
+    from nerfkit.cli.main import enable_compile_cache
+
+    enable_compile_cache()
+    yield path
+    if old is None:
+        os.environ.pop("NERFKIT_COMPILE_CACHE", None)
+    else:
+        os.environ["NERFKIT_COMPILE_CACHE"] = old
 
 
 SPLAT_TRAIN = ["--preset", "splat", "--no-progress", "--capacity", "2000", "--max-steps", "200", "--val-every", "100",

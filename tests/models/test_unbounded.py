@@ -34,6 +34,7 @@ def small(scene_type: str, sampling: str = "auto", steps: int = STEPS):
     cfg.train.max_steps, cfg.train.batch_rays = steps, 1024
     cfg.train.max_minutes = None  # the steps alone: a loaded machine must not cut the run short
     cfg.train.val_every = cfg.train.ckpt_every = steps
+    cfg.train.val_views = 5  # every held-out view: the run's last validation is its score (nerfkit eval's)
     return cfg
 
 
@@ -45,8 +46,12 @@ def test_unbounded_beats_bounded_on_a_scene_with_a_far_environment(capture, tmp_
     for kind, sampling, steps in (("unbounded", "proposal", PROPOSAL_STEPS), ("unbounded", "occupancy", STEPS),
                                   ("bounded", "auto", STEPS)):
         run = tmp_path / f"{kind}_{sampling}"
-        Trainer(capture, run, small(kind, sampling, steps), progress=False).run()
-        psnr[kind, sampling] = evaluate_run(run, None, "test", progress=False)["psnr"]
+        trainer = Trainer(capture, run, small(kind, sampling, steps), progress=False)
+        assert trainer.cfg.data.val_split == "test" and len(trainer.val_ids) == len(trainer.val_data) == 5
+        psnr[kind, sampling] = trainer.run().val_psnr
+    # the score is the held-out views' (nerfkit eval renders the same pixels)
+    assert psnr["unbounded", "proposal"] == pytest.approx(evaluate_run(tmp_path / "unbounded_proposal", None, "test",
+                                                                       progress=False)["psnr"], abs=1e-4)
     for sampling in ("proposal", "occupancy"):
         assert psnr["unbounded", sampling] >= FLOOR_DB, psnr
         assert psnr["unbounded", sampling] >= psnr["bounded", "auto"] + MARGIN_DB, psnr

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import shlex
 import time
@@ -33,21 +34,28 @@ def preset_of(argv: list[str]) -> str:
     return name
 
 
-def unset_words(argv: list[str]) -> list[str]:
-    """argv with the word help prints for an unset number ("--bound auto", "--devices all", "--target-width -")
-    turned into the None that tyro reads, so every value --help shows can be typed back."""
+@functools.cache
+def _unset_words() -> dict[str, str]:
+    """{flag: the word help prints for it unset} of every setting whose type is a number or None."""
     import typing
 
     from nerfkit.cli.help import UNSET
     from nerfkit.core.config import Config
     from nerfkit.training.flags import flag_of, setting_names
 
-    cfg, numeric = Config(), {}
+    numeric = {}
+    hints = {name: typing.get_type_hints(cls) for name, cls in Config.sections().items()}
     for name in setting_names():
         section, field = name.split(".")
-        hint = typing.get_type_hints(type(getattr(cfg, section)))[field]
-        if set(typing.get_args(hint)) in ({int, type(None)}, {float, type(None)}):
+        if set(typing.get_args(hints[section][field])) in ({int, type(None)}, {float, type(None)}):
             numeric[flag_of(name)] = UNSET.get(name, "auto")
+    return numeric
+
+
+def unset_words(argv: list[str]) -> list[str]:
+    """argv with the word help prints for an unset number ("--bound auto", "--devices all", "--target-width -")
+    turned into the None that tyro reads, so every value --help shows can be typed back."""
+    numeric = _unset_words()
     out = list(argv)
     for k, a in enumerate(out):
         flag, eq, value = a.partition("=")

@@ -9,6 +9,7 @@ as JSON in the run folder so `eval`, `render` and `--resume` rebuild the same mo
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import typing
 from dataclasses import dataclass
@@ -278,8 +279,7 @@ class Config:
     def sections() -> dict[str, type]:
         """{section name: its settings dataclass}, in declaration order: a new section is one dataclass and one
         field here (flags, --help, the config file and the type check read this)."""
-        hints = typing.get_type_hints(Config)
-        return {f.name: hints[f.name] for f in dataclasses.fields(Config)}
+        return dict(_sections())
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> "Config":
@@ -300,6 +300,12 @@ class Config:
         except (KeyError, TypeError, AttributeError) as e:
             raise ConfigError(f"config is not a nerfkit config ({e})") from None
         return validate(cfg)
+
+
+@functools.cache
+def _sections() -> tuple[tuple[str, type], ...]:
+    hints = typing.get_type_hints(Config)  # (resolving annotations compiles them: once)
+    return tuple((f.name, hints[f.name]) for f in dataclasses.fields(Config))
 
 
 def validate(cfg: Config) -> Config:

@@ -5,6 +5,7 @@ and the fix. Rules that belong to one method live with it (its `check`, run by m
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import types
 import typing
@@ -49,10 +50,16 @@ def _type_name(tp: Any) -> str:
     return "null" if tp is type(None) else tp.__name__
 
 
+@functools.cache
+def _hints(cls: type) -> dict[str, Any]:
+    """typing.get_type_hints(cls), once per class (it compiles every annotation string)."""
+    return typing.get_type_hints(cls)
+
+
 def _check_types(cfg) -> None:
     for section in cfg.sections():
         obj = getattr(cfg, section)
-        hints = typing.get_type_hints(type(obj))
+        hints = _hints(type(obj))
         for f in dataclasses.fields(obj):
             v = getattr(obj, f.name)
             if not _matches(v, hints[f.name]):
