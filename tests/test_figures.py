@@ -78,7 +78,7 @@ def commit(name):
 
 
 NGP, SPLAT = "lego_cli_ngp.json", "lego_cli_splat.json"
-NGP_3F, SPLAT_3F = "lego_cli_ngp_stop33.json", "lego_cli_splat_stop33.json"  # the runs of render_speed*.json, mesh_lego.json
+NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
 ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.json"
@@ -311,7 +311,7 @@ CHECKS = [
     ("docs/splats.md", "On a real capture: maryrose", "splats win photos 1 and 4 (by {} and {} dB) and are {} dB behind on 5",
      [((lambda: _mary_diff()[1]), f1), ((lambda: _mary_diff()[4]), f1), ((lambda: -_mary_diff()[5]), f1)]),
     ("docs/splats.md", "| one 800x800 lego frame, compiled",
-     "trained at commit {h} (splat {} steps, ngp {}; `lego_cli_splat_stop33.json`, `lego_cli_ngp_stop33.json`) | **{} s** | {} s |",
+     "trained at commit {h} (splat {} steps, ngp {}; `lego_cli_splat_3f13384.json`, `lego_cli_ngp_3f13384.json`) | **{} s** | {} s |",
      [commit(SPLAT_3F), (("render_speed_splat.json", "step"), d), (("render_speed.json", "step"), d),
       (("render_speed_splat.json", "seconds_per_frame", "800x800"), f3), (("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
     ("docs/splats.md", "| the web page in headless Chromium's software WebGL2",
@@ -354,7 +354,7 @@ CHECKS = [
     ("docs/splats.md", "- **Limits.**", "ngp reached {} dB in 2 minutes", [((GPU, "runs", 0, "psnr"), f1)]),
     # ---- docs/verbs/export.md
     ("docs/verbs/export.md", "| lego, the 10-min CLI run",
-     "trained at commit {h} ({} steps, {} dB; `lego_cli_ngp_stop33.json`), {} views of",
+     "trained at commit {h} ({} steps, {} dB; `lego_cli_ngp_3f13384.json`), {} views of",
      [commit(NGP_3F), ((NGP_3F, "runs", 2, "steps"), d), ((NGP_3F, "runs", 2, "psnr"), f1), ((ML, "views"), d)]),
     ("docs/verbs/export.md", "| lego, the 10-min CLI run",
      "| **tsdf** | **{}** ({}) | {} / {} | **{}** / {} | {}k | {} s |", mesh_cells(ML, "tsdf")),
