@@ -24,11 +24,15 @@ from tqdm.auto import tqdm
 
 from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.rays.cameras import Camera, camera_rays
+from nerfkit.render.chunked import Renderer
 from nerfkit.render.images import make_renderer
 from nerfkit.run.folder import RunFolder
 
 A_MIN = 0.5  # a pixel at least this opaque shows a surface at its depth
 DEFAULT_VIEWS = 32  # when no --every is given: about this many views, evenly spaced
+# Views are rendered in groups of at least this many pixels, one call each: small views (the fusion's 64 to
+# 200 px ones) then fill the renderer's ray slots instead of leaving most of them empty in a view's last rounds.
+GROUP_RAYS = 1 << 16
 
 
 @dataclass
@@ -65,14 +69,37 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
     if width is not None and cams and cams[0].width != width:
         cams = [c.scaled(width / c.width, width, round(c.height * width / c.width)) for c in cams]
     renderer = make_renderer(run.model, run.cfg.train.chunk if chunk is None else chunk)
-    outs = [renderer.render_camera(run.params, run.aux, sel.poses[k], cam, median=median)
-            for k, cam in zip(tqdm(ids, desc="render views", unit="view", disable=not progress), cams)]
+    outs = []
+    with tqdm(total=len(ids), desc="render views", unit="view", disable=not progress) as bar:
+        for group in _groups(cams, renderer):  # positions in ids: several small views per call, for a ray renderer
+            poses, group_cams = [sel.poses[ids[j]] for j in group], [cams[j] for j in group]
+            if isinstance(renderer, Renderer):
+                outs += renderer.render_cameras(run.params, run.aux, poses, group_cams, median)
+            else:
+                outs += [renderer.render_camera(run.params, run.aux, p, c, median=median)
+                         for p, c in zip(poses, group_cams)]
+            bar.update(len(group))
     return Views(np.stack([sel.poses[k] for k in ids]).astype(np.float32),
                  np.array([[c.fx, c.fy, c.cx, c.cy] for c in cams], np.float32),
                  np.stack([o["depth_normalized"] for o in outs]),
                  np.stack([o["depth_median"] for o in outs]) if median else None,
                  np.stack([o["opacity"] for o in outs]),
                  np.stack([o["rgb"] for o in outs]), cams, split, every)
+
+
+def _groups(cams: list[Camera], renderer) -> list[list[int]]:
+    """The positions of cams in consecutive groups of at least GROUP_RAYS pixels (each view whole; one view per
+    group for a renderer that does not take rays, as the splat renderer)."""
+    if not isinstance(renderer, Renderer):
+        return [[j] for j in range(len(cams))]
+    groups, cur, n = [], [], 0
+    for j, cam in enumerate(cams):
+        cur.append(j)
+        n += cam.width * cam.height
+        if n >= GROUP_RAYS:
+            groups.append(cur)
+            cur, n = [], 0
+    return groups + ([cur] if cur else [])
 
 
 def view_points(views: Views, k: int, background: np.ndarray, min_opacity: float):

@@ -76,7 +76,19 @@ class Renderer:
         `camera` (lens model included) at c2w. Appearance embeddings, where the model has them, are the
         mean over training images; the anti-aliased models see cones of the camera's pixel size
         (frustum.pixel_base_radius)."""
-        o, d = camera_rays(c2w, camera)
-        radii = np.full(o.shape[0] * o.shape[1], float(pixel_base_radius(camera.fx, camera.fy)), np.float32)
-        out = self.render_rays(params, aux, o.reshape(-1, 3), d.reshape(-1, 3), radii, median)
-        return {k: v.reshape(camera.height, camera.width, *v.shape[1:]) for k, v in out.items()}
+        return self.render_cameras(params, aux, [c2w], [camera], median)[0]
+
+    def render_cameras(self, params, aux, poses, cameras: list[Camera], median: bool = False) -> list[dict]:
+        """render_camera of each (c2w, camera) pair, the rays of all of them rendered in one render_rays call:
+        views smaller than the renderer's chunk (or its wavefront's slots) keep it full instead of each
+        leaving part of it empty."""
+        rays = [camera_rays(c2w, cam) for c2w, cam in zip(poses, cameras)]
+        sizes = [cam.width * cam.height for cam in cameras]
+        o = np.concatenate([o.reshape(-1, 3) for o, _ in rays])
+        d = np.concatenate([d.reshape(-1, 3) for _, d in rays])
+        radii = np.concatenate([np.full(n, float(pixel_base_radius(cam.fx, cam.fy)), np.float32)
+                                for n, cam in zip(sizes, cameras)])
+        out = self.render_rays(params, aux, o, d, radii, median)
+        ends = np.cumsum(sizes)
+        return [{k: v[end - n:end].reshape(cam.height, cam.width, *v.shape[1:]) for k, v in out.items()}
+                for n, end, cam in zip(sizes, ends, cameras)]
