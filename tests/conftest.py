@@ -62,11 +62,14 @@ def made_once(tmp_path_factory, name: str, make) -> Path:
     makes it in a folder all of them share (the others wait on a file lock) and each process gets its own copy,
     so that a test may write into it (exports, eval records) without racing another process."""
     base = tmp_path_factory.getbasetemp()
-    if not os.environ.get("PYTEST_XDIST_WORKER"):
+    try:
+        import fcntl
+    except ImportError:  # no POSIX file locks (Windows): each process makes its own
+        fcntl = None
+    if not os.environ.get("PYTEST_XDIST_WORKER") or fcntl is None:
         root = tmp_path_factory.mktemp(name)
         make(root)
         return root
-    import fcntl
 
     shared = base.parent / f"shared-{name}"
     shared.mkdir(exist_ok=True)
