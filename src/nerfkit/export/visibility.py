@@ -24,7 +24,6 @@ from tqdm.auto import tqdm
 
 from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.rays.cameras import Camera, camera_rays
-from nerfkit.render.chunked import Renderer
 from nerfkit.render.images import make_renderer
 from nerfkit.run.folder import RunFolder
 
@@ -71,13 +70,9 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
     renderer = make_renderer(run.model, run.cfg.train.chunk if chunk is None else chunk)
     outs = []
     with tqdm(total=len(ids), desc="render views", unit="view", disable=not progress) as bar:
-        for group in _groups(cams, renderer):  # positions in ids: several small views per call, for a ray renderer
-            poses, group_cams = [sel.poses[ids[j]] for j in group], [cams[j] for j in group]
-            if isinstance(renderer, Renderer):
-                outs += renderer.render_cameras(run.params, run.aux, poses, group_cams, median)
-            else:
-                outs += [renderer.render_camera(run.params, run.aux, p, c, median=median)
-                         for p, c in zip(poses, group_cams)]
+        for group in _groups(cams):  # positions in ids: several small views per call
+            outs += renderer.render_cameras(run.params, run.aux, [sel.poses[ids[j]] for j in group],
+                                            [cams[j] for j in group], median)
             bar.update(len(group))
     return Views(np.stack([sel.poses[k] for k in ids]).astype(np.float32),
                  np.array([[c.fx, c.fy, c.cx, c.cy] for c in cams], np.float32),
@@ -87,11 +82,8 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
                  np.stack([o["rgb"] for o in outs]), cams, split, every)
 
 
-def _groups(cams: list[Camera], renderer) -> list[list[int]]:
-    """The positions of cams in consecutive groups of at least GROUP_RAYS pixels (each view whole; one view per
-    group for a renderer that does not take rays, as the splat renderer)."""
-    if not isinstance(renderer, Renderer):
-        return [[j] for j in range(len(cams))]
+def _groups(cams: list[Camera]) -> list[list[int]]:
+    """The positions of cams in consecutive groups of at least GROUP_RAYS pixels (each view whole)."""
     groups, cur, n = [], [], 0
     for j, cam in enumerate(cams):
         cur.append(j)

@@ -11,7 +11,8 @@ method supports):
                   baking and mesh export read.
     ImageModel    renders whole images itself (rasterising primitives: Gaussian splats): its own
                   optimiser and train step, and an image renderer (render_camera(params, aux, c2w,
-                  camera) -> {"rgb" [H,W,3], "depth" [H,W], "opacity" [H,W]}).
+                  camera) -> {"rgb" [H,W,3], "depth" [H,W], "opacity" [H,W]}, and render_cameras(params,
+                  aux, poses, cameras) -> a list of those, as the ray models' renderers have).
 
 Fields (F(x, d) -> rgb, sigma) share one call signature, `Field`, whose `footprint` argument is each kind's
 size of a sample (see Field).

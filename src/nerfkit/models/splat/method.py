@@ -9,6 +9,7 @@ nerfkit's run loop (training/trainer.Trainer) asks a model for five things; the 
     make_optimizer(cfg)             (optimiser with .init(params), schedule(step) for the log)
     make_train_step(optimizer, data, cfg)  step(state, step, images, poses) -> (state, metrics)
     renderer(chunk)                 .render_camera(params, aux, c2w, camera) -> rgb, depth, opacity
+                                    (.render_cameras: a list of views in one call)
 
 One step is train.ViewStep, the step train_splats (tests, benchmarks) drives too: it renders one
 training view (a random order per epoch, fixed by the seed), takes an Adam step (train.make_step)
@@ -125,6 +126,13 @@ class SplatRenderer:
 
     def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
         return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
+
+    def render_cameras(self, params, aux, poses, cameras, median: bool = False) -> list[dict]:
+        """render_camera of each (c2w, camera) pair (the rasteriser takes one view at a time); splats have no
+        median depth."""
+        if median:
+            raise ValueError("a splat render has no median depth")
+        return [self.render_camera(params, aux, c2w, cam) for c2w, cam in zip(poses, cameras)]
 
 
 class SplatModel:
