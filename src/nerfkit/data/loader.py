@@ -45,8 +45,11 @@ def read_capture(root: str | Path, spec: str, format: str = "auto", masks: bool 
     if not root.is_dir():
         raise DataError(f"{root}: data folder does not exist")
     cap = fmt.read(root, spec, holdout_every, masks)
-    if not masks:
-        cap.masks_dropped = cap.has_masks
+    if not masks:  # the formats leave masks out when told to: whether there were any to drop is a second read
+        try:
+            cap.masks_dropped = fmt.read(root, spec, holdout_every, True).has_masks
+        except DataError:  # masks, but not one for every photo: --no-masks is the way to train without them
+            cap.masks_dropped = True
         for f in cap.all_frames:
             f.mask = None
     return cap

@@ -208,3 +208,20 @@ def test_folder_without_a_capture_says_how_to_make_one(tmp_path):
     (tmp_path / "photos").mkdir()
     with pytest.raises(DataError, match=r"no capture found.*nerfkit process-data images"):
         load_scene(tmp_path / "photos", "train")
+
+
+@pytest.mark.parametrize("fmt", ["llff", "nerfstudio", "colmap"])
+def test_no_masks_drops_the_masks_a_capture_has(tmp_path, fmt):
+    """--no-masks on a capture with masks: no frame keeps one, and the capture knows it had them (so the flag
+    is not refused as having no effect); one photo without its mask is what --no-masks is for."""
+    root = make_capture(tmp_path / fmt, fmt, n_views=3, camera=PINHOLE, masks=True)
+    assert read_capture(root, "all").has_masks
+    cap = read_capture(root, "all", masks=False)
+    assert not cap.has_masks and cap.masks_dropped
+    bare = make_capture(tmp_path / f"{fmt}_bare", fmt, n_views=3, camera=PINHOLE)
+    assert not read_capture(bare, "all", masks=False).masks_dropped
+    if fmt != "nerfstudio":  # (nerfstudio names each mask in transforms.json)
+        next((root / "masks").iterdir()).unlink()
+        with pytest.raises(DataError, match="--no-masks"):
+            read_capture(root, "all")
+        assert read_capture(root, "all", masks=False).masks_dropped
