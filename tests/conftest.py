@@ -113,6 +113,20 @@ def _with_compile_cache(path: str):
         os.environ["NERFKIT_COMPILE_CACHE"] = old
 
 
+@pytest.fixture(scope="session", autouse=True)
+def points_cache(tmp_path_factory):
+    """Triangulated points (process/triangulate.py) are cached in a temporary folder for the session, not the
+    user's ~/.cache."""
+    old = os.environ.get("NERFKIT_POINTS_CACHE")
+    path = tmp_path_factory.mktemp("points-cache")
+    os.environ["NERFKIT_POINTS_CACHE"] = str(path)
+    yield path
+    if old is None:
+        os.environ.pop("NERFKIT_POINTS_CACHE", None)
+    else:
+        os.environ["NERFKIT_POINTS_CACHE"] = old
+
+
 SPLAT_TRAIN = ["--preset", "splat", "--no-progress", "--capacity", "2000", "--max-steps", "200", "--val-every", "100",
                "--ckpt-every", "100", "--log-every", "50"]
 

@@ -245,9 +245,11 @@ class SplatSettings:
     gain few steps from it: lego at 200 px, 1.2x the steps per second and 0.8 dB lower; maryrose at 432 px,
     2.6x and 0.6 dB higher)."""
     init_points: Literal["auto", "sfm", "hull", "random"] = "auto"
-    """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D), hull (uniform in the
-    visual hull of the masks or alpha channel), random (uniform in the scene box) or auto (sfm where the
-    capture has points, else hull where it has masks or alpha, else random)."""
+    """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D; a capture with poses but no
+    points, such as LLFF's poses_bounds.npy, gets them triangulated from its training photos at their poses,
+    about 1.5 s a photo, cached in ~/.cache/nerfkit/points), hull (uniform in the visual hull of the masks or
+    alpha channel), random (uniform in the scene box) or auto (the capture's points; else hull where it has
+    masks or alpha; else triangulated; random only where no point could be triangulated)."""
     backend: str = "auto"
     """The rasteriser: auto (numba), numba (CPU tile kernels through a host callback) or reference (pure JAX,
     every pixel against every Gaussian: slow, the definition the tests hold numba to); the table of backends

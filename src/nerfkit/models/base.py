@@ -51,6 +51,8 @@ class Supports:
     appearance: per-image appearance embeddings (--appearance-dim)
     gaussians:  its parameters are 3D Gaussians (splat/gaussians.py's layout): export splat, the splat web page and
                 the viewer's splat layer read them; its point cloud is their centres
+    points:     it starts from the capture's SfM points (Capture.points); model.wants_points(capture) says when a
+                capture without them gets points triangulated at its poses first (process/triangulate.py)
     """
 
     family: str = "rays"
@@ -63,6 +65,7 @@ class Supports:
     sampling: bool = False
     appearance: bool = True
     gaussians: bool = False
+    points: bool = False
 
     @property
     def marching(self) -> bool:

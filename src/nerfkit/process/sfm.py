@@ -117,12 +117,19 @@ def run_sfm(image_dir: Path, names: list[str], work: Path, opts: SfmOptions, mas
 
 
 def extract(db_path: Path, image_dir: Path, names: list[str], opts: SfmOptions, mask_dir: Path | None,
-            log: Path) -> float:
+            log: Path, camera=None, per_image: bool = False) -> float:
     """SIFT features of photos `names` into the database (one shared camera of the mapping model: OPENCV is
-    mapped as SIMPLE_RADIAL; COLMAP feature masks from mask_dir); returns the seconds it took.
+    mapped as SIMPLE_RADIAL; COLMAP feature masks from mask_dir); returns the seconds it took. `camera`: a
+    known camera (rays.cameras.Camera) every photo shares, its model and parameters as given; `per_image`: a
+    camera per photo instead of one shared (triangulate.py, for photos of several known cameras).
     RuntimeError when the database did not keep every photo."""
     reader = pycolmap.ImageReaderOptions()
     reader.camera_model = "SIMPLE_RADIAL" if opts.camera_model == "OPENCV" else opts.camera_model
+    mode = pycolmap.CameraMode.PER_IMAGE if per_image else pycolmap.CameraMode.SINGLE
+    if camera is not None:
+        reader.camera_model = camera.model if len(camera.params) else "PINHOLE"
+        params = camera.params if len(camera.params) else (camera.fx, camera.fy, camera.cx, camera.cy)
+        reader.camera_params = ",".join(repr(float(p)) for p in params)
     if mask_dir is not None:
         reader.mask_path = str(mask_dir)
     extraction = pycolmap.FeatureExtractionOptions()
@@ -131,7 +138,7 @@ def extract(db_path: Path, image_dir: Path, names: list[str], opts: SfmOptions, 
     t = time.perf_counter()
     with colmap_log(log, opts.verbose):
         pycolmap.extract_features(str(db_path), str(image_dir), image_names=names,
-                                  camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
+                                  camera_mode=mode, reader_options=reader,
                                   extraction_options=extraction, device=pycolmap.Device.cpu)
     seconds = time.perf_counter() - t
     db = pycolmap.Database.open(str(db_path))

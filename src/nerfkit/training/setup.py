@@ -6,13 +6,15 @@ with the config resolved from them (resolve.py).
 from __future__ import annotations
 
 import copy
+import dataclasses
 import shutil
 from pathlib import Path
 
 from nerfkit.core.config import Config
-from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.errors import ConfigError, DataError, NerfkitError
 from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.loader import load_frames, read_capture
+from nerfkit.process.triangulate import cached_triangulation
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.flags import refuse_family_switch, refuse_unused
 from nerfkit.training.resolve import default_splits, lens_plan, resolve_config
@@ -96,3 +98,20 @@ def load_splits(data_dir: Path, cfg: Config, progress: bool, say) -> tuple[Captu
     cfg = resolve_config(cfg, capture, td, log=say)
     cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
     return capture, train_data, val_data, cfg
+
+
+def with_triangulated_points(capture: Capture, spec_train: str, say) -> Capture:
+    """The capture with points triangulated from its training photos (`spec_train`: held-out photos are not
+    used) at their given poses (process/triangulate.py; cached per photos and poses). A capture where
+    none can be triangulated comes back as it was, with a line saying so (the model then starts as it
+    would without points, or refuses --init-points sfm)."""
+    frames = capture.frames(spec_train)
+    try:
+        tri, ply = cached_triangulation(frames, say)
+    except RuntimeError as e:
+        say(f"points: none triangulated ({e})")
+        return capture
+    except OSError as e:
+        raise DataError(f"{capture.root}: triangulating points of the training photos failed: {e}") from None
+    return dataclasses.replace(capture, points=tri.points, point_colors=tri.colors,
+                               points_file=str(ply) if ply is not None else "triangulated.ply")

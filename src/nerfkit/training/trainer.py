@@ -34,7 +34,7 @@ from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training import parallel
 from nerfkit.training.callbacks import Checkpoints, ProgressBar
 from nerfkit.training.flags import describe_budget, describe_model
-from nerfkit.training.setup import clear_run, load_splits, refuse_earlier_run
+from nerfkit.training.setup import clear_run, load_splits, refuse_earlier_run, with_triangulated_points
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
 from nerfkit.training.stopping import StopFlag
 from nerfkit.training.validation import evenly_spaced, render_validation, validation_factor, validation_views
@@ -104,6 +104,8 @@ class Trainer:
             parallel.check_batch(cfg.sampler.max_samples, self.mesh, "--max-samples")
         say(f"model: {describe_model(cfg)}")
         if split == "views":  # whole views, one per step, on one device (Gaussian splats)
+            if self.model.supports.points and self.model.wants_points(self.capture):
+                self.capture = with_triangulated_points(self.capture, cfg.data.train_split, say)
             self.model.bind_data(self.capture, self.train_data, log=say)
         else:
             say(parallel.describe(self.model.rays_per_step, self.mesh, split, cfg.sampler.max_samples))

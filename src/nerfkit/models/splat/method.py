@@ -138,7 +138,8 @@ class SplatRenderer:
 class SplatModel:
     """3D Gaussian splatting behind nerfkit's model interface (see the module docstring)."""
 
-    supports = Supports(family="image", parallel="views", mesh=False, lens=False, appearance=False, gaussians=True)
+    supports = Supports(family="image", parallel="views", mesh=False, lens=False, appearance=False, gaussians=True,
+                        points=True)
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
@@ -166,12 +167,19 @@ class SplatModel:
         out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
         if cfg.splat.sh_degree == 0:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
-        if capture is not None and cfg.splat.init_points == "auto" and capture.points is None:
-            where = ("in the visual hull of its silhouettes" if capture.has_masks or capture.alpha
-                     else "random in the box")
+        if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
+                and (capture.has_masks or capture.alpha)):
             out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
-                                        f"points3D): the Gaussians start {where}")
+                                        f"points3D) and has silhouettes: the Gaussians start in their visual hull")
         return out
+
+    def wants_points(self, capture) -> bool:
+        """Whether a capture should get points triangulated at its poses before bind_data: it has none, and
+        --init-points is sfm, or auto on photos without masks or alpha (those start in the visual hull)."""
+        choice = self.cfg.splat.init_points
+        if capture.points is not None or choice not in ("auto", "sfm"):
+            return False
+        return choice == "sfm" or not (capture.has_masks or capture.alpha)
 
     def __init__(self, cfg):
         self.cfg = cfg
@@ -201,7 +209,8 @@ class SplatModel:
         has_points = capture.points is not None and choice in ("auto", "sfm")
         if choice == "sfm" and not has_points:
             raise DataError(f"{capture.root}: --init-points sfm, but the capture has no SfM points (sparse_pc.ply "
-                            f"or a COLMAP model); use --init-points random")
+                            f"or a COLMAP model) and none could be triangulated at its poses; use --init-points "
+                            f"random")
         if choice == "hull" and data.alphas is None:
             raise DataError(f"{capture.root}: --init-points hull, but the capture has neither masks nor an alpha "
                             f"channel; use --init-points random")
