@@ -2,12 +2,15 @@
 CLI's own wall clock, and the held-out photos side by side.
 
     python benchmarks/capture_cli.py [--data MARYROSE] [--presets ngp splat] [--minutes 10] [--downscale 2]
-                                     [--name maryrose] [--out runs/capture_cli]
+                                     [--name maryrose] [--out runs/capture_cli] [--common "--no-masks"]
 
 For each preset P, one fresh run of exactly what a user types:
 
-    nerfkit train DATA --out OUT/<P> --preset P --max-minutes M --downscale D
+    nerfkit train DATA --out OUT/<P> --preset P --max-minutes M --downscale D [COMMON]
     nerfkit eval OUT/<P> --split test
+
+A preset may be a variant LABEL=ARGS (e.g. "splat-random=--preset splat --init-points random"): the run is
+OUT/LABEL, trained with ARGS in place of --preset LABEL.
 
 (the wall clock is the whole `nerfkit train` process; PSNR and SSIM are `nerfkit eval`'s over every held-out
 photo). Writes benchmarks/results/<name>_cli.json (with the commit it ran on) and <name>_cli.jpg: three
@@ -19,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import shlex
 import subprocess
 import sys
 import time
@@ -67,19 +71,23 @@ def main() -> None:
     ap.add_argument("--name", default="maryrose")
     ap.add_argument("--out", type=Path, default=Path("runs/capture_cli"))
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
+    ap.add_argument("--common", default="", help="arguments added to every nerfkit train")
     a = ap.parse_args()
     result = {"what": f"nerfkit train + nerfkit eval --split test on {a.data.name}, wall clock of the CLI",
-              "data": str(a.data), "minutes": a.minutes, "downscale": a.downscale, "presets": {},
+              "data": str(a.data), "minutes": a.minutes, "downscale": a.downscale, "common": a.common, "presets": {},
               "provenance": provenance()}
     runs = {}
-    for preset in a.presets:
+    for entry in a.presets:
+        preset, _, args = entry.partition("=")
         run = a.out / preset
-        train_s, out = nerfkit("train", str(a.data), "--out", str(run), "--preset", preset, "--max-minutes",
-                               f"{a.minutes:g}", "--downscale", str(a.downscale), "--no-progress", "--overwrite")
+        train_s, out = nerfkit("train", str(a.data), "--out", str(run), *(shlex.split(args) or ["--preset", preset]),
+                               "--max-minutes", f"{a.minutes:g}", "--downscale", str(a.downscale), "--no-progress",
+                               "--overwrite", *shlex.split(a.common))
         eval_s, _ = nerfkit("eval", str(run), "--split", "test", "--overwrite")
         ev = json.loads((run / "eval_test.json").read_text())
         m = re.search(r"step (\d+), ([\d.]+) steps/s", out)
-        result["presets"][preset] = {"run": str(run), "train_wall_s": round(train_s, 1),
+        result["presets"][preset] = {"run": str(run), "args": args or f"--preset {preset}",
+                                     "train_wall_s": round(train_s, 1),
                                      "steps": int(m.group(1)) if m else None, "psnr": round(ev["psnr"], 3),
                                      "ssim": round(ev["ssim"], 4), "views": ev["n_views"],
                                      "per_view_psnr": [round(v["psnr"], 3) for v in ev["per_view"]],
@@ -90,9 +98,9 @@ def main() -> None:
     a.results.mkdir(parents=True, exist_ok=True)
     path = a.results / f"{a.name}_cli.json"
     path.write_text(json.dumps(result, indent=2))
-    n = result["presets"][a.presets[0]]["views"]
+    n = next(iter(result["presets"].values()))["views"]
     side_by_side(runs, sorted({0, n // 2, n - 1}), path.with_suffix(".jpg"))
-    print(f"wrote {path} and {path.with_suffix('.jpg')} (columns: ground truth, {', '.join(a.presets)})")
+    print(f"wrote {path} and {path.with_suffix('.jpg')} (columns: ground truth, {', '.join(runs)})")
 
 
 if __name__ == "__main__":
