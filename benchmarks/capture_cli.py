@@ -2,7 +2,7 @@
 CLI's own wall clock, and the held-out photos side by side.
 
     python benchmarks/capture_cli.py [--data MARYROSE] [--presets ngp splat] [--minutes 10] [--downscale 2]
-                                     [--name maryrose] [--out runs/capture_cli] [--common "--no-masks"]
+                                     [--name maryrose] [--out runs/capture_cli] [--common=--no-masks]
 
 For each preset P, one fresh run of exactly what a user types:
 
