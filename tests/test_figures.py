@@ -78,6 +78,7 @@ def commit(name):
 
 
 NGP, SPLAT = "lego_cli_ngp.json", "lego_cli_splat.json"
+INIT = "maryrose_nomasks_init_cli.json"  # splat init: triangulated points against random ones
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
@@ -289,6 +290,14 @@ CHECKS = [
     ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "buddha: `own_photos_buddha.json` at {h}", [commit(BUDDHA)]),
     ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "maryrose: `own_photos_maryrose.json` at {h}", [commit(MARY)]),
     # ---- docs/splats.md
+    ("docs/splats.md", "What it is worth, on maryrose with `--no-masks`",
+     "3-minute runs at 432 px, one sitting: **{} dB / SSIM {}** on the {} held-out photos from the triangulated points "
+     "({} steps), {} dB / SSIM {} from random points ({} steps); the command took {} minutes against {}",
+     [((INIT, "presets", "splat-sfm", "psnr"), f2), ((INIT, "presets", "splat-sfm", "ssim"), f3),
+      ((INIT, "presets", "splat-sfm", "views"), d), ((INIT, "presets", "splat-sfm", "steps"), d),
+      ((INIT, "presets", "splat-random", "psnr"), f2), ((INIT, "presets", "splat-random", "ssim"), f3),
+      ((INIT, "presets", "splat-random", "steps"), d), ((INIT, "presets", "splat-sfm", "train_wall_s"), minutes1),
+      ((INIT, "presets", "splat-random", "train_wall_s"), minutes1)]),
     ("docs/splats.md", "| `--preset splat` (classic control",
      "| {} dB, {} steps | {} dB, {} steps | **{} dB / SSIM {}**, {} steps | `python benchmarks/lego_cli.py --preset splat` (`lego_cli_splat.json`, at {h})",
      [((SPLAT, "runs", 0, "psnr"), f2), ((SPLAT, "runs", 0, "steps"), d), ((SPLAT, "runs", 1, "psnr"), f2),
