@@ -163,13 +163,15 @@ def cached_triangulation(frames: list[Frame], say=print) -> tuple[Triangulated, 
         f"photos at their given poses (pycolmap; about 1.5 s a photo on 2 cores)")
     with tempfile.TemporaryDirectory(prefix="nerfkit-triangulate-") as tmp:
         work = Path(tmp)
-        tri = triangulate(frames, work, work / "colmap.log")
+        log = work / "colmap.log" if folder is None else folder / "colmap.log"  # kept where errors can name it
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+        tri = triangulate(frames, work, log)
     took = sum(tri.seconds.values())
     say(f"points: {len(tri.points)} from {tri.photos} photos in {took:.0f} s (features "
         f"{tri.seconds['extract']:.0f} s, matching {tri.seconds['match']:.0f} s), mean reprojection error "
         f"{tri.reprojection_px:.2f} px")
     if ply is not None:
-        folder.mkdir(parents=True, exist_ok=True)
         part = ply.with_suffix(".part.ply")
         rgba = np.concatenate([np.round(tri.colors * 255), np.full((len(tri.colors), 1), 255)], 1).astype(np.uint8)
         trimesh.PointCloud(tri.points, colors=rgba).export(part)
