@@ -14,7 +14,6 @@ from nerfkit.core.config import Config
 from nerfkit.core.errors import ConfigError, DataError, NerfkitError
 from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.loader import load_frames, read_capture
-from nerfkit.process.triangulate import cached_triangulation
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.flags import refuse_family_switch, refuse_unused
 from nerfkit.training.resolve import default_splits, lens_plan, resolve_config
@@ -105,6 +104,8 @@ def with_triangulated_points(capture: Capture, spec_train: str, say) -> Capture:
     used) at their given poses (process/triangulate.py; cached per photos and poses). A capture where
     none can be triangulated comes back as it was, with a line saying so (the model then starts as it
     would without points, or refuses --init-points sfm)."""
+    from nerfkit.process.triangulate import cached_triangulation  # deferred: pycolmap and trimesh load in 0.5 s
+
     frames = capture.frames(spec_train)
     try:
         tri, ply = cached_triangulation(frames, say)
