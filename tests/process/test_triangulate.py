@@ -13,10 +13,11 @@ import pytest
 from shared_data import SHARED_DATA, needs_shared
 
 from nerfkit.core.presets import preset
+from nerfkit.data.formats.colmap import cam_from_world
 from nerfkit.data.images import load_mask
 from nerfkit.data.loader import read_capture
 from nerfkit.process import triangulate as triangulate_module
-from nerfkit.process.triangulate import cam_from_world, triangulate
+from nerfkit.process.triangulate import triangulate
 from nerfkit.training.trainer import Trainer
 
 MARYROSE = SHARED_DATA / "real" / "maryrose"

@@ -127,9 +127,8 @@ def extract(db_path: Path, image_dir: Path, names: list[str], opts: SfmOptions, 
     reader.camera_model = "SIMPLE_RADIAL" if opts.camera_model == "OPENCV" else opts.camera_model
     mode = pycolmap.CameraMode.PER_IMAGE if per_image else pycolmap.CameraMode.SINGLE
     if camera is not None:
-        reader.camera_model = camera.model if len(camera.params) else "PINHOLE"
-        params = camera.params if len(camera.params) else (camera.fx, camera.fy, camera.cx, camera.cy)
-        reader.camera_params = ",".join(repr(float(p)) for p in params)
+        reader.camera_model, params = camera.colmap()
+        reader.camera_params = ",".join(repr(p) for p in params)
     if mask_dir is not None:
         reader.mask_path = str(mask_dir)
     extraction = pycolmap.FeatureExtractionOptions()

@@ -10,8 +10,8 @@ sparse_pc.ply): structure from the given cameras, not from motion.
                (pycolmap.triangulate_points): tracks of at least two photos, merged and filtered by
                reprojection error as COLMAP's mapper does
 
-Poses go in as COLMAP's cam_from_world (OpenCV axes), the inverse of the capture's OpenGL c2w with y and
-z flipped; the points come back in the capture's own coordinates, the frame Capture.points is in.
+Poses go in as COLMAP's cam_from_world (formats/colmap.cam_from_world: OpenCV axes, the inverse of the
+capture's OpenGL c2w with y and z flipped); the points come back in the capture's own coordinates, the frame Capture.points is in.
 
 Measured on maryrose (60 training photos at 864 px, 2 cores): features 19 s, matching 67 s (1770 pairs),
 triangulation 3 s; 24,305 points at a mean reprojection error of 0.38 px. The result is kept in a cache
@@ -35,13 +35,13 @@ import trimesh
 from PIL import Image
 
 from nerfkit.data.capture import Frame
+from nerfkit.data.formats.colmap import colmap_pose
 from nerfkit.data.images import load_mask
 from nerfkit.data.points import read_points
 from nerfkit.process.sfm import SfmOptions, colmap_log, extract, match
 from nerfkit.rays.colmap_compat import pycolmap
 
 EXHAUSTIVE_MAX = 80  # photos matched pair by pair (3160 pairs, ~2 minutes on 2 cores); more: sequential
-OPENGL_TO_OPENCV = np.diag([1.0, -1.0, -1.0, 1.0])  # flips y and z (its own inverse)
 
 
 @dataclass
@@ -54,20 +54,6 @@ class Triangulated:
     photos: int
     seconds: dict
     reprojection_px: float | None = None
-
-
-def cam_from_world(c2w: np.ndarray) -> np.ndarray:
-    """COLMAP's cam_from_world [3, 4] (OpenCV axes: x right, y down, z forward) of an OpenGL camera-to-world
-    c2w [4, 4] (x right, y up, z backward): inverse(c2w @ diag(1, -1, -1, 1))[:3]."""
-    return np.linalg.inv(np.asarray(c2w, np.float64) @ OPENGL_TO_OPENCV)[:3]
-
-
-def _colmap_camera(camera, camera_id: int):
-    """A pycolmap.Camera with the capture camera's model and parameters (PINHOLE fx, fy, cx, cy without a lens)."""
-    model = camera.model if len(camera.params) else "PINHOLE"
-    params = list(camera.params) if len(camera.params) else [camera.fx, camera.fy, camera.cx, camera.cy]
-    return pycolmap.Camera(camera_id=camera_id, model=model, width=camera.width, height=camera.height,
-                           params=[float(p) for p in params])
 
 
 def _names(frames: list[Frame]) -> tuple[Path, list[str]]:
@@ -97,7 +83,7 @@ def triangulate(frames: list[Frame], work: Path, log: Path, threads: int = -1, s
     root, names = _names(frames)
     cams = [f.camera for f in frames]
     single = all(c == cams[0] for c in cams)
-    opts = SfmOptions(camera_model=cams[0].model if len(cams[0].params) else "PINHOLE", threads=threads, seed=seed,
+    opts = SfmOptions(camera_model=cams[0].colmap()[0], threads=threads, seed=seed,
                       max_image_size=max_image_size,
                       matching="exhaustive" if len(frames) <= EXHAUSTIVE_MAX else "sequential")
     db_path = work / "database.db"
@@ -114,12 +100,13 @@ def triangulate(frames: list[Frame], work: Path, log: Path, threads: int = -1, s
     rec = pycolmap.Reconstruction()
     images = db.read_all_images()
     for cam_id in sorted({im.camera_id for im in images}):
-        first = next(im for im in images if im.camera_id == cam_id)
-        rec.add_camera_with_trivial_rig(_colmap_camera(by_name[first.name].camera, cam_id))
+        cam = by_name[next(im for im in images if im.camera_id == cam_id).name].camera
+        model, params = cam.colmap()
+        rec.add_camera_with_trivial_rig(pycolmap.Camera(camera_id=cam_id, model=model, width=cam.width,
+                                                        height=cam.height, params=params))
     for im in images:
-        pose = cam_from_world(by_name[im.name].c2w)
         rec.add_image_with_trivial_frame(pycolmap.Image(name=im.name, camera_id=im.camera_id, image_id=im.image_id),
-                                         pycolmap.Rigid3d(pycolmap.Rotation3d(pose[:, :3]), pose[:, 3]))
+                                         colmap_pose(pycolmap, by_name[im.name].c2w))
     db.close()
     (work / "model").mkdir(exist_ok=True)
     with colmap_log(log, False):

@@ -56,6 +56,13 @@ class Camera:
         """The ideal camera of the Blender scenes: fx = fy = focal, principal point at the centre."""
         return Camera(int(width), int(height), float(focal), float(focal), 0.5 * width, 0.5 * height)
 
+    def colmap(self) -> tuple[str, list[float]]:
+        """(COLMAP model name, parameter vector) of this camera: its lens model and parameters, or PINHOLE
+        (fx, fy, cx, cy) without one; from_colmap's inverse."""
+        if self.params:
+            return self.model, [float(p) for p in self.params]
+        return "PINHOLE", [float(self.fx), float(self.fy), float(self.cx), float(self.cy)]
+
     @staticmethod
     def from_colmap(model: str, width: int, height: int, params) -> "Camera":
         """A camera from a COLMAP model name and parameter vector (read through pycolmap)."""

@@ -37,6 +37,13 @@ def c2w_from_cam_from_world(matrix_3x4: np.ndarray) -> np.ndarray:
     return np.linalg.inv(w2c) @ OPENCV_TO_OPENGL
 
 
+def cam_from_world(c2w: np.ndarray) -> np.ndarray:
+    """COLMAP's cam_from_world [3, 4] (OpenCV axes: x right, y down, z forward) of an OpenGL camera-to-world
+    c2w [4, 4] (x right, y up, z backward): inverse(c2w @ diag(1, -1, -1, 1))[:3]; c2w_from_cam_from_world's
+    inverse."""
+    return np.linalg.inv(np.asarray(c2w, np.float64) @ OPENCV_TO_OPENGL)[:3]
+
+
 MIN_RECORD_BYTES = 8  # every record of a binary model file (camera, image, point, ...) is at least this long
 
 
@@ -89,6 +96,13 @@ def read_colmap(root: Path, holdout_every: int = 8, masks: bool = True) -> Captu
                    source={"all": str(model)})
 
 
+def colmap_pose(pycolmap, c2w: np.ndarray):
+    """The pycolmap.Rigid3d cam_from_world of an OpenGL camera-to-world c2w [4, 4] (pycolmap passed in: it
+    loads only where a COLMAP model is written)."""
+    m = cam_from_world(c2w)
+    return pycolmap.Rigid3d(pycolmap.Rotation3d(m[:, :3]), m[:, 3])
+
+
 def write_colmap(model_dir: Path, names: list[str], c2ws: np.ndarray, cameras: list, points: np.ndarray | None = None,
                  colors: np.ndarray | None = None, text: bool = True) -> Path:
     """A COLMAP sparse model (through pycolmap) of images `names` with OpenGL poses [N, 4, 4]
@@ -102,13 +116,11 @@ def write_colmap(model_dir: Path, names: list[str], c2ws: np.ndarray, cameras: l
     for k, (name, c2w, cam) in enumerate(zip(names, c2ws, cameras), 1):
         if cam not in ids:
             ids[cam] = len(ids) + 1
-            params = list(cam.params) if cam.params else [cam.fx, cam.fy, cam.cx, cam.cy]
-            rec.add_camera_with_trivial_rig(pycolmap.Camera(model=cam.model if cam.params else "PINHOLE",
-                                                            width=cam.width, height=cam.height, params=params,
-                                                            camera_id=ids[cam]))
-        w2c = np.linalg.inv(np.asarray(c2w, np.float64) @ OPENCV_TO_OPENGL)
-        pose = pycolmap.Rigid3d(pycolmap.Rotation3d(w2c[:3, :3]), w2c[:3, 3])
-        rec.add_image_with_trivial_frame(pycolmap.Image(name=name, camera_id=ids[cam], image_id=k), pose)
+            model, params = cam.colmap()
+            rec.add_camera_with_trivial_rig(pycolmap.Camera(model=model, width=cam.width, height=cam.height,
+                                                            params=params, camera_id=ids[cam]))
+        rec.add_image_with_trivial_frame(pycolmap.Image(name=name, camera_id=ids[cam], image_id=k),
+                                         colmap_pose(pycolmap, c2w))
     for k, p in enumerate(np.zeros((0, 3)) if points is None else points):
         c = np.full(3, 128, np.uint8) if colors is None else np.asarray(colors[k], np.uint8)
         rec.add_point3D(np.asarray(p, np.float64), pycolmap.Track(), c)
