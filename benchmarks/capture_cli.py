@@ -56,7 +56,8 @@ def side_by_side(runs: dict[str, Path], views: list[int], out: Path) -> None:
     first = RunFolder(next(iter(runs.values())))
     d = first.config().data
     photos = load_scene(first.data_dir(), "test", format=d.format, downscale=d.downscale, target_width=d.target_width,
-                        background=d.background, masks=d.masks, holdout_every=d.holdout_every).images
+                        background=d.background, masks=d.masks, holdout_every=d.holdout_every,
+                        undistort=d.undistort).images
     rows = [np.concatenate([to_uint8(photos[k])] + [iio.imread(r / "eval_test" / f"view_{k:03d}_rgb.png")[..., :3]
                                                    for r in runs.values()], axis=1) for k in views]
     iio.imwrite(out, np.concatenate(rows, axis=0), quality=90)

@@ -45,10 +45,15 @@ def refuse_chunk(cfg, chunk: int | None) -> None:
 
 
 def appearance_note(cfg) -> str | None:
-    n = cfg.field.n_appearance()
-    if not n:
+    """What held-out views are rendered with where training photos have an appearance of their own: the mean
+    embedding (fields) or the mean colour transform (splats' --appearance); their given poses in any case."""
+    if cfg.field.n_appearance():
+        what = "embeddings"
+    elif cfg.splat.appearance == "on":
+        what = "colour transforms"
+    else:
         return None
-    return (f"appearance: the mean of the {cfg.field.appearance_count} training images' embeddings "
+    return (f"appearance: the mean of the {cfg.field.appearance_count} training images' {what} "
             f"(held-out views have none of their own)")
 
 

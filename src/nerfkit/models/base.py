@@ -49,6 +49,7 @@ class Supports:
                 its bound are resolved from the data for it (training/resolve.py)
     sampling:   its samples along a ray are placed by --sampling occupancy|proposal (resolved from the scene)
     appearance: per-image appearance embeddings (--appearance-dim)
+    pose_refine: learns a pose correction per training photo (--pose-refine; rays/correction.py)
     gaussians:  its parameters are 3D Gaussians (splat/gaussians.py's layout): export splat, the splat web page and
                 the viewer's splat layer read them; its point cloud is their centres
     points:     it starts from the capture's SfM points (Capture.points); model.wants_points(capture) says when a
@@ -64,6 +65,7 @@ class Supports:
     unbounded: bool = False
     sampling: bool = False
     appearance: bool = True
+    pose_refine: bool = False
     gaussians: bool = False
     points: bool = False
 

@@ -56,6 +56,14 @@ def unused(cfg: Config, capture=None) -> dict[str, str]:
     return {} if rule is None else rule(cfg, capture)
 
 
+def resolve_settings(cfg: Config, photos: bool, n_train: int, log=print) -> None:
+    """Fill in the data-dependent defaults of the method's own settings in place (its `resolve_settings`, where it
+    has one): `photos` says whether the capture is photos without masks, n_train counts its training photos."""
+    rule = getattr(method_class(cfg), "resolve_settings", None)
+    if rule is not None:
+        rule(cfg, photos, n_train, log)
+
+
 def build_model(cfg: Config) -> Model:
     """The model for `cfg.field.kind` (and, for a method with VARIANTS, the implementation its settings pick)."""
     return check(cfg)(cfg)

@@ -16,7 +16,8 @@ eval, render and --resume rebuild exactly the trained model.
                   change between their photos); off for Blender scenes and masked object
                   captures (fixed exposure; on a turntable the embeddings soak up the shading
                   that changes as the object turns, and the mean embedding of held-out views
-                  cannot give it back: -1.1 dB on maryrose's test photos, 4-minute runs)
+                  cannot give it back: -1.1 dB on maryrose's test photos, 4-minute runs);
+                  for Gaussian splats (--appearance) a colour transform per photo, on for the same captures
 """
 
 from __future__ import annotations
@@ -99,6 +100,11 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
         if cap.has_masks:
             log("appearance embeddings: off for a masked object capture (--appearance-dim 16 turns them on)")
     f.appearance_count = len(train) if f.appearance_dim else 0
+    photos = cap.format != "blender" and not cap.has_masks  # a capture whose photos' poses and exposure vary
+    registry.resolve_settings(cfg, photos, len(train), log)
+    if cfg.train.pose_refine == "on":
+        log(f"pose refinement: a pose correction per training photo ({len(train)}), learned after a warm-up; "
+            f"held-out photos keep their poses (--pose-refine off: none)")
     if supports.unbounded or f.scene_type != "auto":
         log(f"scene: {scene} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
     if supports.sampling and scene == "unbounded" and s.sampling == "occupancy":

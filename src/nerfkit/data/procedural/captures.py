@@ -25,6 +25,7 @@ from nerfkit.data.formats.llff import write_llff
 from nerfkit.data.formats.nerfstudio import write_nerfstudio
 from nerfkit.data.procedural import scene as proc
 from nerfkit.rays.cameras import Camera, rotate_directions
+from nerfkit.rays.correction import perturb_poses
 
 ENV_RADIUS = 12.0
 BACKDROP = 0.5  # grey behind masked objects (the masks say what is object)
@@ -77,18 +78,27 @@ def ring_poses(n: int, seed: int = 0, radius: float = proc.CAMERA_RADIUS) -> np.
 
 def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16, size: int = 48,
                  camera: Camera | None = None, environment: bool = False, masks: bool = False,
-                 seed: int = 0, text: bool = True) -> Path:
+                 seed: int = 0, text: bool = True, pose_noise: tuple[float, float] = (0.0, 0.0),
+                 gains: float = 0.0) -> Path:
     """Write a synthetic photo capture (see the module docstring) and return its folder.
 
     fmt: "nerfstudio" | "llff" | "colmap". camera: intrinsics of every image (default: an
     ideal pinhole with the Blender scenes' field of view, size x size). LLFF needs a
     pinhole camera centred on the image (its hwf column has room for nothing else).
+
+    Imperfect captures, as SfM and a phone give them: pose_noise (degrees, fraction of the camera
+    radius) writes every pose turned and moved by those amounts in random directions
+    (correction.perturb_poses) while the photos are taken at the exact ones; gains g multiplies each
+    photo's red, green and blue by factors drawn uniformly in [1 - g, 1 + g] (exposure and white
+    balance). The exact poses and gains [N, 3] are written to truth/poses.npy and truth/gains.npy.
     """
     out = Path(out)
     cam = camera or Camera.pinhole(size, size, 0.5 * size / math.tan(0.5 * proc.CAMERA_ANGLE_X))
     if fmt == "llff" and (cam.params or abs(cam.cx - cam.width / 2) > 1e-9 or cam.fx != cam.fy):
         raise DataError("make_capture: LLFF holds only centred pinhole cameras")
     poses = ring_poses(n_views, seed)
+    rng = np.random.default_rng([seed, 1])
+    photo_gains = rng.uniform(1 - gains, 1 + gains, (n_views, 3)) if gains else np.ones((n_views, 3))
     for sub in ("images", "depth") + (("masks",) if masks else ()):
         (out / sub).mkdir(parents=True, exist_ok=True)
     names, frames, bounds = [], [], []
@@ -97,14 +107,21 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
         if masks:
             rgb = rgb * alpha[..., None] + (1 - alpha[..., None]) * BACKDROP
             iio.imwrite(out / "masks" / f"frame_{k:04d}.png", (alpha * 255).astype(np.uint8))
+        rgb = rgb * photo_gains[k]
         name = f"frame_{k:04d}.png"
         iio.imwrite(out / "images" / name, np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8))
         np.save(out / "depth" / f"frame_{k:04d}.npy", depth.astype(np.float32), allow_pickle=False)
         names.append(name)
-        frames.append({"file_path": f"images/{name}", "transform_matrix": c2w.tolist(),
-                       "mask_path": f"masks/{name}" if masks else None})
         hit = depth[np.isfinite(depth)]
         bounds.append([hit.min(), hit.max()] if hit.size else [1.0, 10.0])
+    if any(pose_noise) or gains:
+        (out / "truth").mkdir(exist_ok=True)
+        np.save(out / "truth" / "poses.npy", poses, allow_pickle=False)
+        np.save(out / "truth" / "gains.npy", photo_gains, allow_pickle=False)
+        poses = perturb_poses(poses, pose_noise[0], pose_noise[1] * proc.CAMERA_RADIUS, seed)
+    for name, c2w in zip(names, poses):
+        frames.append({"file_path": f"images/{name}", "transform_matrix": c2w.tolist(),
+                       "mask_path": f"masks/{name}" if masks else None})
     if fmt == "nerfstudio":
         write_nerfstudio(out / "transforms.json", frames, [cam] * n_views)
     elif fmt == "llff":

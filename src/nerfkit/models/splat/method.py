@@ -43,6 +43,7 @@ from nerfkit.models.splat.optim import (
 )
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.rays.cameras import Camera
+from nerfkit.rays.correction import corrected_composite, mean_color
 
 RANDOM_INIT = 100_000  # random Gaussians in the box without SfM points (3DGS's Blender init), fewer if capacity is
 # Their scales: this x the mean distance to the 3 nearest (1.0 in 3DGS). Measured on lego (seed protocol, 2 shared
@@ -79,7 +80,9 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
     g = cfg.splat
     return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
                        ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
-                       seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend)
+                       seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
+                       appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
+                       n_views=cfg.field.appearance_count)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -98,8 +101,8 @@ def _describe_coarse(coarse: float | None) -> str:
 class SplatOptimizer:
     """Adam per parameter group with 3DGS's rates (optim.py); init(params) -> {group: optax state}."""
 
-    def __init__(self, lrs: LearningRates, extent: float, eps: float):
-        self.opts = make_optimizers(lrs, extent, eps)
+    def __init__(self, lrs: LearningRates, extent: float, eps: float, corrections=()):
+        self.opts = make_optimizers(lrs, extent, eps, corrections)
 
     def init(self, params: dict) -> dict:
         return init_state(self.opts, params)
@@ -120,8 +123,11 @@ class SplatRenderer:
         except ValueError as e:
             raise DataError(str(e)) from None
         r = render(p, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree, self.model.cfg.splat.backend)
-        opacity = r["alpha"]
-        return {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
+        opacity, rgb = r["alpha"], r["rgb"]
+        if "cam_color" in params:  # a view that is no training photo: the mean of their colour transforms
+            rgb = np.asarray(corrected_composite(rgb, opacity, np.asarray(self.model.background, np.float32),
+                                                 mean_color(params["cam_color"])))
+        return {"rgb": np.clip(rgb, 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
                 "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
 
     def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
@@ -139,11 +145,11 @@ class SplatModel:
     """3D Gaussian splatting behind nerfkit's model interface (see the module docstring)."""
 
     supports = Supports(family="image", parallel="views", mesh=False, lens=False, appearance=False, gaussians=True,
-                        points=True)
+                        points=True, pose_refine=True)
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "backend"))
+        "backend", "appearance")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -153,7 +159,21 @@ class SplatModel:
                 f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, loss {g.loss_name()}, "
                 f"{_describe_coarse(g.coarse)}"
                 f"{g.init_points} init, one view per step"
+                f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
+                f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
+
+    @staticmethod
+    def resolve_settings(cfg, photos: bool, n_train: int, log=print) -> None:
+        """--appearance auto: on for photos without masks (registry.resolve_settings); the per-photo
+        corrections' count (field.appearance_count) is the training photos' where any is on."""
+        g = cfg.splat
+        if g.appearance == "auto":
+            g.appearance = "on" if photos else "off"
+        if g.appearance == "on":
+            log(f"appearance: a colour transform per training photo ({n_train}); held-out photos use their mean "
+                f"(--appearance off: none)")
+        cfg.field.appearance_count = n_train if "on" in (g.appearance, cfg.train.pose_refine) else 0
 
     @staticmethod
     def check(cfg) -> None:
@@ -200,6 +220,9 @@ class SplatModel:
             raise DataError(f"{capture.root}: --preset splat trains on images of one size; this selection has "
                             f"several (multiscale data): pick one level with --train-split")
         self.sc = splat_config(self.cfg, data.width * data.height)
+        if self.sc.corrections and self.sc.n_views != len(data.poses):
+            raise DataError(f"{capture.root}: the run's per-photo corrections are for {self.sc.n_views} training "
+                            f"photos, this selection has {len(data.poses)}")
         for cam in data.cameras[:1]:
             try:
                 intrinsics_of(cam)
@@ -263,7 +286,7 @@ class SplatModel:
     def make_optimizer(self, cfg):
         """(SplatOptimizer, schedule): schedule(step) is the means' rate per unit extent by step count alone
         (the time budget can end the decay sooner; the log's lr column is the rate used)."""
-        return (SplatOptimizer(self.sc.lrs, self.extent, cfg.train.adam_eps),
+        return (SplatOptimizer(self.sc.lrs, self.extent, cfg.train.adam_eps, self.sc.corrections),
                 lambda step: means_lr(step / max(cfg.train.max_steps, 1), 1.0, self.sc.lrs))
 
     def make_train_step(self, optimizer, data, cfg, mesh=None):

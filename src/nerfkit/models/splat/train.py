@@ -54,12 +54,14 @@ from nerfkit.models.splat.optim import (
     init_state,
     make_optimizers,
     means_lr,
+    pose_lr,
     reset_rows,
     scene_extent,
 )
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
+from nerfkit.rays.correction import corrected_composite, corrected_pose
 
 
 _USER = SplatSettings()  # the user-facing defaults
@@ -85,7 +87,15 @@ class SplatConfig:
     init_scale: float = 1.0  # initial scales = this x the nearest-neighbour distance (gsplat's init_scale)
     seed: int = 0
     backend: str = _USER.backend
+    appearance: bool = False  # a colour transform per training photo (rays/correction.py)
+    pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
+    n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
+
+    @property
+    def corrections(self) -> tuple[str, ...]:
+        """The per-photo parameter groups this run learns (optim.CORRECTIONS): cam_color, cam_pose."""
+        return tuple(k for k, on in (("cam_color", self.appearance), ("cam_pose", self.pose_refine)) if on)
 
     def __post_init__(self):
         if isinstance(self.strategy, str):
@@ -94,6 +104,8 @@ class SplatConfig:
             raise ValueError(f"pixel_loss must be one of {sorted(PIXEL_LOSSES)}, got {self.pixel_loss!r}")
         if not 0 <= self.sh_degree <= 3:
             raise ValueError(f"sh_degree must be 0..3, got {self.sh_degree}")
+        if self.corrections and self.n_views < 1:
+            raise ValueError("per-photo corrections need n_views, the number of training photos")
 
 
 def initial_params(cfg: SplatConfig, init: dict | None = None) -> tuple[dict, np.ndarray]:
@@ -111,47 +123,62 @@ def initial_params(cfg: SplatConfig, init: dict | None = None) -> tuple[dict, np
         params = {k: np.concatenate([np.asarray(init[k], np.float32)[keep], pad[k]]) for k in PARAM_NAMES}
         n_active = min(n_active, len(keep))
     params["log_scales"] = params["log_scales"] + np.float32(np.log(cfg.init_scale))
+    params.update(correction_params(cfg))
     active = np.zeros(cfg.capacity, bool)
     active[:n_active] = True
     return params, active
 
 
-def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, *, cfg, width, height, dilation):
-    """Loss of one view and aux (photometric loss, radii); offset [N, 2] zeros: d/d offset = dL/dmeans2d."""
+def correction_params(cfg: SplatConfig) -> dict:
+    """The per-photo corrections at the identity: cam_color [V, 3, 4] and cam_pose [V, 6] zeros (those on)."""
+    shapes = {"cam_color": (cfg.n_views, 3, 4), "cam_pose": (cfg.n_views, 6)}
+    return {k: np.zeros(shapes[k], np.float32) for k in cfg.corrections}
+
+
+def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, *, cfg, width, height, dilation, extent):
+    """Loss of one view (training photo idx) and aux (photometric loss, radii); offset [N, 2] zeros: d/d offset =
+    dL/dmeans2d. With per-photo corrections the view is rendered from its corrected pose and its colours are
+    transformed by its colour transform (rays/correction.py) before the loss."""
+    if "cam_pose" in params:
+        c2w = corrected_pose(c2w, params["cam_pose"][idx], extent)
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
                                       all_sh(params) * sh_mask, dilation)
     radii = jnp.where(active, proj["radii"], 0)
-    rgb, _ = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii, bg, width, height,
-                       backend=cfg.backend)
+    rgb, alpha = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii, bg, width,
+                           height, backend=cfg.backend)
+    if "cam_color" in params:
+        rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx])
     photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
     loss = photo + cfg.strategy.regularizer(params, active)
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
 
 
-def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False, scale: float = 1.0):
+def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False, scale: float = 1.0,
+              extent: float = 1.0):
     """The jitted training step
 
-        step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree)
-          -> params, opt_state, stats, photometric loss [, mse, finite]
+        step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree,
+             lr_pose=0) -> params, opt_state, stats, photometric loss [, mse, finite]
 
     images [V, H, W, 3], poses [V, 4, 4], intrinsics [V, 4] stay on the device; idx picks the view.
     A step whose loss or gradients are not finite changes nothing (finite: False). with_health also
     returns the view's MSE and that flag (what nerfkit's run loop logs). scale: the views' resolution as a
     fraction of the photos' (1/2 in the coarse phase); the screen dilation is LOWPASS_DILATION scale^2, the
-    same footprint in the photos' pixels (project.py)."""
-    loss_grad = jax.value_and_grad(partial(_loss_fn, cfg=cfg, width=width, height=height,
+    same footprint in the photos' pixels (project.py). extent: the unit of the pose corrections' translations."""
+    loss_grad = jax.value_and_grad(partial(_loss_fn, cfg=cfg, width=width, height=height, extent=extent,
                                            dilation=LOWPASS_DILATION * scale * scale), argnums=(0, 1), has_aux=True)
 
     @jax.jit
-    def step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree):
+    def step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree,
+             lr_pose=0.0):
         offset = jnp.zeros((params["means"].shape[0], 2), jnp.float32)
         (loss, (photo, radii, mse)), (grads, g_m2d) = loss_grad(params, offset, images[idx], poses[idx],
                                                                 intrinsics[idx], background, band_mask(sh_degree),
-                                                                active)
+                                                                active, idx)
         finite = jnp.isfinite(loss)
         for g in jax.tree_util.tree_leaves(grads):
             finite = finite & jnp.all(jnp.isfinite(g))
-        new_params, new_opt = adam_step(opts, opt_state, grads, params, lr_means)
+        new_params, new_opt = adam_step(opts, opt_state, grads, params, lr_means, lr_pose)
         new_params, new_stats = cfg.strategy.after_adam(key, new_params, stats, g_m2d, radii, active, lr_means, width,
                                                         height)
         keep = partial(jax.tree_util.tree_map, lambda new, old: jnp.where(finite, new, old))
@@ -161,10 +188,10 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
     return step
 
 
-def half_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False):
+def half_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False, extent: float = 1.0):
     """make_step for views at half of the photos' width x height (coarse to fine: their images and intrinsics
     from half_resolution), with the screen dilation scaled to keep the photos' footprint."""
-    return make_step(cfg, opts, width // 2, height // 2, with_health=with_health, scale=0.5)
+    return make_step(cfg, opts, width // 2, height // 2, with_health=with_health, scale=0.5, extent=extent)
 
 
 def half_resolution(images: jnp.ndarray, intrinsics: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
@@ -189,9 +216,11 @@ def host_control(cfg: SplatConfig, step: int, progress: float, params, opt_state
     reset_now = s.reset_every > 0 and step % s.reset_every == 0 and s.window.open(progress)
     resets = step // s.reset_every - reset_now if s.reset_every > 0 else 0  # resets done before this step
     if s.window.due(step, progress):
-        p, active, stats, touched = s.control(_host(params), active, stats, rng, extent, width, resets)
-        opt_state = reset_rows(opt_state, touched, cfg.capacity) if len(touched) else opt_state
-        params = {k: jnp.asarray(v) for k, v in p.items()}
+        gaussians = {k: np.asarray(params[k]) for k in PARAM_NAMES}  # the per-photo corrections are not Gaussians
+        p, active, stats, touched = s.control(gaussians, active, stats, rng, extent, width, resets)
+        if len(touched):
+            opt_state = opt_state | reset_rows({k: opt_state[k] for k in PARAM_NAMES}, touched, cfg.capacity)
+        params = dict(params) | {k: jnp.asarray(v) for k, v in p.items()}
         what.append("control")
     if reset_now:
         params = dict(params, opacity=jnp.asarray(classic.reset_opacity(_host(params), s.reset_opacity)["opacity"]))
@@ -221,7 +250,7 @@ class ViewStep:
 
     def __init__(self, sc: SplatConfig, opts: dict, width: int, height: int, background, extent: float):
         self.sc, self.opts, self.width, self.height, self.extent = sc, opts, width, height, extent
-        self.fine = make_step(sc, opts, width, height, with_health=True)
+        self.fine = make_step(sc, opts, width, height, with_health=True, extent=extent)
         self.background = jnp.asarray(background, jnp.float32)
         self.base_key = jax.random.PRNGKey(sc.seed)
         self._half: dict = {}  # the half-resolution step and views, made at the first coarse step
@@ -235,7 +264,8 @@ class ViewStep:
             small, small_intr = half_resolution(images, intrinsics)
             half.update({"of": images, "images": small, "intr": small_intr})
             if "step" not in half:
-                half["step"] = half_step(self.sc, self.opts, self.width, self.height, with_health=True)
+                half["step"] = half_step(self.sc, self.opts, self.width, self.height, with_health=True,
+                                         extent=self.extent)
         return half["step"], half["images"], half["intr"], self.width // 2
 
     def __call__(self, state: dict, step: int, progress: float, images, poses, intrinsics) -> tuple[dict, dict]:
@@ -248,7 +278,8 @@ class ViewStep:
         fn, views, view_intr, w_now = self._at_resolution(plan["half_resolution"], images, intrinsics)
         params, opt_state, stats, photo, mse, finite = fn(
             params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, self.background,
-            view_of(sc.seed, len(poses), step), jax.random.fold_in(self.base_key, step), lr, plan["sh_degree"])
+            view_of(sc.seed, len(poses), step), jax.random.fold_in(self.base_key, step), lr, plan["sh_degree"],
+            pose_lr(progress, sc.lrs))
         rng = np.random.default_rng([sc.seed, step + 1])
         params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats, active,
                                                            rng, self.extent, w_now)
@@ -319,7 +350,7 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
     active = state["aux"]["active"]
     if callback and last_cb != step:
         callback(step, clock.elapsed(), state["params"], active)
-    return {k: np.asarray(v)[active] for k, v in state["params"].items()}, records
+    return {k: np.asarray(state["params"][k])[active] for k in PARAM_NAMES}, records
 
 
 def _image_size(minutes: float | None, steps: int | None, cameras) -> tuple[int, int]:
@@ -337,7 +368,7 @@ def _initial_state(cfg: SplatConfig, init: dict | None, extent: float):
     statistics) at the start of a run (initial_params; optim.make_optimizers scaled by the scene extent)."""
     p0, active = initial_params(cfg, init)
     params = {k: jnp.asarray(v) for k, v in p0.items()}
-    opts = make_optimizers(cfg.lrs, extent)
+    opts = make_optimizers(cfg.lrs, extent, corrections=cfg.corrections)
     return params, active, opts, init_state(opts, params), classic.zero_stats(cfg.capacity)
 
 

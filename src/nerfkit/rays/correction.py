@@ -1,0 +1,116 @@
+"""Per-photo corrections learned with a scene: a camera pose correction and a colour transform.
+
+Pose (nerfstudio's "SO3xR3" parameterisation): xi = (w, v) [6], w an axis-angle rotation (radians)
+and v a translation in units of `scale` (the scene extent, so one learning rate suits every scene),
+applied in the camera's own frame:
+
+    c2w' = c2w T(xi),    T(xi) = [[R(w), scale v], [0, 1]],
+    R(w) = I + a [w]x + b [w]x^2,   a = sin(t) / t,  b = (1 - cos(t)) / t^2,  t = |w|  (Rodrigues)
+
+(a and b by their Taylor series near t = 0, so R and its gradient are exact at the identity, where
+every correction starts.)
+
+Colour (an affine map of linear RGB per photo: exposure, white balance, a camera's tone curve to first
+order): m [3, 4] starts at zero and
+
+    rgb' = (I + m[:, :3]) rgb + m[:, 3]
+
+applied to what the scene renders, not to a background colour composited behind it (masked captures and
+Blender scenes paint their background white in every photo whatever the exposure): with opacity a and
+background b, the rendered c = f + (1 - a) b of the scene's part f becomes (I + m[:, :3]) f + a m[:, 3] + (1 - a) b.
+
+Held-out photos, which have no transform of their own, use the mean of the training photos' (the fields'
+appearance embeddings do the same: fields/ngp.py).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+SMALL_ANGLE = 1e-3  # below this |w| (radians) the Taylor series of a and b (error < 1e-13)
+
+
+def skew(w: jnp.ndarray) -> jnp.ndarray:
+    """[w]x [..., 3, 3] of w [..., 3]: [w]x u = w x u."""
+    x, y, z = w[..., 0], w[..., 1], w[..., 2]
+    o = jnp.zeros_like(x)
+    return jnp.stack([jnp.stack([o, -z, y], -1), jnp.stack([z, o, -x], -1), jnp.stack([-y, x, o], -1)], -2)
+
+
+def so3_exp(w: jnp.ndarray) -> jnp.ndarray:
+    """R(w) [..., 3, 3] of axis-angle w [..., 3] (Rodrigues; see the module docstring)."""
+    t2 = jnp.sum(w * w, axis=-1)[..., None, None]
+    small = t2 < SMALL_ANGLE ** 2
+    t2_safe = jnp.where(small, 1.0, t2)  # keeps the unused branch's gradient finite
+    t = jnp.sqrt(t2_safe)
+    a = jnp.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, jnp.sin(t) / t)
+    b = jnp.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - jnp.cos(t)) / t2_safe)
+    k = skew(w)
+    return jnp.eye(3, dtype=w.dtype) + a * k + b * (k @ k)
+
+
+def corrected_pose(c2w: jnp.ndarray, xi: jnp.ndarray, scale: float = 1.0) -> jnp.ndarray:
+    """c2w' = c2w T(xi) [..., 4, 4] of c2w [..., 4, 4] and xi [..., 6] (module docstring)."""
+    r = so3_exp(xi[..., :3])
+    t = scale * xi[..., 3:]
+    top = jnp.concatenate([c2w[..., :3, :3] @ r, (c2w[..., :3, :3] @ t[..., None]) + c2w[..., :3, 3:]], -1)
+    return jnp.concatenate([top, c2w[..., 3:, :]], -2)
+
+
+def corrected_color(rgb: jnp.ndarray, m: jnp.ndarray) -> jnp.ndarray:
+    """rgb' [..., 3] = (I + m[:, :3]) rgb + m[:, 3] of rgb [..., 3] and one photo's m [3, 4]."""
+    return rgb + rgb @ m[:, :3].T + m[:, 3]
+
+
+def corrected_composite(rgb: jnp.ndarray, alpha: jnp.ndarray, background: jnp.ndarray, m: jnp.ndarray):
+    """rgb [..., 3] = f + (1 - alpha) background, with the scene's part f transformed by m [3, 4] and the
+    background kept (module docstring); alpha [...]."""
+    rest = (1.0 - alpha)[..., None] * background
+    f = rgb - rest
+    return f + f @ m[:, :3].T + alpha[..., None] * m[:, 3] + rest
+
+
+def mean_color(m: np.ndarray) -> np.ndarray:
+    """The held-out photos' transform [3, 4]: the mean of the training photos' m [V, 3, 4]."""
+    return np.asarray(m, np.float32).mean(axis=0)
+
+
+def pose_error(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation angle in degrees [N], camera-centre distance [N]) between poses a and b [N, 4, 4]."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    rel = np.einsum("nji,njk->nik", a[:, :3, :3], b[:, :3, :3])
+    cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+    return np.degrees(np.arccos(cos)), np.linalg.norm(a[:, :3, 3] - b[:, :3, 3], axis=-1)
+
+
+def aligned_pose_error(poses: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
+    """Median (degrees, distance) between poses and truth [N, 4, 4] after the similarity x -> s R x + t that best
+    aligns the first set to the second (the frame refined poses live in is free; only their relative errors
+    count): R the rotation closest to the camera rotations' (argmin sum_k |R P_k - T_k|^2, an SVD of
+    sum_k T_k P_k^T), then s and t by least squares on the camera centres. Distances in the truth's units."""
+    p, q = np.asarray(poses, np.float64), np.asarray(truth, np.float64)
+    u, _, vt = np.linalg.svd(np.einsum("nij,nkj->ik", q[:, :3, :3], p[:, :3, :3]))
+    r = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+    a = (p[:, :3, 3] - p[:, :3, 3].mean(0)) @ r.T
+    b = q[:, :3, 3] - q[:, :3, 3].mean(0)
+    s = float(np.sum(a * b) / max(np.sum(a * a), 1e-300))
+    out = p.copy()
+    out[:, :3, :3] = r @ p[:, :3, :3]
+    out[:, :3, 3] = s * a + q[:, :3, 3].mean(0)
+    deg, dist = pose_error(out, q)
+    return float(np.median(deg)), float(np.median(dist))
+
+
+def perturb_poses(poses: np.ndarray, degrees: float, distance: float, seed: int = 0) -> np.ndarray:
+    """poses [N, 4, 4] each turned by `degrees` about a random axis and moved by `distance` in a random
+    direction (a fixed size, random directions: what a test of pose refinement perturbs by)."""
+    rng = np.random.default_rng(seed)
+    out = np.array(poses, np.float64)
+    for k in range(len(out)):
+        axis = rng.normal(size=3)
+        w = np.radians(degrees) * axis / np.linalg.norm(axis)
+        move = rng.normal(size=3)
+        out[k, :3, :3] = np.asarray(so3_exp(jnp.asarray(w)), np.float64) @ out[k, :3, :3]
+        out[k, :3, 3] += distance * move / np.linalg.norm(move)
+    return out

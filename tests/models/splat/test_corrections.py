@@ -1,0 +1,67 @@
+"""Per-photo corrections of the splat method (--appearance, --pose-refine; rays/correction.py): on a procedural
+capture whose photos were taken with per-photo gains at poses 1 degree and 2% of the radius off the ones written,
+the learned colour transforms find the gains and the learned pose corrections bring the poses closer to the
+truth; the settings resolve from the data and runs written before them load with both off."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from nerfkit.cli.main import main
+from nerfkit.core.config import Config
+from nerfkit.core.presets import preset
+from nerfkit.data.loader import load_frames, read_capture
+from nerfkit.data.procedural.captures import make_capture
+from nerfkit.rays.correction import aligned_pose_error, corrected_pose
+from nerfkit.run.folder import RunFolder
+
+N_VIEWS, SIZE, GAINS, NOISE = 24, 48, 0.15, (1.0, 0.02)
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory):
+    return make_capture(tmp_path_factory.mktemp("imperfect") / "cap", "nerfstudio", n_views=N_VIEWS, size=SIZE,
+                        masks=True, pose_noise=NOISE, gains=GAINS, seed=3)
+
+
+@pytest.mark.slow
+def test_corrections_find_the_gains_and_the_poses(capture, tmp_path, capsys):
+    run = tmp_path / "run"
+    assert main(["train", str(capture), "--out", str(run), "--preset", "splat", "--appearance", "on",
+                 "--pose-refine", "on", "--max-steps", "900", "--val-every", "900", "--ckpt-every", "900",
+                 "--capacity", "6000"]) == 0
+    out = "".join(capsys.readouterr())
+    assert "a colour transform per training photo" in out and "pose refinement: a pose correction" in out
+    loaded = RunFolder(run).load()
+    idx = [int(f.image.stem.split("_")[-1]) for f in read_capture(capture, "train").frames("train")]
+    assert len(idx) == loaded.params["cam_color"].shape[0] == loaded.params["cam_pose"].shape[0]
+    # Gains: each photo's colour transform's diagonal, relative to their mean (the scene's own colours take the
+    # mean gain), against the true gains relative to theirs.
+    gains = np.load(capture / "truth" / "gains.npy")[idx]
+    diag = 1.0 + np.einsum("vii->vi", np.asarray(loaded.params["cam_color"])[:, :, :3])
+    truth, found = gains / gains.mean(0), diag / diag.mean(0)
+    assert np.median(np.abs(found - truth)) < 0.8 * np.median(np.abs(truth - 1.0)), (found, truth)  # 0.65 measured
+    # Poses: the refined ones nearer the truth than the given ones, in angle and in position.
+    poses = np.asarray(loaded.scene["train_poses"], np.float64)
+    refined = np.asarray(corrected_pose(jnp.asarray(poses, jnp.float32), loaded.params["cam_pose"],
+                                        loaded.model.extent), np.float64)
+    true_poses = np.load(capture / "truth" / "poses.npy")[idx]
+    given, after = aligned_pose_error(poses, true_poses), aligned_pose_error(refined, true_poses)
+    print("given", given, "refined", after)
+    assert after[0] < 0.8 * given[0] and after[1] < 0.9 * given[1], (given, after)  # measured 0.54 and 0.83
+
+
+def test_the_corrections_resolve_from_the_data_and_old_runs_have_none(tmp_path, capsys):
+    """--appearance auto: on for photos without masks, off for masked ones (--pose-refine is off unless asked); a
+    config written before the settings existed reads back with both off (the run trained without them)."""
+    from nerfkit.training.resolve import resolve_config
+
+    for masks in (False, True):
+        cap = read_capture(make_capture(tmp_path / f"m{masks}", "nerfstudio", n_views=8, size=16, masks=masks), "train")
+        cfg = resolve_config(preset("splat"), cap, load_frames(cap, "train"), log=lambda _: None)
+        assert (cfg.splat.appearance, cfg.train.pose_refine) == ("off" if masks else "on", "off")
+        assert cfg.field.appearance_count == (0 if masks else len(cap.frames("train")))
+    old = preset("splat").to_dict()
+    del old["splat"]["appearance"], old["train"]["pose_refine"]
+    cfg = Config.from_dict(old)
+    assert (cfg.splat.appearance, cfg.train.pose_refine) == ("off", "off")
