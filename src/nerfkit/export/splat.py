@@ -24,7 +24,7 @@ from nerfkit.core.errors import ConfigError
 from nerfkit.core.viz import save_png
 from nerfkit.export.files import check_out, write_atomic
 from nerfkit.export.registry import Exporter, check_accepts
-from nerfkit.models.splat.gaussians import PARAM_NAMES, render
+from nerfkit.models.splat.gaussians import held_out_gaussians, render
 from nerfkit.models.splat.ply import export_ply, import_ply
 from nerfkit.models.splat.transform import invert_similarity
 from nerfkit.rays.cameras import Camera
@@ -32,9 +32,9 @@ from nerfkit.run.folder import RunFolder
 
 
 def active_gaussians(run) -> dict:
-    """The run's Gaussians in use (numpy, gaussians.py's layout, normalised frame)."""
-    active = np.asarray(run.aux["active"], bool)
-    return {k: np.asarray(run.params[k])[active] for k in PARAM_NAMES}
+    """The run's Gaussians in use (numpy, gaussians.py's layout, normalised frame), coloured as nerfkit renders a
+    view that is no training photo (gaussians.held_out_gaussians)."""
+    return held_out_gaussians(run.params, run.aux)
 
 
 def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False, log=print) -> dict:

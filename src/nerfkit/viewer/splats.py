@@ -16,15 +16,14 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.models.splat.gaussians import PARAM_NAMES
+from nerfkit.models.splat.gaussians import held_out_gaussians
 from nerfkit.models.splat.project import SH_C0, covariance_3d
 
 
 def browser_splats(params: dict, aux: dict) -> dict:
     """viser's arrays of a splat run's active Gaussians (normalised frame): centers [N, 3], covariances
     [N, 3, 3], rgbs [N, 3] and opacities [N, 1], float32."""
-    active = np.asarray(aux["active"], bool)
-    p = {k: np.asarray(params[k])[active] for k in PARAM_NAMES if k != "sh_rest"}
+    p = held_out_gaussians(params, aux)
     cov = np.asarray(covariance_3d(jnp.asarray(p["log_scales"]), jnp.asarray(p["quats"])))
     rgb = np.clip(SH_C0 * p["sh_dc"].reshape(len(p["means"]), -1)[:, :3] + 0.5, 0.0, 1.0)
     opacity = 1.0 / (1.0 + np.exp(-p["opacity"].reshape(-1, 1)))

@@ -65,3 +65,31 @@ def test_the_corrections_resolve_from_the_data_and_old_runs_have_none(tmp_path, 
     del old["splat"]["appearance"], old["train"]["pose_refine"]
     cfg = Config.from_dict(old)
     assert (cfg.splat.appearance, cfg.train.pose_refine) == ("off", "off")
+
+
+def test_the_mean_colour_transform_folds_into_the_gaussians():
+    """What held-out views, export and the viewer get (gaussians.held_out_gaussians): the colour transform folded
+    into the SH coefficients renders what the transform applied to the render gives (the scene's part only)."""
+    from nerfkit.models.splat.gaussians import held_out_gaussians, init_from_points, render, with_color_transform
+    from nerfkit.rays.cameras import Camera, look_at
+    from nerfkit.rays.correction import corrected_composite
+
+    rng = np.random.default_rng(0)
+    p = init_from_points(rng.uniform(-0.5, 0.5, (300, 3)), rng.uniform(0.2, 0.8, (300, 3)), opacity=0.5)
+    p["sh_rest"] = rng.normal(0, 0.02, p["sh_rest"].shape).astype(np.float32)
+    m = np.array([[0.15, 0.02, 0.0, 0.03], [0.0, -0.1, 0.01, -0.02], [0.02, 0.0, 0.05, 0.01]], np.float32)
+    cam, c2w = Camera.pinhole(40, 32, 35.0), look_at(np.array([0.3, -2.5, 0.8]), np.zeros(3))
+    bg = np.array([1.0, 1.0, 1.0], np.float32)
+    plain = render(p, c2w, cam, bg)
+    folded = render(with_color_transform(p, m), c2w, cam, bg)["rgb"]
+    want = np.asarray(corrected_composite(jnp.asarray(plain["rgb"]), jnp.asarray(plain["alpha"]), jnp.asarray(bg),
+                                          jnp.asarray(m)))
+    assert 0.2 < plain["alpha"].mean() < 0.95  # the background's share is there to be kept
+    assert np.abs(folded - want).max() < 1e-4 and np.abs(folded - plain["rgb"]).max() > 0.05
+    # held-out views: the training photos' mean transform, on the active Gaussians
+    n = len(p["means"])
+    params = p | {"cam_color": np.stack([m * 2, np.zeros_like(m)])}
+    aux = {"active": np.arange(n) % 3 > 0}
+    held = held_out_gaussians(params, aux)
+    assert set(held) == set(p) and len(held["means"]) == aux["active"].sum()
+    assert np.allclose(held["sh_dc"], with_color_transform(p, m)["sh_dc"][aux["active"]], atol=1e-5)

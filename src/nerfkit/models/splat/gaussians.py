@@ -29,6 +29,7 @@ import numpy as np
 
 from nerfkit.models.splat.project import LOWPASS_DILATION, SH_C0, project_gaussians, sh_colors
 from nerfkit.models.splat.rasterize import rasterize
+from nerfkit.rays.correction import mean_color
 
 SH_DEGREE = 3
 N_REST = (SH_DEGREE + 1) ** 2 - 1  # 15 coefficients of bands 1..3
@@ -97,6 +98,32 @@ def init_random(n: int, box: float = BLENDER_BOX, seed: int = 0, opacity: float 
 def count(params: dict) -> int:
     """Number of Gaussians N."""
     return int(params["means"].shape[0])
+
+
+def with_color_transform(params: dict, m: np.ndarray) -> dict:
+    """The Gaussians of `params` (numpy) with every colour mapped by the affine colour transform m [3, 4]
+    (rays/correction.py): c' = M c + b, M = I + m[:, :3], b = m[:, 3], for every view direction. Colours are
+    linear in the SH coefficients (c = SH_C0 sh_dc + sum_k Y_k sh_rest_k + 0.5), so the map folds into them:
+
+        sh_dc' = M sh_dc + (M 0.5 + b - 0.5) / SH_C0,    sh_rest'_k = M sh_rest_k
+
+    and since a render is sum_i w_i c_i + (1 - alpha) background with alpha = sum_i w_i, the render of the
+    folded Gaussians is correction.corrected_composite of the render (exact where no colour is clamped at 0)."""
+    m = np.asarray(m, np.float32)
+    mat, b = np.eye(3, dtype=np.float32) + m[:, :3], m[:, 3]
+    out = dict(params)
+    out["sh_dc"] = (np.asarray(params["sh_dc"], np.float32) @ mat.T + (mat @ np.full(3, 0.5, np.float32) + b - 0.5)
+                    / SH_C0).astype(np.float32)
+    out["sh_rest"] = (np.asarray(params["sh_rest"], np.float32) @ mat.T).astype(np.float32)
+    return out
+
+
+def held_out_gaussians(params: dict, aux: dict) -> dict:
+    """The active Gaussians (numpy, PARAM_NAMES) as a view that is no training photo sees them: with the mean of the
+    training photos' colour transforms folded in where the run learned them (--appearance; with_color_transform)."""
+    active = np.asarray(aux["active"], bool)
+    p = {k: np.asarray(params[k])[active] for k in PARAM_NAMES}
+    return with_color_transform(p, mean_color(params["cam_color"])) if "cam_color" in params else p
 
 
 def to_device(params: dict) -> dict:

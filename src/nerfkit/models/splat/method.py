@@ -33,7 +33,7 @@ from nerfkit.data.points import transform_points
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
-from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, intrinsics_of, render
+from nerfkit.models.splat.gaussians import held_out_gaussians, init_from_points, intrinsics_of, render
 from nerfkit.models.splat.optim import (
     LearningRates,
     init_state,
@@ -43,7 +43,6 @@ from nerfkit.models.splat.optim import (
 )
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.rays.cameras import Camera
-from nerfkit.rays.correction import corrected_composite, mean_color
 
 RANDOM_INIT = 100_000  # random Gaussians in the box without SfM points (3DGS's Blender init), fewer if capacity is
 # Their scales: this x the mean distance to the 3 nearest (1.0 in 3DGS). Measured on lego (seed protocol, 2 shared
@@ -116,18 +115,14 @@ class SplatRenderer:
 
     def render_camera(self, params, aux, c2w: np.ndarray, camera) -> dict:
         """rgb [H, W, 3], depth (sum_k w_k z_k), opacity and depth_normalized (depth / opacity) [H, W]."""
-        active = np.asarray(aux["active"], bool)
-        p = {k: np.asarray(params[k])[active] for k in PARAM_NAMES}
+        p = held_out_gaussians(params, aux)  # a colour transform learned per photo: their mean
         try:
             intrinsics_of(camera)
         except ValueError as e:
             raise DataError(str(e)) from None
         r = render(p, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree, self.model.cfg.splat.backend)
-        opacity, rgb = r["alpha"], r["rgb"]
-        if "cam_color" in params:  # a view that is no training photo: the mean of their colour transforms
-            rgb = np.asarray(corrected_composite(rgb, opacity, np.asarray(self.model.background, np.float32),
-                                                 mean_color(params["cam_color"])))
-        return {"rgb": np.clip(rgb, 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
+        opacity = r["alpha"]
+        return {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
                 "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
 
     def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
