@@ -27,8 +27,9 @@ from provenance import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
 
-VARIANTS = {"exact": ("exact", []), "none": ("imperfect", []), "colour": ("imperfect", ["--appearance", "on"]),
-            "pose": ("imperfect", ["--pose-refine", "on"]),
+VARIANTS = {"exact": ("exact", ["--appearance", "off"]), "none": ("imperfect", ["--appearance", "off"]),
+            "colour": ("imperfect", ["--appearance", "on"]),
+            "pose": ("imperfect", ["--appearance", "off", "--pose-refine", "on"]),
             "both": ("imperfect", ["--appearance", "on", "--pose-refine", "on"])}
 
 
