@@ -16,3 +16,24 @@ def test_read_points_ply_with_transform(tmp_path):
     np.testing.assert_allclose(xyz, 2 * pts + [1, 2, 3], atol=2e-6)  # float32 in the file
     np.testing.assert_allclose(col, rgba[:, :3] / 255.0, atol=1e-6)
     np.testing.assert_allclose(transform_points(pts, m), 2 * pts + [1, 2, 3])
+
+
+def test_far_sphere_points_take_the_colour_of_the_first_photo_that_sees_them():
+    """Each photo a flat colour of its own: a far point's colour names the photo it was coloured by, which must be
+    the first (in order) that it projects into; points on the sphere only, points no photo sees dropped."""
+    from nerfkit.data.points import far_sphere_points
+    from nerfkit.data.procedural.captures import ring_poses
+    from nerfkit.rays.cameras import Camera, project_points
+
+    poses = ring_poses(6, seed=1)
+    cam = Camera.pinhole(32, 24, 20.0)
+    images = np.stack([np.full((24, 32, 3), k / 10, np.float32) for k in range(6)])
+    pts, colours = far_sphere_points(4000, 12.0, poses, [cam] * 6, images, seed=2)
+    assert 100 < len(pts) < 4000  # the cameras see part of the sphere only
+    assert np.allclose(np.linalg.norm(pts, axis=1), 12.0)
+    which = np.round(colours[:, 0] * 10).astype(int)
+    for k, c2w in enumerate(poses):
+        u, v, front = project_points(pts, c2w, cam)
+        inside = front & (u >= 0) & (u < 32) & (v >= 0) & (v < 24)
+        assert np.all(inside[which == k])
+        assert not np.any(inside & (which > k)), k  # no point an earlier photo sees took a later one's colour

@@ -71,6 +71,7 @@ def alternative(name: str, cfg) -> list[str]:
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
         "splat.strategy": "mcmc" if v == "classic" else "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
         "splat.backend": "reference", "splat.appearance": "on", "train.pose_refine": "on",
+        "splat.far_points": "on",
         "splat.coarse": "0.25", "splat.ssim_lambda": "0.2", "splat.pixel_loss": "rmse" if v == "l1" else "l1",
         "sampler.sampling": "proposal" if v != "proposal" else "occupancy",
     }

@@ -256,6 +256,11 @@ class SplatSettings:
     about 1.5 s a photo, cached in ~/.cache/nerfkit/points), hull (uniform in the visual hull of the masks or
     alpha channel), random (uniform in the scene box) or auto (the capture's points; else hull where it has
     masks or alpha; else triangulated; random only where no point could be triangulated)."""
+    far_points: Literal["auto", "on", "off"] = "auto"
+    """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre
+    as the farthest camera, each coloured by a training photo that sees it, so that what lies far away (walls,
+    sky) has Gaussians of its own instead of being smeared over the near ones. auto: on for photos without masks
+    (unbounded scenes), off for masked objects and Blender scenes."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
@@ -310,6 +315,7 @@ class Config:
             if sections["splat"]:  # runs of earlier versions may have no splat section
                 sections["splat"].setdefault("pixel_loss", "l1")
                 sections["splat"].setdefault("appearance", "off")  # written before per-photo corrections existed
+                sections["splat"].setdefault("far_points", "off")
             sections["train"].setdefault("pose_refine", "off")
             cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
         except (KeyError, TypeError, AttributeError) as e:

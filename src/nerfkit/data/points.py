@@ -1,4 +1,5 @@
-"""Sparse SfM points: reading them (a .ply cloud or a COLMAP model) and moving them by a similarity."""
+"""Sparse SfM points: reading them (a .ply cloud or a COLMAP model) and moving them by a similarity; points
+on a far sphere coloured by the photos (a background to start splats of unbounded scenes from)."""
 
 from __future__ import annotations
 
@@ -41,3 +42,28 @@ def read_points(path: str | Path, transform: np.ndarray | None = None) -> tuple[
         else:
             cols = np.full((len(pts), 3), 0.5, np.float32)
     return (pts if transform is None else transform_points(pts, transform)), cols
+
+
+def far_sphere_points(n: int, radius: float, poses: np.ndarray, cameras: list, images: np.ndarray,
+                      seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(points [M, 3], colours [M, 3] in [0, 1]), M <= n: points uniform on the sphere |x| = radius (the
+    normalised frame's origin is the point the cameras look at), each coloured by the pixel of the first
+    training photo (poses [V, 4, 4], cameras, images [V, H, W, 3]) it projects into; the ones no photo sees
+    are dropped."""
+    from nerfkit.rays.cameras import project_points
+
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(n, 3))
+    pts = radius * x / np.linalg.norm(x, axis=1, keepdims=True)
+    colours = np.full((n, 3), np.nan, np.float32)
+    for c2w, cam, img in zip(poses, cameras, images):
+        todo = np.isnan(colours[:, 0])
+        if not todo.any():
+            break
+        u, v, front = project_points(pts[todo], np.asarray(c2w, np.float64), cam)
+        h, w = img.shape[:2]
+        inside = front & (u >= 0) & (u < min(w, cam.width)) & (v >= 0) & (v < min(h, cam.height))
+        rows = np.flatnonzero(todo)[inside]
+        colours[rows] = img[v[inside].astype(int), u[inside].astype(int), :3]
+    seen = ~np.isnan(colours[:, 0])
+    return pts[seen], colours[seen]

@@ -59,12 +59,13 @@ def test_the_corrections_resolve_from_the_data_and_old_runs_have_none(tmp_path, 
     for masks in (False, True):
         cap = read_capture(make_capture(tmp_path / f"m{masks}", "nerfstudio", n_views=8, size=16, masks=masks), "train")
         cfg = resolve_config(preset("splat"), cap, load_frames(cap, "train"), log=lambda _: None)
-        assert (cfg.splat.appearance, cfg.train.pose_refine) == ("off" if masks else "on", "off")
+        on = "off" if masks else "on"
+        assert (cfg.splat.appearance, cfg.train.pose_refine, cfg.splat.far_points) == (on, "off", on)
         assert cfg.field.appearance_count == (0 if masks else len(cap.frames("train")))
     old = preset("splat").to_dict()
-    del old["splat"]["appearance"], old["train"]["pose_refine"]
+    del old["splat"]["appearance"], old["train"]["pose_refine"], old["splat"]["far_points"]
     cfg = Config.from_dict(old)
-    assert (cfg.splat.appearance, cfg.train.pose_refine) == ("off", "off")
+    assert (cfg.splat.appearance, cfg.train.pose_refine, cfg.splat.far_points) == ("off", "off", "off")
 
 
 def test_the_mean_colour_transform_folds_into_the_gaussians():

@@ -29,11 +29,18 @@ import numpy as np
 
 from nerfkit.core.errors import DataError
 from nerfkit.data.normalize import sample_visual_hull
-from nerfkit.data.points import transform_points
+from nerfkit.data.points import far_sphere_points, transform_points
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
-from nerfkit.models.splat.gaussians import held_out_gaussians, init_from_points, intrinsics_of, render
+from nerfkit.models.splat.gaussians import (
+    PARAM_NAMES,
+    held_out_gaussians,
+    init_from_points,
+    init_random,
+    intrinsics_of,
+    render,
+)
 from nerfkit.models.splat.optim import (
     LearningRates,
     init_state,
@@ -63,6 +70,9 @@ HULL_INIT_SHARE = 0.5
 # projection and Adam over every Gaussian cost as much as the pixels, and loses 0.8 dB (34.61 -> 33.84 dB).
 COARSE_AUTO = 0.5
 COARSE_MIN_PIXELS = 100_000
+# --far-points: FAR_SHARE of --capacity on a sphere FAR_RADIUS x the farthest camera's distance from the centre.
+FAR_SHARE = 0.1
+FAR_RADIUS = 3.0
 
 
 def coarse_share(coarse: float | None, pixels: int | None) -> float:
@@ -144,7 +154,7 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "backend", "appearance")) | {"train.pose_refine"}
+        "backend", "appearance", "far_points")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -155,16 +165,19 @@ class SplatModel:
                 f"{_describe_coarse(g.coarse)}"
                 f"{g.init_points} init, one view per step"
                 f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
+                f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
     @staticmethod
     def resolve_settings(cfg, photos: bool, n_train: int, log=print) -> None:
-        """--appearance auto: on for photos without masks (registry.resolve_settings); the per-photo
+        """--appearance and --far-points auto: on for photos without masks (registry.resolve_settings); the per-photo
         corrections' count (field.appearance_count) is the training photos' where any is on."""
         g = cfg.splat
         if g.appearance == "auto":
             g.appearance = "on" if photos else "off"
+        if g.far_points == "auto":
+            g.far_points = "on" if photos else "off"
         if g.appearance == "on":
             log(f"appearance: a colour transform per training photo ({n_train}); held-out photos use their mean "
                 f"(--appearance off: none)")
@@ -244,6 +257,9 @@ class SplatModel:
         if self.init_gaussians is None:
             self.init_note = f"{min(RANDOM_INIT, self.sc.capacity)} random points in the box " \
                              f"[-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
+        far = self.cfg.splat.far_points
+        if far == "on" or (far == "auto" and not (capture.has_masks or capture.alpha)):
+            self._add_far_points(data)
         log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}; {self._coarse_note(data)}")
 
     def _coarse_note(self, data) -> str:
@@ -253,6 +269,23 @@ class SplatModel:
         if self.cfg.splat.coarse is not None:
             return what
         return f"{what} (photos of {px:,} pixels {'>=' if share else '<'} {COARSE_MIN_PIXELS:,}; set --coarse)"
+
+    def _add_far_points(self, data) -> None:
+        """Add FAR_SHARE x capacity Gaussians on the far sphere (data/points.far_sphere_points), coloured by the
+        training photos, to the initial ones (random ones in the box first, where there are none yet)."""
+        radius = FAR_RADIUS * float(np.linalg.norm(np.asarray(data.poses)[:, :3, 3], axis=1).max())
+        pts, colours = far_sphere_points(int(FAR_SHARE * self.sc.capacity), radius, data.poses, data.cameras,
+                                         data.images, self.sc.seed)
+        if len(pts) < 4:
+            return
+        far = init_from_points(pts, colours, self.sc.init_opacity)
+        near = self.init_gaussians
+        if near is None:
+            near = init_random(min(RANDOM_INIT, self.sc.capacity - len(pts)), self.sc.init_box, self.sc.seed,
+                               self.sc.init_opacity)
+            near["log_scales"] = near["log_scales"] + np.float32(np.log(RANDOM_INIT_SCALE))
+        self.init_gaussians = {k: np.concatenate([np.asarray(near[k], np.float32), far[k]]) for k in PARAM_NAMES}
+        self.init_note += f", and {len(pts)} on a far sphere of radius {radius:.3g} coloured by the photos"
 
     def _init_in_hull(self, data) -> None:
         """Grey Gaussians (as the random init's) uniform in the visual hull of the training silhouettes, their
