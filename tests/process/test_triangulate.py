@@ -74,10 +74,11 @@ def test_a_splat_run_without_masks_starts_from_triangulated_points(tmp_path, poi
     cfg.data.masks = False  # photos without masks: no visual hull to start in
     trainer = Trainer(MARYROSE, tmp_path / "run", cfg, progress=False)  # binds the data: triangulates
     model = trainer.model
-    assert model.init_note.endswith(f"SfM points of {Path(trainer.capture.points_file).name}"), model.init_note
+    assert f"SfM points of {Path(trainer.capture.points_file).name}" in model.init_note, model.init_note
     n = int(model.init_note.split()[0])
     assert n > 1000 and Path(trainer.capture.points_file).parent == points_cache
-    assert model.init_gaussians is not None and len(model.init_gaussians["means"]) == n
+    far = int(model.init_note.split(", and ")[1].split()[0])  # --far-points auto: on for photos without masks
+    assert model.init_gaussians is not None and len(model.init_gaussians["means"]) == n + far
     # A second run on the same photos and poses reads the cache (triangulating again would raise here).
     monkeypatch.setattr(triangulate_module, "triangulate", lambda *a, **k: pytest.fail("triangulated again"))
     again = Trainer(MARYROSE, tmp_path / "run2", cfg, progress=False)

@@ -34,7 +34,7 @@ GROUPS = {
        for name, cls in Config.sections().items() if name not in ("data", "train")},
     "Training": ("train.lr", "train.lr_decay_steps", "train.lr_decay_rate", "train.adam_b2", "train.adam_eps",
                  "train.batch_rays", "train.seed", "train.precrop_steps", "train.precrop_frac", "train.devices",
-                 "train.max_bad_steps"),
+                 "train.max_bad_steps", "train.pose_refine"),
     "Output": ("train.val_every", "train.val_views", "train.val_max_fraction", "train.ckpt_every",
                "train.keep_ckpts", "train.log_every", "train.chunk"),
 }

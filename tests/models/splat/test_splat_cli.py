@@ -144,11 +144,23 @@ def test_init_from_sfm_points(tmp_path):
     data = load_scene(scene, "train", format="nerfstudio")
     from nerfkit.core.presets import preset
 
-    model = SplatModel(preset("splat"))
+    cfg = preset("splat")
+    cfg.splat.far_points = "off"
+    model = SplatModel(cfg)
     model.bind_data(cap, data, log=lambda *_: None)
     params, aux = model.init()
     m = np.asarray(data.transform)
     np.testing.assert_allclose(params["means"][:200], pts @ m[:3, :3].T + m[:3, 3], atol=1e-5)
+    # --far-points on (auto, on these photos without masks): more start on the far sphere, after the SfM points
+    cfg.splat.far_points = "on"
+    far = SplatModel(cfg)
+    far.bind_data(cap, data, log=lambda *_: None)
+    far_params, far_aux = far.init()
+    n = int(np.asarray(far_aux["active"]).sum()) - 200
+    radius = 3.0 * np.linalg.norm(data.poses[:, :3, 3], axis=1).max()
+    assert n > 100 and "on a far sphere" in far.init_note
+    np.testing.assert_allclose(far_params["means"][:200], params["means"][:200])
+    np.testing.assert_allclose(np.linalg.norm(far_params["means"][200:200 + n], axis=1), radius, rtol=1e-4)
     assert aux["active"].sum() == 200
     colour = 0.28209479 * params["sh_dc"][:200, 0] + 0.5
     np.testing.assert_allclose(colour, 200 / 255, atol=1e-5)

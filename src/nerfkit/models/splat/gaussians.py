@@ -27,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from nerfkit.core.metrics import psnr, ssim
 from nerfkit.models.splat.project import LOWPASS_DILATION, SH_C0, project_gaussians, sh_colors
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.rays.correction import mean_color
@@ -200,3 +201,15 @@ def render(params: dict, c2w, camera, background=(1.0, 1.0, 1.0), sh_degree: int
     out = fn(to_device(params), jnp.asarray(c2w, jnp.float32), jnp.asarray(intrinsics_of(camera), jnp.float32),
              jnp.asarray(background, jnp.float32), jnp.int32(sh_degree))
     return {k: np.asarray(v) for k, v in out.items()}
+
+
+def evaluate(params: dict, images, poses, cameras, background=(1.0, 1.0, 1.0), sh_degree: int = 3,
+             backend: str = "auto") -> dict:
+    """Render every camera and score it: {"psnr": [V], "ssim": [V], "psnr_mean", "ssim_mean"} (nerfkit.core.metrics)."""
+    ps, ss = [], []
+    for k, cam in enumerate(cameras):
+        rgb = render(params, poses[k], cam, background, sh_degree, backend, depth=False)["rgb"]
+        target = np.asarray(images[k])[: cam.height, : cam.width]
+        ps.append(psnr(np.clip(rgb, 0, 1), target))
+        ss.append(ssim(np.clip(rgb, 0, 1), target))
+    return {"psnr": ps, "ssim": ss, "psnr_mean": float(np.mean(ps)), "ssim_mean": float(np.mean(ss))}

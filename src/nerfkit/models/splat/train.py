@@ -36,7 +36,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.config import SplatSettings
-from nerfkit.core.metrics import psnr, ssim
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, photometric_loss
 from nerfkit.models.splat.gaussians import (
@@ -45,7 +44,6 @@ from nerfkit.models.splat.gaussians import (
     band_mask,
     init_random,
     intrinsics_of,
-    render,
     splat_inputs,
 )
 from nerfkit.models.splat.optim import (
@@ -392,15 +390,3 @@ class _Clock:
         c0 = time.perf_counter()
         fn(*args)
         self.paused += time.perf_counter() - c0
-
-
-def evaluate(params: dict, images, poses, cameras, background=(1.0, 1.0, 1.0), sh_degree: int = 3,
-             backend: str = "auto") -> dict:
-    """Render every camera and score it: {"psnr": [V], "ssim": [V], "psnr_mean", "ssim_mean"} (nerfkit.core.metrics)."""
-    ps, ss = [], []
-    for k, cam in enumerate(cameras):
-        rgb = render(params, poses[k], cam, background, sh_degree, backend, depth=False)["rgb"]
-        target = np.asarray(images[k])[: cam.height, : cam.width]
-        ps.append(psnr(np.clip(rgb, 0, 1), target))
-        ss.append(ssim(np.clip(rgb, 0, 1), target))
-    return {"psnr": ps, "ssim": ss, "psnr_mean": float(np.mean(ps)), "ssim_mean": float(np.mean(ss))}
