@@ -17,9 +17,9 @@ from nerfkit.data.procedural.scene import make_scene
 from nerfkit.models.splat import densify
 from nerfkit.models.splat.optim import LearningRates, init_state, make_optimizers
 from nerfkit.models.splat.strategy import MCMC, Classic, Window
+from nerfkit.models.splat.gaussians import evaluate
 from nerfkit.models.splat.train import (
     SplatConfig,
-    evaluate,
     host_control,
     initial_params,
     train_splats,

@@ -281,9 +281,10 @@ class SplatModel:
         far = init_from_points(pts, colours, self.sc.init_opacity)
         near = self.init_gaussians
         if near is None:
-            near = init_random(min(RANDOM_INIT, self.sc.capacity - len(pts)), self.sc.init_box, self.sc.seed,
-                               self.sc.init_opacity)
+            n = min(RANDOM_INIT, self.sc.capacity - len(pts))
+            near = init_random(n, self.sc.init_box, self.sc.seed, self.sc.init_opacity)
             near["log_scales"] = near["log_scales"] + np.float32(np.log(RANDOM_INIT_SCALE))
+            self.init_note = f"{n} random points in the box [-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
         self.init_gaussians = {k: np.concatenate([np.asarray(near[k], np.float32), far[k]]) for k in PARAM_NAMES}
         self.init_note += f", and {len(pts)} on a far sphere of radius {radius:.3g} coloured by the photos"
 
