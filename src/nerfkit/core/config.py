@@ -213,8 +213,8 @@ class TrainConfig:
     pose_refine: Literal["on", "off"] = "off"
     """Pose refinement: a correction of each training photo's camera pose (a rotation and a translation, in the
     camera's frame) learned with the scene, at its own learning rate after a warm-up; held-out photos keep their
-    given poses. Off by default: on buddha (13 photos, SfM poses, 3-minute splat runs) it cost 0.4 dB on the
-    held-out photos, scored at their given poses. --preset splat only, so far."""
+    given poses. Off by default: on buddha (11 registered photos, SfM poses, 3-minute splat runs) it cost 2.4 dB
+    on the held-out photos, scored at their given poses (benchmarks/results/buddha_corrections_cli.json). --preset splat only, so far."""
     devices: int | None = None
     """Local devices to split each step's rays over (data parallel; --batch-rays is the global batch, a
     multiple of the device count). Default: all local devices."""

@@ -35,7 +35,7 @@ import trimesh
 from PIL import Image
 
 from nerfkit.data.capture import Frame
-from nerfkit.data.formats.colmap import colmap_pose
+from nerfkit.data.formats.colmap import colmap_camera, colmap_pose
 from nerfkit.data.images import load_mask
 from nerfkit.data.points import read_points
 from nerfkit.process.sfm import SfmOptions, colmap_log, extract, match
@@ -101,9 +101,7 @@ def triangulate(frames: list[Frame], work: Path, log: Path, threads: int = -1, s
     images = db.read_all_images()
     for cam_id in sorted({im.camera_id for im in images}):
         cam = by_name[next(im for im in images if im.camera_id == cam_id).name].camera
-        model, params = cam.colmap()
-        rec.add_camera_with_trivial_rig(pycolmap.Camera(camera_id=cam_id, model=model, width=cam.width,
-                                                        height=cam.height, params=params))
+        rec.add_camera_with_trivial_rig(colmap_camera(pycolmap, cam, cam_id))
     for im in images:
         rec.add_image_with_trivial_frame(pycolmap.Image(name=im.name, camera_id=im.camera_id, image_id=im.image_id),
                                          colmap_pose(pycolmap, by_name[im.name].c2w))

@@ -58,17 +58,17 @@ def corrected_pose(c2w: jnp.ndarray, xi: jnp.ndarray, scale: float = 1.0) -> jnp
     return jnp.concatenate([top, c2w[..., 3:, :]], -2)
 
 
-def corrected_color(rgb: jnp.ndarray, m: jnp.ndarray) -> jnp.ndarray:
-    """rgb' [..., 3] = (I + m[:, :3]) rgb + m[:, 3] of rgb [..., 3] and one photo's m [3, 4]."""
-    return rgb + rgb @ m[:, :3].T + m[:, 3]
+def corrected_color(rgb: jnp.ndarray, m: jnp.ndarray, coverage=1.0) -> jnp.ndarray:
+    """rgb' [..., 3] = (I + m[:, :3]) rgb + coverage m[:, 3] of rgb [..., 3] and one photo's m [3, 4]; coverage
+    [..., 1] (or 1) scales the offset to the share of the pixel the scene covers (corrected_composite)."""
+    return rgb + rgb @ m[:, :3].T + coverage * m[:, 3]
 
 
 def corrected_composite(rgb: jnp.ndarray, alpha: jnp.ndarray, background: jnp.ndarray, m: jnp.ndarray):
     """rgb [..., 3] = f + (1 - alpha) background, with the scene's part f transformed by m [3, 4] and the
     background kept (module docstring); alpha [...]."""
     rest = (1.0 - alpha)[..., None] * background
-    f = rgb - rest
-    return f + f @ m[:, :3].T + alpha[..., None] * m[:, 3] + rest
+    return corrected_color(rgb - rest, m, alpha[..., None]) + rest
 
 
 def mean_color(m: np.ndarray) -> np.ndarray:

@@ -93,14 +93,14 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
         s.near = UNBOUNDED_NEAR if scene == "unbounded" else 0.0
     if s.far is None:
         s.far = UNBOUNDED_FAR if scene == "unbounded" else _round_up(float(dist.max()) + math.sqrt(3) * f.bound)
+    photos = cap.format != "blender" and not cap.has_masks  # a capture whose photos' poses and exposure vary
     if f.appearance_dim is None and not supports.appearance:
         f.appearance_dim = 0
     if f.appearance_dim is None:
-        f.appearance_dim = 0 if cap.format == "blender" or cap.has_masks else APPEARANCE_DIM
+        f.appearance_dim = APPEARANCE_DIM if photos else 0
         if cap.has_masks:
             log("appearance embeddings: off for a masked object capture (--appearance-dim 16 turns them on)")
     f.appearance_count = len(train) if f.appearance_dim else 0
-    photos = cap.format != "blender" and not cap.has_masks  # a capture whose photos' poses and exposure vary
     registry.resolve_settings(cfg, photos, len(train), log)
     if cfg.train.pose_refine == "on":
         log(f"pose refinement: a pose correction per training photo ({len(train)}), learned after a warm-up; "

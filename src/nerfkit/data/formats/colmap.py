@@ -103,6 +103,12 @@ def colmap_pose(pycolmap, c2w: np.ndarray):
     return pycolmap.Rigid3d(pycolmap.Rotation3d(m[:, :3]), m[:, 3])
 
 
+def colmap_camera(pycolmap, camera, camera_id: int):
+    """The pycolmap.Camera of a nerfkit Camera (its lens model and parameters, Camera.colmap) with id camera_id."""
+    model, params = camera.colmap()
+    return pycolmap.Camera(model=model, width=camera.width, height=camera.height, params=params, camera_id=camera_id)
+
+
 def write_colmap(model_dir: Path, names: list[str], c2ws: np.ndarray, cameras: list, points: np.ndarray | None = None,
                  colors: np.ndarray | None = None, text: bool = True) -> Path:
     """A COLMAP sparse model (through pycolmap) of images `names` with OpenGL poses [N, 4, 4]
@@ -116,9 +122,7 @@ def write_colmap(model_dir: Path, names: list[str], c2ws: np.ndarray, cameras: l
     for k, (name, c2w, cam) in enumerate(zip(names, c2ws, cameras), 1):
         if cam not in ids:
             ids[cam] = len(ids) + 1
-            model, params = cam.colmap()
-            rec.add_camera_with_trivial_rig(pycolmap.Camera(model=model, width=cam.width, height=cam.height,
-                                                            params=params, camera_id=ids[cam]))
+            rec.add_camera_with_trivial_rig(colmap_camera(pycolmap, cam, ids[cam]))
         rec.add_image_with_trivial_frame(pycolmap.Image(name=name, camera_id=ids[cam], image_id=k),
                                          colmap_pose(pycolmap, c2w))
     for k, p in enumerate(np.zeros((0, 3)) if points is None else points):
