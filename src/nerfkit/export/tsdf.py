@@ -62,10 +62,12 @@ SLAB_POINTS = 1 << 19  # grid points fused per compiled call
 
 def project(x: jnp.ndarray, c2w: jnp.ndarray, intr: jnp.ndarray):
     """Pinhole projection of points x [M, 3]: (u, v, z) [M] with z the z-depth (OpenGL: the camera
-    looks down -z; p = R^T (x - o), z = -p_z, u = fx p_x / z + cx, v = -fy p_y / z + cy)."""
+    looks down -z; p = R^T (x - o), z = -p_z, u = fx p_x / z + cx, v = -fy p_y / z + cy; points with
+    z <= 1e-6 are divided by 1). Arithmetic only, so numpy arrays stay numpy (no compile per shape)."""
     p = (x - c2w[:3, 3]) @ c2w[:3, :3]
     z = -p[:, 2]
-    zs = jnp.where(z > 1e-6, z, 1.0)
+    behind = z <= 1e-6
+    zs = z + behind * (1.0 - z)
     return intr[0] * p[:, 0] / zs + intr[2], -intr[1] * p[:, 1] / zs + intr[3], z
 
 
@@ -176,7 +178,7 @@ def depth_iou(verts: np.ndarray, faces: np.ndarray, c2w: np.ndarray, intr: np.nd
     pixels where either is."""
     agree = either = 0
     for k in range(len(c2w)):
-        u, v, z = (np.asarray(a) for a in project(jnp.asarray(verts), jnp.asarray(c2w[k]), jnp.asarray(intr[k])))
+        u, v, z = project(np.asarray(verts, np.float32), np.asarray(c2w[k], np.float32), np.asarray(intr[k], np.float32))
         mesh = rasterize(np.stack([u, v], -1), np.where(z > 1e-6, z, -1.0), faces, *depth.shape[1:])[2]
         field = opacity[k] >= A_FREE
         covered = np.isfinite(mesh)

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.config import Config
@@ -125,7 +124,7 @@ class RunFolder:
         shapes = jax.eval_shape(lambda: init_state(model, optimizer, cfg.train.seed))
         target = jax.tree_util.tree_map(lambda s: np.zeros(s.shape, s.dtype), shapes)
         step, state = ckpt_lib.restore_checkpoint(path, target, cfg.to_dict()["field"])
-        params, aux = jax.tree_util.tree_map(jnp.asarray, (state["params"], state["aux"]))
+        params, aux = jax.device_put((state["params"], state["aux"]))  # (jnp.asarray compiles a copy per shape)
         return TrainedRun(self.path, cfg, model, params, aux, step, self.scene() if scene else None)
 
     @property

@@ -29,9 +29,10 @@ EPS = 1e-7
 
 
 def _searchsorted(a: jnp.ndarray, v: jnp.ndarray, side: str) -> jnp.ndarray:
-    """Row by row: for sorted a [R, M] and queries v [R, Q], the insertion indices [R, Q] (jnp.searchsorted;
-    its unrolled binary search is the fastest of its methods on XLA:CPU at these sizes)."""
-    return jax.vmap(lambda x, q: jnp.searchsorted(x, q, side=side, method="scan_unrolled"))(a, v)
+    """Row by row: for sorted a [R, M] and queries v [R, Q], the insertion indices [R, Q] (jnp.searchsorted's
+    binary search in a loop: on XLA:CPU the ngp preset's unbounded train step takes 336 ms with it, 380 ms
+    with the unrolled loop, and compiles ~0.7 s sooner; same results)."""
+    return jax.vmap(lambda x, q: jnp.searchsorted(x, q, side=side, method="scan"))(a, v)
 
 
 def uniform_edges(key, n_rays: int, n: int, s_lo, s_hi, jitter: bool) -> jnp.ndarray:
