@@ -10,7 +10,8 @@ For each preset P, one fresh run of exactly what a user types:
     nerfkit eval OUT/<P> --split test
 
 A preset may be a variant LABEL=ARGS (e.g. "splat-random=--preset splat --init-points random"): the run is
-OUT/LABEL, trained with ARGS in place of --preset LABEL.
+OUT/LABEL, trained with ARGS in place of --preset LABEL. `--data-for LABEL=PATH` trains that variant on another
+capture of the same photos and poses (e.g. with other points; benchmarks/splat_start.py).
 
 (the wall clock is the whole `nerfkit train` process; PSNR and SSIM are `nerfkit eval`'s over every held-out
 photo). Writes benchmarks/results/<name>_cli.json (with the commit it ran on) and <name>_cli.jpg: three
@@ -63,7 +64,7 @@ def side_by_side(runs: dict[str, Path], views: list[int], out: Path) -> None:
     iio.imwrite(out, np.concatenate(rows, axis=0), quality=90)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
     ap.add_argument("--presets", nargs="+", default=["ngp", "splat"])
@@ -73,7 +74,10 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("runs/capture_cli"))
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--common", default="", help="arguments added to every nerfkit train")
-    a = ap.parse_args()
+    ap.add_argument("--data-for", action="append", default=[], metavar="LABEL=PATH",
+                    help="train the variant LABEL on the capture PATH (same photos and poses) instead of --data")
+    a = ap.parse_args(argv)
+    data_for = dict(x.split("=", 1) for x in a.data_for)
     result = {"what": f"nerfkit train + nerfkit eval --split test on {a.data.name}, wall clock of the CLI",
               "data": str(a.data), "minutes": a.minutes, "downscale": a.downscale, "common": a.common, "presets": {},
               "provenance": provenance()}
@@ -81,13 +85,14 @@ def main() -> None:
     for entry in a.presets:
         preset, _, args = entry.partition("=")
         run = a.out / preset
-        train_s, out = nerfkit("train", str(a.data), "--out", str(run), *(shlex.split(args) or ["--preset", preset]),
+        data = data_for.get(preset, str(a.data))
+        train_s, out = nerfkit("train", data, "--out", str(run), *(shlex.split(args) or ["--preset", preset]),
                                "--max-minutes", f"{a.minutes:g}", "--downscale", str(a.downscale), "--no-progress",
                                "--overwrite", *shlex.split(a.common))
         eval_s, _ = nerfkit("eval", str(run), "--split", "test", "--overwrite")
         ev = json.loads((run / "eval_test.json").read_text())
         m = re.search(r"step (\d+), ([\d.]+) steps/s", out)
-        result["presets"][preset] = {"run": str(run), "args": args or f"--preset {preset}",
+        result["presets"][preset] = {"run": str(run), "data": data, "args": args or f"--preset {preset}",
                                      "train_wall_s": round(train_s, 1),
                                      "steps": int(m.group(1)) if m else None, "psnr": round(ev["psnr"], 3),
                                      "ssim": round(ev["ssim"], 4), "views": ev["n_views"],

@@ -225,3 +225,26 @@ def test_no_masks_drops_the_masks_a_capture_has(tmp_path, fmt):
         with pytest.raises(DataError, match="--no-masks"):
             read_capture(root, "all")
         assert read_capture(root, "all", masks=False).masks_dropped
+
+
+def test_exact_points_lie_on_the_surfaces_the_photos_show(tmp_path):
+    """make_capture(points=P): sparse_pc.ply holds P points, each on a solid of the scene or on the far
+    environment sphere, coloured as a photo shows it; through an OpenCV lens too; random points do not pass."""
+    from export.test_export import surface_distance
+
+    from nerfkit.data.procedural.captures import ENV_RADIUS
+
+    root = make_capture(tmp_path / "c", "nerfstudio", n_views=6, size=32, camera=OPENCV, environment=True,
+                        points=600)
+    cap = read_capture(root, "train")
+    pts, cols = cap.points, cap.point_colors
+    assert pts.shape == (600, 3) and cols.shape == (600, 3) and cap.points_file.endswith("sparse_pc.ply")
+    far = np.abs(np.linalg.norm(pts, axis=-1) - ENV_RADIUS) < 1e-3
+    near = surface_distance(pts) < 1e-3
+    assert np.all(far | near) and 0.1 < near.mean() < 0.9, (far.mean(), near.mean())
+    noise = np.random.default_rng(0).uniform(-1.5, 1.5, (600, 3))
+    assert (surface_distance(noise) < 1e-3).mean() < 0.05
+    # Colours are the photos': the objects' points are not the environment's sky/ground palette alone.
+    assert cols.max() <= 1.0 and cols[near].std(0).min() > 0.05
+    with pytest.raises(DataError, match="nerfstudio"):
+        make_capture(tmp_path / "l", "llff", n_views=4, size=16, points=10)

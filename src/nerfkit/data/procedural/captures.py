@@ -18,6 +18,7 @@ from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
+import trimesh
 
 from nerfkit.core.errors import DataError
 from nerfkit.data.formats.colmap import write_colmap
@@ -67,6 +68,17 @@ def render(c2w: np.ndarray, camera: Camera, env: bool = False):
     return rgb.reshape(*shape, 3), alpha.reshape(shape), t.reshape(shape)
 
 
+def _surface_samples(c2w: np.ndarray, camera: Camera, rgb: np.ndarray, depth: np.ndarray, n: int, rng):
+    """(points [n', 3], colours [n', 3]) at n pixels drawn uniformly (n' <= n: those that hit a surface):
+    x = o + z d for the pixel's ray (d with unit z-depth, as render traces it) and its z-depth z."""
+    o, d = rotate_directions(np.asarray(c2w, np.float64)[None, None], camera.directions().astype(np.float64))
+    pick = rng.choice(depth.size, size=min(n, depth.size), replace=False)
+    z = depth.reshape(-1)[pick]
+    hit = np.isfinite(z)
+    pick, z = pick[hit], z[hit]
+    return o.reshape(-1, 3)[pick] + z[:, None] * d.reshape(-1, 3)[pick], rgb.reshape(-1, 3)[pick]
+
+
 def ring_poses(n: int, seed: int = 0, radius: float = proc.CAMERA_RADIUS) -> np.ndarray:
     """n cameras looking at the origin from `radius`, evenly spread in azimuth (with a seeded
     jitter) at elevations 10..50 degrees: [n, 4, 4] OpenGL camera-to-world."""
@@ -79,7 +91,7 @@ def ring_poses(n: int, seed: int = 0, radius: float = proc.CAMERA_RADIUS) -> np.
 def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16, size: int = 48,
                  camera: Camera | None = None, environment: bool = False, masks: bool = False,
                  seed: int = 0, text: bool = True, pose_noise: tuple[float, float] = (0.0, 0.0),
-                 gains: float = 0.0) -> Path:
+                 gains: float = 0.0, points: int = 0) -> Path:
     """Write a synthetic photo capture (see the module docstring) and return its folder.
 
     fmt: "nerfstudio" | "llff" | "colmap". camera: intrinsics of every image (default: an
@@ -91,6 +103,10 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
     (correction.perturb_poses) while the photos are taken at the exact ones; gains g multiplies each
     photo's red, green and blue by factors drawn uniformly in [1 - g, 1 + g] (exposure and white
     balance). The exact poses and gains [N, 3] are written to truth/poses.npy and truth/gains.npy.
+
+    points P > 0 (nerfstudio format): sparse_pc.ply holds P exact surface points, the same number from
+    each photo at pixels drawn uniformly, unprojected at their exact depth and coloured as the photo
+    shows them: the best start SfM could give (benchmarks compare triangulated points against it).
     """
     out = Path(out)
     cam = camera or Camera.pinhole(size, size, 0.5 * size / math.tan(0.5 * proc.CAMERA_ANGLE_X))
@@ -101,13 +117,17 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
     photo_gains = rng.uniform(1 - gains, 1 + gains, (n_views, 3)) if gains else np.ones((n_views, 3))
     for sub in ("images", "depth") + (("masks",) if masks else ()):
         (out / sub).mkdir(parents=True, exist_ok=True)
-    names, frames, bounds = [], [], []
+    if points and fmt != "nerfstudio":
+        raise DataError("make_capture: exact points are written for the nerfstudio format (sparse_pc.ply)")
+    names, frames, bounds, cloud = [], [], [], []
     for k, c2w in enumerate(poses):
         rgb, alpha, depth = render(c2w, cam, environment)
         if masks:
             rgb = rgb * alpha[..., None] + (1 - alpha[..., None]) * BACKDROP
             iio.imwrite(out / "masks" / f"frame_{k:04d}.png", (alpha * 255).astype(np.uint8))
         rgb = rgb * photo_gains[k]
+        if points:
+            cloud.append(_surface_samples(c2w, cam, rgb, depth, -(-points // n_views), rng))
         name = f"frame_{k:04d}.png"
         iio.imwrite(out / "images" / name, np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8))
         np.save(out / "depth" / f"frame_{k:04d}.npy", depth.astype(np.float32), allow_pickle=False)
@@ -124,6 +144,10 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
                        "mask_path": f"masks/{name}" if masks else None})
     if fmt == "nerfstudio":
         write_nerfstudio(out / "transforms.json", frames, [cam] * n_views)
+        if points:
+            xyz, col = (np.concatenate(a)[:points] for a in zip(*cloud))
+            rgba = np.concatenate([np.round(np.clip(col, 0, 1) * 255), np.full((len(col), 1), 255)], 1)
+            trimesh.PointCloud(xyz, colors=rgba.astype(np.uint8)).export(out / "sparse_pc.ply")
     elif fmt == "llff":
         write_llff(out, poses, [cam] * n_views, np.array(bounds))
     elif fmt == "colmap":
