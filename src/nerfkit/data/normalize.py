@@ -24,6 +24,24 @@ import numpy as np
 from nerfkit.rays.cameras import Camera, scene_center
 
 CAMERA_RADIUS = 4.0
+FORWARD_DEGREES = 45.0  # forward-facing: every optical axis within this angle of the mean axis
+
+
+def view_spread(poses: np.ndarray) -> float:
+    """The largest angle, in degrees, between a camera's optical axis (-z of c2w [N, 4, 4]) and the
+    mean axis: ~2-15 for a forward-facing capture (LLFF's), 90-180 for one all around the scene."""
+    a = -np.asarray(poses, np.float64)[:, :3, 2]
+    a /= np.linalg.norm(a, axis=-1, keepdims=True)
+    mean = a.sum(0)
+    norm = np.linalg.norm(mean)
+    if norm < 1e-9:  # axes that cancel out: all around
+        return 180.0
+    return float(np.degrees(np.arccos(np.clip(a @ (mean / norm), -1.0, 1.0))).max())
+
+
+def forward_facing(poses: np.ndarray) -> bool:
+    """Whether every camera faces one way (view_spread under FORWARD_DEGREES): a forward-facing capture."""
+    return len(poses) > 0 and view_spread(poses) < FORWARD_DEGREES
 
 
 def rotation_to_z(up: np.ndarray) -> np.ndarray:

@@ -88,10 +88,33 @@ def ring_poses(n: int, seed: int = 0, radius: float = proc.CAMERA_RADIUS) -> np.
     return np.stack([proc.orbit_pose(a, e, radius) for a, e in zip(az, el)])
 
 
+def forward_poses(n: int, seed: int = 0, distance: float = proc.CAMERA_RADIUS, spread: float = 0.35) -> np.ndarray:
+    """n cameras facing one way, as a hand-held forward-facing capture (LLFF's): on a grid in the plane
+    y = -distance spanning +-spread x distance across and half that up (plus a seeded jitter of a tenth of
+    a cell), each at 1.0 unit of height looking along +y, turned by up to 3 degrees at random: [n, 4, 4]."""
+    rng = np.random.default_rng(seed)
+    cols = math.ceil(math.sqrt(n * 2))
+    rows = math.ceil(n / cols)
+    gx, gz = np.meshgrid(np.linspace(-1, 1, cols), np.linspace(-1, 1, rows) if rows > 1 else [0.0])
+    cells = np.stack([gx.ravel(), gz.ravel()], -1)[:n]
+    cells += rng.uniform(-0.1, 0.1, cells.shape) / max(cols, rows)
+    out = []
+    for cx, cz in cells:
+        pos = np.array([cx * spread * distance, -distance, 1.0 + cz * 0.5 * spread * distance])
+        c2w = proc.look_at(pos, pos + np.array([0.0, 1.0, 0.0]))
+        axis = rng.normal(size=3)
+        angle = np.radians(rng.uniform(0, 3))
+        k = axis / np.linalg.norm(axis)
+        kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        c2w[:3, :3] = (np.eye(3) + math.sin(angle) * kx + (1 - math.cos(angle)) * kx @ kx) @ c2w[:3, :3]
+        out.append(c2w)
+    return np.stack(out)
+
+
 def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16, size: int = 48,
                  camera: Camera | None = None, environment: bool = False, masks: bool = False,
                  seed: int = 0, text: bool = True, pose_noise: tuple[float, float] = (0.0, 0.0),
-                 gains: float = 0.0, points: int = 0) -> Path:
+                 gains: float = 0.0, points: int = 0, rig: str = "ring") -> Path:
     """Write a synthetic photo capture (see the module docstring) and return its folder.
 
     fmt: "nerfstudio" | "llff" | "colmap". camera: intrinsics of every image (default: an
@@ -104,6 +127,9 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
     photo's red, green and blue by factors drawn uniformly in [1 - g, 1 + g] (exposure and white
     balance). The exact poses and gains [N, 3] are written to truth/poses.npy and truth/gains.npy.
 
+    rig: "ring" (ring_poses: all around the objects) or "forward" (forward_poses: every camera facing
+    one way, LLFF-like; with environment=True the room's far wall fills the view behind the objects).
+
     points P > 0 (nerfstudio format): sparse_pc.ply holds P exact surface points, the same number from
     each photo at pixels drawn uniformly, unprojected at their exact depth and coloured as the photo
     shows them: the best start SfM could give (benchmarks compare triangulated points against it).
@@ -112,7 +138,9 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
     cam = camera or Camera.pinhole(size, size, 0.5 * size / math.tan(0.5 * proc.CAMERA_ANGLE_X))
     if fmt == "llff" and (cam.params or abs(cam.cx - cam.width / 2) > 1e-9 or cam.fx != cam.fy):
         raise DataError("make_capture: LLFF holds only centred pinhole cameras")
-    poses = ring_poses(n_views, seed)
+    if rig not in ("ring", "forward"):
+        raise DataError(f"make_capture: unknown rig {rig!r} (ring, forward)")
+    poses = ring_poses(n_views, seed) if rig == "ring" else forward_poses(n_views, seed)
     rng = np.random.default_rng([seed, 1])
     photo_gains = rng.uniform(1 - gains, 1 + gains, (n_views, 3)) if gains else np.ones((n_views, 3))
     for sub in ("images", "depth") + (("masks",) if masks else ()):
