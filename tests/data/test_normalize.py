@@ -57,3 +57,17 @@ def test_samples_are_uniform_in_the_hull():
 def test_no_silhouette_no_samples():
     poses, cams, alphas = sphere_views()
     assert sample_visual_hull(100, 1.5, poses, cams, np.zeros_like(alphas)) is None
+
+
+def test_forward_facing_captures_are_told_from_all_around_ones():
+    """view_spread: a few degrees for the forward-facing rig (3-degree turns), about 80 for the ring around the
+    objects, 180 for two cameras back to back; forward_facing draws the line at 45."""
+    from nerfkit.data.normalize import forward_facing, view_spread
+    from nerfkit.data.procedural.captures import forward_poses, ring_poses
+
+    ahead, ring = forward_poses(20, seed=3), ring_poses(20, seed=3)
+    assert view_spread(ahead) < 6 and forward_facing(ahead)
+    assert view_spread(ring) > 60 and not forward_facing(ring)
+    back_to_back = np.stack([ring[0], ring[0] @ np.diag([-1.0, 1.0, -1.0, 1.0])])  # one turned half round
+    assert view_spread(back_to_back) == 180.0 and not forward_facing(back_to_back)
+    assert not forward_facing(ring[:0])

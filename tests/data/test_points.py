@@ -37,3 +37,28 @@ def test_far_sphere_points_take_the_colour_of_the_first_photo_that_sees_them():
         inside = front & (u >= 0) & (u < 32) & (v >= 0) & (v < 24)
         assert np.all(inside[which == k])
         assert not np.any(inside & (which > k)), k  # no point an earlier photo sees took a later one's colour
+
+
+def test_far_points_through_photos_lie_where_their_pixels_look():
+    """A forward-facing rig: every point is on the sphere, projects back onto the pixel it was drawn at (the
+    photos' colours vary across the image, so the colour names the pixel) in the photo it came from, and the
+    photos share the points about evenly; the uniform sphere keeps about a tenth of its points here."""
+    from nerfkit.data.points import far_points_through_photos, far_sphere_points
+    from nerfkit.data.procedural.captures import forward_poses
+    from nerfkit.rays.cameras import Camera, project_points
+
+    poses = forward_poses(6, seed=1)
+    cam = Camera.pinhole(32, 24, 30.0)
+    ramp = np.stack(np.meshgrid(np.arange(32) / 32, np.arange(24) / 24), -1)  # [24, 32, 2]: (u, v) / size
+    images = np.stack([np.concatenate([ramp, np.full((24, 32, 1), k / 10)], -1) for k in range(6)]).astype(np.float32)
+    pts, colours = far_points_through_photos(3000, 12.0, poses, [cam] * 6, images, seed=2)
+    assert pts.shape == (3000, 3) and np.allclose(np.linalg.norm(pts, axis=1), 12.0)
+    which = np.round(colours[:, 2] * 10).astype(int)
+    assert np.bincount(which, minlength=6).min() > 3000 / 6 * 0.8
+    for k, c2w in enumerate(poses):
+        u, v, front = project_points(pts[which == k], c2w, cam)
+        assert np.all(front)
+        np.testing.assert_allclose(np.floor(u) / 32, colours[which == k, 0], atol=1e-6)
+        np.testing.assert_allclose(np.floor(v) / 24, colours[which == k, 1], atol=1e-6)
+    kept, _ = far_sphere_points(3000, 12.0, poses, [cam] * 6, images, seed=2)
+    assert len(kept) < 0.2 * 3000  # measured 359

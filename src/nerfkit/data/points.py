@@ -67,3 +67,31 @@ def far_sphere_points(n: int, radius: float, poses: np.ndarray, cameras: list, i
         colours[rows] = img[v[inside].astype(int), u[inside].astype(int), :3]
     seen = ~np.isnan(colours[:, 0])
     return pts[seen], colours[seen]
+
+
+def far_points_through_photos(n: int, radius: float, poses: np.ndarray, cameras: list, images: np.ndarray,
+                              seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(points [n, 3], colours [n, 3] in [0, 1]) where the rays of n pixels, drawn uniformly over the
+    training photos (poses [V, 4, 4], cameras, images [V, H, W, 3]), leave the sphere |x| = radius (every
+    camera inside it): x = o + t d with t = -o.d + sqrt((o.d)^2 - |o|^2 + radius^2) for unit d; each coloured
+    by its pixel. For a forward-facing capture, whose photos see a small cap of that sphere (far_sphere_points
+    would keep a few percent of its points), every point is one a photo sees."""
+    from nerfkit.rays.cameras import camera_rays
+
+    rng = np.random.default_rng(seed)
+    views = rng.integers(0, len(poses), n)
+    pts = np.zeros((n, 3), np.float64)
+    colours = np.zeros((n, 3), np.float32)
+    for k in np.unique(views):
+        rows = np.flatnonzero(views == k)
+        cam, img = cameras[k], images[k]
+        h, w = min(img.shape[0], cam.height), min(img.shape[1], cam.width)
+        flat = rng.integers(0, h * w, len(rows))
+        o, d = camera_rays(np.asarray(poses[k], np.float64), cam)
+        o, d = o[:h, :w].reshape(-1, 3)[flat].astype(np.float64), d[:h, :w].reshape(-1, 3)[flat].astype(np.float64)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        b = np.einsum("ij,ij->i", o, d)
+        t = -b + np.sqrt(np.maximum(b * b - np.einsum("ij,ij->i", o, o) + radius**2, 0.0))
+        pts[rows] = o + t[:, None] * d
+        colours[rows] = img.reshape(-1, img.shape[-1])[(flat // w) * img.shape[1] + flat % w, :3]
+    return pts, colours

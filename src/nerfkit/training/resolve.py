@@ -30,7 +30,7 @@ import numpy as np
 from nerfkit.core.config import Config, validate
 from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.capture import scene_type as capture_scene_type
-from nerfkit.data.normalize import masked_bound
+from nerfkit.data.normalize import forward_facing, masked_bound, view_spread
 from nerfkit.models import registry
 
 UNBOUNDED_NEAR, UNBOUNDED_FAR = 0.05, 1e4
@@ -105,6 +105,8 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     if cfg.train.pose_refine == "on":
         log(f"pose refinement: a pose correction per training photo ({len(train)}), learned after a warm-up; "
             f"held-out photos keep their poses (--pose-refine off: none)")
+    if forward_facing(train.poses):
+        notes.append(f"forward-facing: every camera within {view_spread(train.poses):.0f} degrees of one direction")
     if supports.unbounded or f.scene_type != "auto":
         log(f"scene: {scene} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
     if supports.sampling and scene == "unbounded" and s.sampling == "occupancy":

@@ -29,7 +29,8 @@ import numpy as np
 
 from nerfkit.core.errors import DataError
 from nerfkit.data.normalize import sample_visual_hull
-from nerfkit.data.points import far_sphere_points, transform_points
+from nerfkit.data.normalize import forward_facing
+from nerfkit.data.points import far_points_through_photos, far_sphere_points, transform_points
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
@@ -271,11 +272,15 @@ class SplatModel:
         return f"{what} (photos of {px:,} pixels {'>=' if share else '<'} {COARSE_MIN_PIXELS:,}; set --coarse)"
 
     def _add_far_points(self, data) -> None:
-        """Add FAR_SHARE x capacity Gaussians on the far sphere (data/points.far_sphere_points), coloured by the
-        training photos, to the initial ones (random ones in the box first, where there are none yet)."""
+        """Add FAR_SHARE x capacity Gaussians on the far sphere, coloured by the training photos, to the initial
+        ones (random ones in the box first, where there are none yet): uniform over the sphere, the ones a photo
+        sees (data/points.far_sphere_points); for a forward-facing capture (data/normalize.forward_facing),
+        where the rays of pixels drawn over the photos leave it (far_points_through_photos)."""
         radius = FAR_RADIUS * float(np.linalg.norm(np.asarray(data.poses)[:, :3, 3], axis=1).max())
-        pts, colours = far_sphere_points(int(FAR_SHARE * self.sc.capacity), radius, data.poses, data.cameras,
-                                         data.images, self.sc.seed)
+        ahead = forward_facing(np.asarray(data.poses))
+        draw = far_points_through_photos if ahead else far_sphere_points
+        pts, colours = draw(int(FAR_SHARE * self.sc.capacity), radius, data.poses, data.cameras, data.images,
+                            self.sc.seed)
         if len(pts) < 4:
             return
         far = init_from_points(pts, colours, self.sc.init_opacity)
@@ -286,7 +291,8 @@ class SplatModel:
             near["log_scales"] = near["log_scales"] + np.float32(np.log(RANDOM_INIT_SCALE))
             self.init_note = f"{n} random points in the box [-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
         self.init_gaussians = {k: np.concatenate([np.asarray(near[k], np.float32), far[k]]) for k in PARAM_NAMES}
-        self.init_note += f", and {len(pts)} on a far sphere of radius {radius:.3g} coloured by the photos"
+        self.init_note += (f", and {len(pts)} on a far sphere of radius {radius:.3g} coloured by the photos"
+                           + (" (where their pixels' rays meet it: a forward-facing capture)" if ahead else ""))
 
     def _init_in_hull(self, data) -> None:
         """Grey Gaussians (as the random init's) uniform in the visual hull of the training silhouettes, their

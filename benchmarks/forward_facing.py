@@ -1,0 +1,38 @@
+"""A forward-facing capture (every camera facing one way, as LLFF's phone captures): the procedural objects in
+front of the far textured room, photographed from a grid of positions in one plane (make_capture(rig="forward")),
+through the command line, preset against preset in one sitting.
+
+    python benchmarks/forward_facing.py [--minutes 2] [--size 96] [--views 24] [--out runs/forward_facing]
+
+Runs (benchmarks/capture_cli.py; every 8th photo held out): the splat preset (its far points drawn through the
+photos' pixels, as for any forward-facing capture), the splat preset without far points, and ngp. Writes
+benchmarks/results/procedural_forward_cli.json and .jpg.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import capture_cli
+
+from nerfkit.data.procedural.captures import make_capture
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--minutes", type=float, default=2.0)
+    ap.add_argument("--size", type=int, default=96)
+    ap.add_argument("--views", type=int, default=24)
+    ap.add_argument("--out", type=Path, default=Path("runs/forward_facing"))
+    a = ap.parse_args()
+    data = a.out / "capture"
+    if not (data / "transforms.json").is_file():
+        make_capture(data, "nerfstudio", n_views=a.views, size=a.size, environment=True, rig="forward")
+    capture_cli.main(["--data", str(data), "--name", "procedural_forward", "--minutes", f"{a.minutes:g}",
+                      "--downscale", "1", "--out", str(a.out / "runs"), "--presets", "splat",
+                      "splat-nofar=--preset splat --far-points off", "ngp"])
+
+
+if __name__ == "__main__":
+    main()
