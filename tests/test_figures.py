@@ -81,6 +81,7 @@ NGP, SPLAT = "lego_cli_ngp.json", "lego_cli_splat.json"
 INIT = "maryrose_nomasks_init_cli.json"  # splat init: triangulated points against random ones
 CORR, PCORR = "buddha_corrections_cli.json", "corrections_procedural.json"  # splats' per-photo corrections
 FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats' far points
+START = "procedural_splat_start_cli.json"  # where a splat run starts
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
@@ -307,6 +308,16 @@ CHECKS = [
       ((PFAR, "presets", "ngp", "psnr"), f2), ((PFAR, "presets", "ngp", "ssim"), f3),
       ((FAR, "presets", "splat", "psnr"), f2), ((FAR, "presets", "splat", "ssim"), f3),
       ((FAR, "presets", "splat-nofar", "psnr"), f2), ((FAR, "presets", "splat-nofar", "ssim"), f3)]),
+    ("docs/splats.md", "How far triangulated points are from the best possible start",
+     "{}-minute runs, one sitting; `python benchmarks/splat_start.py`, `procedural_splat_start_cli.json` and "
+     "`.jpg`): **{} dB / SSIM {}** on the {} held-out photos from the points triangulated at the given poses, "
+     "{} / {} from 20,000 exact surface points",
+     [((START, "minutes"), f0), ((START, "presets", "splat", "psnr"), f2), ((START, "presets", "splat", "ssim"), f3),
+      ((START, "presets", "splat", "views"), d), ((START, "presets", "splat-exact", "psnr"), f2),
+      ((START, "presets", "splat-exact", "ssim"), f3)]),
+    ("docs/splats.md", "How far triangulated points are from the best possible start",
+     "give), {} / {} from random points",
+     [((START, "presets", "splat-random", "psnr"), f2), ((START, "presets", "splat-random", "ssim"), f3)]),
     ("docs/splats.md", "On unbounded photo captures the two are close",
      "gave ngp {} dB against the splats' {}, and both of those since added {} dB to the splats",
      [((BUDDHA, "presets", "ngp", "eval", "psnr"), f1), ((BUDDHA, "presets", "splat", "eval", "psnr"), f1),
