@@ -82,6 +82,7 @@ INIT = "maryrose_nomasks_init_cli.json"  # splat init: triangulated points again
 CORR, PCORR = "buddha_corrections_cli.json", "corrections_procedural.json"  # splats' per-photo corrections
 FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats' far points
 START = "procedural_splat_start_cli.json"  # where a splat run starts
+FWD = "procedural_forward_cli.json"  # a forward-facing capture
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
@@ -308,6 +309,14 @@ CHECKS = [
       ((PFAR, "presets", "ngp", "psnr"), f2), ((PFAR, "presets", "ngp", "ssim"), f3),
       ((FAR, "presets", "splat", "psnr"), f2), ((FAR, "presets", "splat", "ssim"), f3),
       ((FAR, "presets", "splat-nofar", "psnr"), f2), ((FAR, "presets", "splat-nofar", "ssim"), f3)]),
+    ("docs/splats.md", "A background of its own: on photos without masks",
+     "every 8th held out, {}-minute runs, one sitting; `python benchmarks/forward_facing.py`, "
+     "`procedural_forward_cli.json`: **{} dB / SSIM {}** on the {} held-out photos, {} / {} without far points, "
+     "ngp {} / {})",
+     [((FWD, "minutes"), f0), ((FWD, "presets", "splat", "psnr"), f2), ((FWD, "presets", "splat", "ssim"), f3),
+      ((FWD, "presets", "splat", "views"), d), ((FWD, "presets", "splat-nofar", "psnr"), f2),
+      ((FWD, "presets", "splat-nofar", "ssim"), f3), ((FWD, "presets", "ngp", "psnr"), f2),
+      ((FWD, "presets", "ngp", "ssim"), f3)]),
     ("docs/splats.md", "How far triangulated points are from the best possible start",
      "{}-minute runs, one sitting; `python benchmarks/splat_start.py`, `procedural_splat_start_cli.json` and "
      "`.jpg`): **{} dB / SSIM {}** on the {} held-out photos from the points triangulated at the given poses, "
