@@ -29,7 +29,8 @@ FORWARD_DEGREES = 45.0  # forward-facing: every optical axis within this angle o
 
 def view_spread(poses: np.ndarray) -> float:
     """The largest angle, in degrees, between a camera's optical axis (-z of c2w [N, 4, 4]) and the
-    mean axis: ~2-15 for a forward-facing capture (LLFF's), 90-180 for one all around the scene."""
+    mean axis: a few degrees for a forward-facing capture (LLFF's), 60-180 for one all around the scene
+    (a ring looking down at 10-50 degrees of elevation: ~80)."""
     a = -np.asarray(poses, np.float64)[:, :3, 2]
     a /= np.linalg.norm(a, axis=-1, keepdims=True)
     mean = a.sum(0)

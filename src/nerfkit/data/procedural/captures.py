@@ -111,6 +111,34 @@ def forward_poses(n: int, seed: int = 0, distance: float = proc.CAMERA_RADIUS, s
     return np.stack(out)
 
 
+def _photograph(out: Path, stem: str, c2w: np.ndarray, cam: Camera, environment: bool, masks: bool,
+                gain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Render one photo and write out/images/STEM.png (times its RGB gain), out/depth/STEM.npy and, with
+    masks, out/masks/STEM.png (the photo then shows the objects on the backdrop); (rgb, z-depth)."""
+    rgb, alpha, depth = render(c2w, cam, environment)
+    if masks:
+        rgb = rgb * alpha[..., None] + (1 - alpha[..., None]) * BACKDROP
+        iio.imwrite(out / "masks" / f"{stem}.png", (alpha * 255).astype(np.uint8))
+    rgb = rgb * gain
+    iio.imwrite(out / "images" / f"{stem}.png", np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8))
+    np.save(out / "depth" / f"{stem}.npy", depth.astype(np.float32), allow_pickle=False)
+    return rgb, depth
+
+
+def rig_poses(rig: str, n: int, seed: int = 0) -> np.ndarray:
+    """The poses [n, 4, 4] of a rig: "ring" (ring_poses) or "forward" (forward_poses)."""
+    if rig not in ("ring", "forward"):
+        raise DataError(f"make_capture: unknown rig {rig!r} (ring, forward)")
+    return ring_poses(n, seed) if rig == "ring" else forward_poses(n, seed)
+
+
+def _write_points(path: Path, cloud: list[tuple[np.ndarray, np.ndarray]], n: int) -> None:
+    """The first n of the (points, colours in [0, 1]) pairs in cloud as a coloured PLY point cloud."""
+    xyz, col = (np.concatenate(a)[:n] for a in zip(*cloud))
+    rgba = np.concatenate([np.round(np.clip(col, 0, 1) * 255), np.full((len(col), 1), 255)], 1)
+    trimesh.PointCloud(xyz, colors=rgba.astype(np.uint8)).export(path)
+
+
 def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16, size: int = 48,
                  camera: Camera | None = None, environment: bool = False, masks: bool = False,
                  seed: int = 0, text: bool = True, pose_noise: tuple[float, float] = (0.0, 0.0),
@@ -138,28 +166,19 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
     cam = camera or Camera.pinhole(size, size, 0.5 * size / math.tan(0.5 * proc.CAMERA_ANGLE_X))
     if fmt == "llff" and (cam.params or abs(cam.cx - cam.width / 2) > 1e-9 or cam.fx != cam.fy):
         raise DataError("make_capture: LLFF holds only centred pinhole cameras")
-    if rig not in ("ring", "forward"):
-        raise DataError(f"make_capture: unknown rig {rig!r} (ring, forward)")
-    poses = ring_poses(n_views, seed) if rig == "ring" else forward_poses(n_views, seed)
+    poses = rig_poses(rig, n_views, seed)
     rng = np.random.default_rng([seed, 1])
     photo_gains = rng.uniform(1 - gains, 1 + gains, (n_views, 3)) if gains else np.ones((n_views, 3))
     for sub in ("images", "depth") + (("masks",) if masks else ()):
         (out / sub).mkdir(parents=True, exist_ok=True)
     if points and fmt != "nerfstudio":
         raise DataError("make_capture: exact points are written for the nerfstudio format (sparse_pc.ply)")
-    names, frames, bounds, cloud = [], [], [], []
+    names, bounds, cloud = [], [], []
     for k, c2w in enumerate(poses):
-        rgb, alpha, depth = render(c2w, cam, environment)
-        if masks:
-            rgb = rgb * alpha[..., None] + (1 - alpha[..., None]) * BACKDROP
-            iio.imwrite(out / "masks" / f"frame_{k:04d}.png", (alpha * 255).astype(np.uint8))
-        rgb = rgb * photo_gains[k]
+        rgb, depth = _photograph(out, f"frame_{k:04d}", c2w, cam, environment, masks, photo_gains[k])
         if points:
             cloud.append(_surface_samples(c2w, cam, rgb, depth, -(-points // n_views), rng))
-        name = f"frame_{k:04d}.png"
-        iio.imwrite(out / "images" / name, np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8))
-        np.save(out / "depth" / f"frame_{k:04d}.npy", depth.astype(np.float32), allow_pickle=False)
-        names.append(name)
+        names.append(f"frame_{k:04d}.png")
         hit = depth[np.isfinite(depth)]
         bounds.append([hit.min(), hit.max()] if hit.size else [1.0, 10.0])
     if any(pose_noise) or gains:
@@ -167,15 +186,12 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
         np.save(out / "truth" / "poses.npy", poses, allow_pickle=False)
         np.save(out / "truth" / "gains.npy", photo_gains, allow_pickle=False)
         poses = perturb_poses(poses, pose_noise[0], pose_noise[1] * proc.CAMERA_RADIUS, seed)
-    for name, c2w in zip(names, poses):
-        frames.append({"file_path": f"images/{name}", "transform_matrix": c2w.tolist(),
-                       "mask_path": f"masks/{name}" if masks else None})
+    frames = [{"file_path": f"images/{name}", "transform_matrix": c2w.tolist(),
+               "mask_path": f"masks/{name}" if masks else None} for name, c2w in zip(names, poses)]
     if fmt == "nerfstudio":
         write_nerfstudio(out / "transforms.json", frames, [cam] * n_views)
         if points:
-            xyz, col = (np.concatenate(a)[:points] for a in zip(*cloud))
-            rgba = np.concatenate([np.round(np.clip(col, 0, 1) * 255), np.full((len(col), 1), 255)], 1)
-            trimesh.PointCloud(xyz, colors=rgba.astype(np.uint8)).export(out / "sparse_pc.ply")
+            _write_points(out / "sparse_pc.ply", cloud, points)
     elif fmt == "llff":
         write_llff(out, poses, [cam] * n_views, np.array(bounds))
     elif fmt == "colmap":

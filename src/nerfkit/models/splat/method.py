@@ -28,8 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.errors import DataError
-from nerfkit.data.normalize import sample_visual_hull
-from nerfkit.data.normalize import forward_facing
+from nerfkit.data.normalize import forward_facing, sample_visual_hull
 from nerfkit.data.points import far_points_through_photos, far_sphere_points, transform_points
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
