@@ -11,6 +11,7 @@ import numpy as np
 from nerfkit.core.errors import DataError
 from nerfkit.data.formats.blender import iter_frames
 from nerfkit.data.loader import load_scene
+from nerfkit.data.procedural import scene as proc
 from nerfkit.rays.cameras import (
     Camera,
     camera_rays,
@@ -63,3 +64,26 @@ def load_blender(root: str | Path, spec: str, *, downscale: int | None = None, t
     """The frames a split spec (e.g. "train,val[0:50]") selects from a Blender-format folder, loaded."""
     return load_scene(root, spec, format="blender", downscale=downscale, target_width=target_width,
                       background=background)
+
+
+def surface_distance(p: np.ndarray) -> np.ndarray:
+    """Unsigned distance [N] from points [N, 3] to the surface of the union of the scene's solids
+    (exact outside the solids; inside, the distance to the enclosing solid's own boundary)."""
+    def sphere(c, r):
+        return np.linalg.norm(p - c, axis=-1) - r
+
+    def box(lo, hi):
+        q = np.abs(p - (lo + hi) / 2) - (hi - lo) / 2
+        return np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(-1), 0)
+
+    def cylinder(cxy, r, z):
+        q = np.stack([np.linalg.norm(p[:, :2] - cxy, axis=-1) - r, np.abs(p[:, 2] - (z[0] + z[1]) / 2)
+                      - (z[1] - z[0]) / 2], -1)
+        return np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(-1), 0)
+
+    sdf = np.minimum.reduce([
+        sphere(proc.BIG_SPHERE_CENTER, proc.BIG_SPHERE_RADIUS),
+        sphere(proc.SMALL_SPHERE_CENTER, proc.SMALL_SPHERE_RADIUS),
+        box(proc.BOX_MIN, proc.BOX_MAX), cylinder(proc.CYLINDER_CENTER_XY, proc.CYLINDER_RADIUS, proc.CYLINDER_Z_RANGE),
+        cylinder(np.zeros(2), proc.GROUND_RADIUS, proc.GROUND_Z_RANGE)])
+    return np.abs(sdf)

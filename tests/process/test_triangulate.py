@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from reference import surface_distance
 from shared_data import SHARED_DATA, needs_shared
 
 from nerfkit.core.presets import preset
@@ -93,8 +94,6 @@ def test_small_photos_are_enlarged_for_features_and_give_more_points_on_the_surf
     """Procedural photos of 96 px (SIFT finds little at that size): enlarged 4x before extraction they give
     several times the points they give as they are, most of them on the scene's surfaces (exact here: its
     solids, or the far environment sphere)."""
-    from export.test_export import surface_distance
-
     from nerfkit.data.procedural.captures import ENV_RADIUS, make_capture
 
     frames = read_capture(make_capture(tmp_path / "c", n_views=24, size=96, environment=True), "train").frames("train")

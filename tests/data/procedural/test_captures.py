@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from reference import surface_distance
 
 from nerfkit.core.errors import DataError
 from nerfkit.data.loader import detect_format, load_scene, read_capture
@@ -230,8 +231,6 @@ def test_no_masks_drops_the_masks_a_capture_has(tmp_path, fmt):
 def test_exact_points_lie_on_the_surfaces_the_photos_show(tmp_path):
     """make_capture(points=P): sparse_pc.ply holds P points, each on a solid of the scene or on the far
     environment sphere, coloured as a photo shows it; through an OpenCV lens too; random points do not pass."""
-    from export.test_export import surface_distance
-
     from nerfkit.data.procedural.captures import ENV_RADIUS
 
     root = make_capture(tmp_path / "c", "nerfstudio", n_views=6, size=32, camera=OPENCV, environment=True,
