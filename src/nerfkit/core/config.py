@@ -258,9 +258,10 @@ class SplatSettings:
     masks or alpha; else triangulated; random only where no point could be triangulated)."""
     far_points: Literal["auto", "on", "off"] = "auto"
     """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre
-    as the farthest camera, each coloured by a training photo that sees it, so that what lies far away (walls,
-    sky) has Gaussians of its own instead of being smeared over the near ones. auto: on for photos without masks
-    (unbounded scenes), off for masked objects and Blender scenes."""
+    as the farthest camera, each coloured by a training photo that sees it (on a forward-facing capture, where the
+    rays of pixels drawn over the photos meet that sphere), so that what lies far away (walls, sky) has Gaussians
+    of its own instead of being smeared over the near ones. auto: on for photos without masks (unbounded scenes),
+    off for masked objects and Blender scenes."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
