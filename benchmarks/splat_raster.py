@@ -39,6 +39,8 @@ import jax.numpy as jnp
 import numba
 import numpy as np
 
+from provenance import provenance
+
 from nerfkit.models.splat import tiles_kernels, tiles_numba
 from nerfkit.models.splat.project import project_gaussians
 from nerfkit.models.splat.rasterize import rasterize
@@ -292,6 +294,7 @@ def main():
     size, n = configs[-1]
     result["profile_numba"] = {"size": size, "n_gaussians": n, **profile_numba(lego_scene(n, size, 0), size)}
     result["machine"]["loadavg_end"] = os.getloadavg()
+    result["provenance"] = provenance()
     print(json.dumps(result["profile_numba"], indent=1))
     if not a.quick:
         Path(a.out).parent.mkdir(parents=True, exist_ok=True)

