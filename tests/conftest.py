@@ -91,9 +91,6 @@ def compile_cache(tmp_path_factory):
     """A persistent JAX compilation cache for the session, in a temporary folder (not the user's ~/.cache) that
     every test process shares under pytest-xdist, so that a function two processes compile alike compiles
     once. (JAX reads an entry a concurrent write left unfinished as a miss: it warns and compiles.)"""
-    if os.environ.get("NOCACHE"):
-        yield None
-        return
     if os.environ.get("PYTEST_XDIST_WORKER"):
         path = tmp_path_factory.getbasetemp().parent / "jax-cache"
         path.mkdir(exist_ok=True)

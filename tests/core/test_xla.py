@@ -1,5 +1,6 @@
-"""nerfkit's default XLA flags: added where the user has not named them and jaxlib knows them, and in effect in
-this process (the suite imports nerfkit before its first computation, as the CLI does)."""
+"""nerfkit's default XLA flags: added where the user has not named them and jaxlib knows them, and present in this
+test process's $XLA_FLAGS (set when the suite imported nerfkit; whether XLA read them is shown by timing, in
+core/xla.py's docstring, not here)."""
 
 import os
 
@@ -27,7 +28,7 @@ def test_a_jaxlib_that_does_not_know_the_flag_gets_none(monkeypatch):
         assert (xla.default_flags(env) is not None) == added and ("XLA_FLAGS" in env) == added
 
 
-def test_this_process_runs_with_it():
+def test_this_process_has_it_in_its_environment():
     from importlib import metadata
 
     if xla._version(metadata.version("jaxlib")) >= xla.FIRST_JAXLIB:

@@ -3,7 +3,7 @@
 XLA:CPU's newer fusion emitters (the default since jaxlib 0.5.3) compile nerfkit's programs 20-40% slower
 than the classic ones and run them no faster: measured on 2 cores with jaxlib 0.10.2, the ngp training
 step of tests/models/test_unbounded.py compiles in 5.3 s instead of 8.5 s, the lego ngp and splat steps
-run at the same rate (splat: 300 steps 17.8 s vs 20.2 s), and eval renders the same pixels (PSNR equal to
+run at the same rate (splat: steps 50 to 300 in 17.8 s vs 20.2 s), and eval renders the same pixels (PSNR equal to
 the last digit). So `--xla_cpu_use_fusion_emitters=false` is added to $XLA_FLAGS, unless $XLA_FLAGS
 already names that flag (the user's choice wins) or jaxlib is older than the flag (an unknown flag in
 $XLA_FLAGS aborts the process). It only touches XLA:CPU; GPU compilation is unchanged.
