@@ -17,6 +17,7 @@ import math
 from pathlib import Path
 
 import imageio.v3 as iio
+import jax.numpy as jnp
 import numpy as np
 import trimesh
 
@@ -26,7 +27,7 @@ from nerfkit.data.formats.llff import write_llff
 from nerfkit.data.formats.nerfstudio import write_nerfstudio
 from nerfkit.data.procedural import scene as proc
 from nerfkit.rays.cameras import Camera, rotate_directions
-from nerfkit.rays.correction import perturb_poses
+from nerfkit.rays.correction import perturb_poses, so3_exp
 
 ENV_RADIUS = 12.0
 BACKDROP = 0.5  # grey behind masked objects (the masks say what is object)
@@ -103,10 +104,8 @@ def forward_poses(n: int, seed: int = 0, distance: float = proc.CAMERA_RADIUS, s
         pos = np.array([cx * spread * distance, -distance, 1.0 + cz * 0.5 * spread * distance])
         c2w = proc.look_at(pos, pos + np.array([0.0, 1.0, 0.0]))
         axis = rng.normal(size=3)
-        angle = np.radians(rng.uniform(0, 3))
-        k = axis / np.linalg.norm(axis)
-        kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-        c2w[:3, :3] = (np.eye(3) + math.sin(angle) * kx + (1 - math.cos(angle)) * kx @ kx) @ c2w[:3, :3]
+        w = np.radians(rng.uniform(0, 3)) * axis / np.linalg.norm(axis)
+        c2w[:3, :3] = np.asarray(so3_exp(jnp.asarray(w)), np.float64) @ c2w[:3, :3]
         out.append(c2w)
     return np.stack(out)
 
