@@ -1,13 +1,14 @@
 """Frame time of a baked scene's WebGL page in headless Chromium (software WebGL2: SwiftShader).
 
     python benchmarks/bake_web_frametime.py BAKED_DIR [--sizes 800 400] [--frames 3] [--screenshot shot.png]
+                                            [--json benchmarks/results/bake_lego_web.json]
 
 Serves BAKED_DIR (a `nerfkit bake` output) with nerfkit.bake.web.start_server, always with the
 package's current page and without writing into the folder, opens it in headless Chromium with
 the WebGL flags of tests/chromium.py, and times window.nerfkitBaked.benchmark: --frames renders of
 the default orbit camera at each size, each frame synchronised by a pixel read-back (after one
 warm-up frame). Prints one line per size and a JSON summary; --screenshot saves the page (the
-on-screen view at the window's size) as PNG. On a real GPU the same page is far faster: the
+on-screen view at the window's size) as PNG, --json writes the summary with its provenance. On a real GPU the same page is far faster: the
 numbers here are a CPU (SwiftShader) lower bound that needs no GPU to reproduce.
 """
 
@@ -22,6 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from chromium import WEBGL_ARGS, Chromium, find_chromium
+from provenance import provenance
 
 from nerfkit.bake.web import scene_mb, start_server, stop_server
 
@@ -32,6 +34,7 @@ def main() -> int:
     ap.add_argument("--sizes", type=int, nargs="+", default=[800, 400], help="square frame sizes, pixels")
     ap.add_argument("--frames", type=int, default=3, help="timed frames per size")
     ap.add_argument("--screenshot", type=Path, default=None, help="save a PNG of the page here")
+    ap.add_argument("--json", type=Path, default=None, help="write the summary (with provenance) here")
     ap.add_argument("--window", type=int, nargs=2, default=[800, 800], metavar=("W", "H"), help="browser window")
     a = ap.parse_args()
     binary = find_chromium()
@@ -69,6 +72,9 @@ def main() -> int:
             browser.close()
             stop_server(server)
     print(json.dumps(results))
+    if a.json:
+        a.json.write_text(json.dumps({**results, "provenance": provenance()}, indent=2))
+        print(f"wrote {a.json}")
     return 0
 
 
