@@ -10,6 +10,9 @@ from pathlib import Path
 import pytest
 from chromium import CHROMIUM_NAMES, find_chromium
 from shared_data import require_shared
+from xla_flags import suite_flags
+
+suite_flags()  # before any test starts JAX (xla_flags.py)
 
 
 def pytest_configure(config):

@@ -84,7 +84,7 @@ def big_sphere_checks(verts: np.ndarray, mesh) -> None:
     print(f"big sphere: {big.sum()} faces, {share:.3f} of their area faces out")
     # Reversed winding would give ~0.1; the rest is the bumpiness of a field fit to 64 px images (measured:
     # tsdf 0.99; levelset 0.91 before the snap to half opacity, 0.79-0.81 after, the spread being that of two
-    # XLA:CPU code generators (core/xla.py) on the same 400 steps).
+    # XLA:CPU code generators (tests/xla_flags.py) on the same 400 steps).
     assert big.sum() > 100 and share > 0.7
     col = mesh.visual.vertex_colors[near_big(verts), :3].astype(float).mean(0)
     assert col[0] > col[2] + 60
