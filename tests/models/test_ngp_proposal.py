@@ -128,7 +128,7 @@ def test_training_fits_a_colour():
     @jax.jit
     def step(state, k):
         aux = m.update_aux(state["params"], state["aux"], k, jax.random.PRNGKey(7))
-        (loss, (parts, _)), g = jax.value_and_grad(ray_loss(m, aux, o, d, jax.random.fold_in(jax.random.PRNGKey(0), k),
+        (loss, (parts, _)), g = jax.value_and_grad(ray_loss(m, aux, lambda p: (o, d), jax.random.fold_in(jax.random.PRNGKey(0), k),
                                                             None, None, target), has_aux=True)(state["params"])
         upd, opt_state = opt.update(g, state["opt_state"], state["params"])
         params = jax.tree_util.tree_map(lambda p, u: p + u, state["params"], upd)

@@ -9,12 +9,16 @@ from scipy.spatial.transform import Rotation
 
 from nerfkit.rays.correction import (
     aligned_pose_error,
+    apply_similarity,
+    camera_extent,
     corrected_color,
     corrected_composite,
     corrected_pose,
     mean_color,
     perturb_poses,
     pose_error,
+    refinement_similarity,
+    similarity_fit,
     so3_exp,
 )
 
@@ -88,3 +92,47 @@ def test_perturbed_poses_are_off_by_exactly_the_amounts_asked():
     assert np.allclose(aligned_pose_error(moved, poses), 0.0, atol=1e-6)
     deg, dist = aligned_pose_error(out, poses)
     assert 0.5 < deg <= 1.0 + 1e-6 and 0.0 < dist <= 0.08 + 1e-6
+
+
+def _rig(n=7, seed=5):
+    rng = np.random.default_rng(seed)
+    poses = np.stack([np.eye(4)] * n)
+    poses[:, :3, :3] = Rotation.from_rotvec(rng.normal(0, 0.6, (n, 3))).as_matrix()
+    poses[:, :3, 3] = rng.normal(size=(n, 3))
+    return poses
+
+
+def test_refinement_that_moves_the_whole_rig_maps_other_views_along():
+    """Corrections xi_k that amount to one rigid motion G of every camera (c2w_k T(xi_k) = G c2w_k): the similarity
+    from the given to the refined training poses is G, so another view's given pose is rendered from G c2w; per-photo
+    corrections with no common part leave other views nearly where they were."""
+    train, views = _rig(), _rig(3, seed=9)
+    g = np.eye(4)
+    g[:3, :3] = Rotation.from_rotvec([0.02, -0.01, 0.015]).as_matrix()
+    g[:3, 3] = [0.03, -0.02, 0.01]
+    extent = camera_extent(train)
+    rel = np.linalg.inv(train) @ g @ train  # T(xi_k) = c2w_k^-1 G c2w_k
+    xi = np.concatenate([Rotation.from_matrix(rel[:, :3, :3]).as_rotvec(), rel[:, :3, 3] / extent], -1)
+    assert np.allclose(np.asarray(corrected_pose(jnp.asarray(train, jnp.float32), jnp.asarray(xi, jnp.float32),
+                                                 extent)), g @ train, atol=1e-5)
+    (s, r, t), size = refinement_similarity(train, xi)
+    assert abs(s - 1.0) < 1e-5 and np.allclose(r, g[:3, :3], atol=1e-5) and np.allclose(t, g[:3, 3], atol=1e-5)
+    assert np.allclose(apply_similarity(views, s, r, t), g @ views, atol=1e-5)
+    assert abs(size["degrees"] - np.degrees(np.linalg.norm([0.02, -0.01, 0.015]))) < 1e-3 and size["shift"] > 0
+    # independent corrections (no common motion to speak of): other views stay nearly put
+    many = _rig(40, seed=3)  # each corrected by ~0.3 degrees, their common part ~0.3 / sqrt(40)
+    noise = np.random.default_rng(1).normal(0, 0.003, (len(many), 6))
+    noise -= noise.mean(0)
+    (s, r, t), size = refinement_similarity(many, noise)
+    deg, dist = pose_error(apply_similarity(views, s, r, t), views)
+    assert size["degrees"] < 0.1 and deg.max() < 0.1 and dist.max() < 0.01 * camera_extent(many)
+
+
+def test_similarity_fit_undoes_a_similarity_and_not_noise():
+    poses = _rig()
+    s0, r0, t0 = 1.7, Rotation.from_rotvec([0.4, 0.1, -0.3]).as_matrix(), np.array([0.5, 1.0, -2.0])
+    moved = apply_similarity(poses, s0, r0, t0)
+    s, r, t = similarity_fit(poses, moved)
+    assert abs(s - s0) < 1e-9 and np.allclose(r, r0) and np.allclose(t, t0)
+    assert np.allclose(moved[:, :3, 3], s0 * poses[:, :3, 3] @ r0.T + t0)  # centres: s R o + t
+    assert np.allclose(pose_error(apply_similarity(poses, *similarity_fit(poses, poses)), poses), 0.0, atol=1e-5)

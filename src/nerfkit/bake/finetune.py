@@ -16,6 +16,8 @@ are stored get gradients; the brick set does not change.
 
 from __future__ import annotations
 
+import dataclasses
+
 import time
 
 import jax
@@ -48,16 +50,20 @@ def _training_capture(run):
 
 
 def training_frames(run):
-    """The run's training images (its split, resolution and background)."""
+    """The run's training images (its split, resolution and background), posed as the run sees them (its
+    refined poses where it learned them: TrainedRun.seen_from)."""
     d = run.cfg.data
-    return load_frames(_training_capture(run), d.train_split, downscale=d.downscale, target_width=d.target_width,
+    data = load_frames(_training_capture(run), d.train_split, downscale=d.downscale, target_width=d.target_width,
                        background=d.background, progress=False, undistort=d.undistort)
+    return dataclasses.replace(data, poses=run.seen_from(d.train_split, data.poses)) if run.refined_poses else data
 
 
 def training_poses(run) -> np.ndarray:
-    """The run's training poses c2w [N, 4, 4] (normalised frame), without reading the images."""
+    """The run's training poses c2w [N, 4, 4] (normalised frame, refined where the run learned them), without
+    reading the images."""
     d = run.cfg.data
-    return scene_cameras(_training_capture(run), d.train_split, d.downscale, d.target_width, d.undistort).poses
+    return run.seen_from(d.train_split, scene_cameras(_training_capture(run), d.train_split, d.downscale,
+                                                      d.target_width, d.undistort).poses)
 
 
 def make_step(model: BakedModel, data, optimizer, batch: int, budget: int, live_budget: int | None, seed: int = 0):

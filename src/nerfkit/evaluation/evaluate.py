@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import time
@@ -46,7 +47,7 @@ def refuse_chunk(cfg, chunk: int | None) -> None:
 
 def appearance_note(cfg) -> str | None:
     """What held-out views are rendered with where training photos have an appearance of their own: the mean
-    embedding (fields) or the mean colour transform (splats' --appearance); their given poses in any case."""
+    embedding (fields) or the mean colour transform (splats' --appearance); for their poses see pose_note."""
     if cfg.field.n_appearance():
         what = "embeddings"
     elif cfg.splat.appearance == "on":
@@ -55,6 +56,10 @@ def appearance_note(cfg) -> str | None:
         return None
     return (f"appearance: the mean of the {cfg.field.appearance_count} training images' {what} "
             f"(held-out views have none of their own)")
+
+
+POSE_NOTE = ("poses: the given ones moved with the training rig (the similarity that best maps the given training "
+             "poses onto the refined ones; --pose-refine)")
 
 
 def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
@@ -69,8 +74,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     if every < 1:
         raise ConfigError(f"--every must be >= 1 (got {every})")
     check_chunk(chunk)
-    run_dir = Path(run_dir)
-    folder = RunFolder(run_dir)
+    run_dir, folder = Path(run_dir), RunFolder(run_dir)
     trained = folder.load(checkpoint, scene=False)
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
     refuse_chunk(cfg, chunk)
@@ -92,6 +96,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
 
     def score(spec, out_dir, ds, tw):
         data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background, undistort=d.undistort)
+        data = dataclasses.replace(data, poses=trained.seen_from(spec, data.poses, data_dir).astype(np.float32))
         return score_views(renderer, params, aux, data, every, progress, out_dir if write else None, bg), data
 
     if levels is None:
@@ -110,6 +115,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
                   "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
     if appearance_note(cfg):
         result["appearance"] = appearance_note(cfg)
+    result.update({"poses": POSE_NOTE} if trained.refined_poses else {})
     if baked is not None:
         result["baked"] = str(Path(baked).resolve())
     if write:
@@ -181,6 +187,8 @@ def format_eval_table(result: dict) -> str:
                  f"{result['psnr']:7.2f} {result['ssim']:7.4f}")
     if result.get("appearance"):
         lines.append(result["appearance"])
+    if result.get("poses"):
+        lines.append(result["poses"])
     worst = result.get("worst") or worst_views(result["per_view"])
     if len(result["per_view"]) > 1 and worst:
         lines.append("worst views: " + ", ".join(f"{w['view']} {Path(w['name']).name} {w['psnr']:.2f} dB"

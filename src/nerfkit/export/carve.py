@@ -148,4 +148,4 @@ def training_silhouettes(run, data=None, split: str | None = None):
     for f in frames:
         _, a = read_masked(f.image, f.mask, (f.camera.width, f.camera.height))
         silhouettes.append(area_downscale(a, sel.factor) > 0.5)
-    return sel.poses.astype(np.float64), sel.cameras, silhouettes
+    return run.seen_from(split, sel.poses, data).astype(np.float64), sel.cameras, silhouettes

@@ -61,6 +61,7 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
     split = split or d.train_split
     cap = read_capture(RunFolder(run.run_dir).data_dir(data), split, d.format, d.masks, d.holdout_every)
     sel = scene_cameras(cap, split, d.downscale, d.target_width, d.undistort)
+    poses = run.seen_from(split, sel.poses, data)  # refined where the run learned its poses
     every = every or max(1, math.ceil(len(sel.poses) / target))
     ids = list(range(0, len(sel.poses), every))
     cams = [sel.cameras[k].with_size(sel.cameras[k].width, sel.cameras[k].height) if pinhole else sel.cameras[k]
@@ -71,10 +72,10 @@ def render_views(run, split: str | None = None, every: int | None = None, data=N
     outs = []
     with tqdm(total=len(ids), desc="render views", unit="view", disable=not progress) as bar:
         for group in _groups(cams):  # positions in ids: several small views per call
-            outs += renderer.render_cameras(run.params, run.aux, [sel.poses[ids[j]] for j in group],
+            outs += renderer.render_cameras(run.params, run.aux, [poses[ids[j]] for j in group],
                                             [cams[j] for j in group], median)
             bar.update(len(group))
-    return Views(np.stack([sel.poses[k] for k in ids]).astype(np.float32),
+    return Views(np.stack([poses[k] for k in ids]).astype(np.float32),
                  np.array([[c.fx, c.fy, c.cx, c.cy] for c in cams], np.float32),
                  np.stack([o["depth_normalized"] for o in outs]),
                  np.stack([o["depth_median"] for o in outs]) if median else None,

@@ -35,7 +35,7 @@ class MipNeRFModel:
     (sampling.blur_weights, padding 0.01), replacing the coarse ones. Loss: fine MSE + 0.1 coarse MSE,
     both weighted per ray on multiscale data (pixel area)."""
 
-    supports = Supports(family="rays", parallel="rays")
+    supports = Supports(family="rays", parallel="rays", pose_refine=True)
     title = "mip-NeRF"
     loss_name = "MSE"
     reads = RAY_SETTINGS | MLP_SETTINGS

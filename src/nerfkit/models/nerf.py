@@ -39,7 +39,7 @@ from nerfkit.sampling.intervals import midpoints, sample_pdf, stratified_samples
 
 
 class NeRFModel:
-    supports = Supports(family="rays", parallel="rays")
+    supports = Supports(family="rays", parallel="rays", pose_refine=True)
     title = "NeRF MLP"
     loss_name = "MSE"
     reads = RAY_SETTINGS | MLP_SETTINGS | {"field.pe"}

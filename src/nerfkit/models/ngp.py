@@ -47,7 +47,7 @@ class NGPModel:
     # the rays makes XLA partition the packing (a prefix sum and scatter over all candidates of all rays):
     # measured 8.9 s per step on 2 forced CPU devices against 0.08 s when only the samples are split.
     supports = Supports(family="marching", parallel="samples", step_metrics=True, bake=True, unbounded=True,
-                        sampling=True)
+                        sampling=True, pose_refine=True)
     title = "hash-grid (ngp)"
     loss_name = "MSE"
     reads = RAY_SETTINGS | NGP_SETTINGS

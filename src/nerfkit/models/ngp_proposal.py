@@ -58,7 +58,8 @@ class ProposalNGPModel(NGPModel):
     """NGPModel's field sampled by proposal fields (module docstring). Same interface as NGPModel, but a
     plain RayModel: render_rays renders every ray (no packing, no incomplete rays)."""
 
-    supports = Supports(family="rays", parallel="rays", step_metrics=True, bake=True, unbounded=True, sampling=True)
+    supports = Supports(family="rays", parallel="rays", step_metrics=True, bake=True, unbounded=True, sampling=True,
+                        pose_refine=True)
 
     def __init__(self, cfg: Config):
         super().__init__(cfg)

@@ -24,7 +24,7 @@ def weighted_mse(rgb: jnp.ndarray, target: jnp.ndarray, weights: jnp.ndarray | N
 RAY_SETTINGS = frozenset({
     "field.appearance_dim", "sampler.near", "sampler.far", "sampler.perturb", "train.batch_rays", "train.lr",
     "train.lr_decay_steps", "train.lr_decay_rate", "train.adam_b2", "train.precrop_steps", "train.precrop_frac",
-    "train.chunk", "train.devices"})
+    "train.chunk", "train.devices", "train.pose_refine"})
 MLP_SETTINGS = frozenset({"field.depth", "field.width", "field.l_xyz", "field.l_dir", "field.viewdirs",
                           "sampler.n_samples", "sampler.n_importance"})
 NGP_SETTINGS = frozenset({

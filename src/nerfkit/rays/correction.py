@@ -84,22 +84,73 @@ def pose_error(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.degrees(np.arccos(cos)), np.linalg.norm(a[:, :3, 3] - b[:, :3, 3], axis=-1)
 
 
-def aligned_pose_error(poses: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
-    """Median (degrees, distance) between poses and truth [N, 4, 4] after the similarity x -> s R x + t that best
-    aligns the first set to the second (the frame refined poses live in is free; only their relative errors
-    count): R the rotation closest to the camera rotations' (argmin sum_k |R P_k - T_k|^2, an SVD of
-    sum_k T_k P_k^T), then s and t by least squares on the camera centres. Distances in the truth's units."""
-    p, q = np.asarray(poses, np.float64), np.asarray(truth, np.float64)
+def similarity_fit(p: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """(s, R [3, 3], t [3]) of the similarity x -> s R x + t that best maps the poses p onto q [N, 4, 4]:
+    R the rotation closest to the camera rotations' (argmin sum_k |R P_k - Q_k|^2, an SVD of sum_k Q_k P_k^T),
+    then s and t by least squares on the camera centres (s = 1 for a single camera)."""
+    p, q = np.asarray(p, np.float64), np.asarray(q, np.float64)
     u, _, vt = np.linalg.svd(np.einsum("nij,nkj->ik", q[:, :3, :3], p[:, :3, :3]))
     r = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
     a = (p[:, :3, 3] - p[:, :3, 3].mean(0)) @ r.T
     b = q[:, :3, 3] - q[:, :3, 3].mean(0)
-    s = float(np.sum(a * b) / max(np.sum(a * a), 1e-300))
-    out = p.copy()
-    out[:, :3, :3] = r @ p[:, :3, :3]
-    out[:, :3, 3] = s * a + q[:, :3, 3].mean(0)
-    deg, dist = pose_error(out, q)
+    s = float(np.sum(a * b) / np.sum(a * a)) if np.sum(a * a) > 1e-24 else 1.0
+    return s, r, q[:, :3, 3].mean(0) - s * r @ p[:, :3, 3].mean(0)
+
+
+def apply_similarity(poses: np.ndarray, s: float, r: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """poses [N, 4, 4] moved by x -> s R x + t: rotations R P_k, centres s R o_k + t (similarity_fit)."""
+    out = np.array(poses, np.float64)
+    out[:, :3, :3] = r @ out[:, :3, :3]
+    out[:, :3, 3] = s * out[:, :3, 3] @ r.T + t
+    return out
+
+
+def aligned_pose_error(poses: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
+    """Median (degrees, distance) between poses and truth [N, 4, 4] after the similarity that best aligns the
+    first set to the second (similarity_fit: the frame refined poses live in is free; only their relative errors
+    count). Distances in the truth's units."""
+    deg, dist = pose_error(apply_similarity(poses, *similarity_fit(poses, truth)), truth)
     return float(np.median(deg)), float(np.median(dist))
+
+
+def camera_extent(poses: np.ndarray) -> float:
+    """E = 1.1 max_k |o_k - mean(o)| of camera centres o_k = poses[:, :3, 3] (3DGS's cameras_extent): the
+    unit of the pose corrections' translations."""
+    centres = np.asarray(poses, np.float64)[:, :3, 3]
+    return float(1.1 * np.linalg.norm(centres - centres.mean(0), axis=-1).max())
+
+
+def refinement_similarity(train: np.ndarray, xi: np.ndarray) -> tuple[tuple, dict]:
+    """((s, R, t), size): the similarity (similarity_fit) that best maps the given training poses train [N, 4, 4]
+    onto the refined ones c2w_k T(xi_k) (xi [N, 6], translations in units of camera_extent(train)). Refinement
+    may move the whole rig (nothing pins the frame) besides mending each pose, so views that are no training
+    photo are rendered from apply_similarity(their given poses, s, R, t): in the refined frame, with their own
+    errors kept. size: {"degrees", "scale", "shift"}: its rotation angle, scale and mean move of the training
+    cameras' centres in units of the extent."""
+    extent = camera_extent(train)
+    refined = np.asarray(corrected_pose(jnp.asarray(train, jnp.float32), jnp.asarray(xi, jnp.float32), extent),
+                         np.float64)
+    s, r, t = similarity_fit(train, refined)
+    angle = float(np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
+    moved = apply_similarity(train, s, r, t)[:, :3, 3] - np.asarray(train, np.float64)[:, :3, 3]
+    shift = float(np.linalg.norm(moved, axis=-1).mean()) / max(extent, 1e-12)
+    return (s, r, t), {"degrees": angle, "scale": s, "shift": shift}
+
+
+def run_poses(params: dict, train: np.ndarray, views: np.ndarray | None = None) -> np.ndarray:
+    """The poses [M, 4, 4] float32 a run's scene is seen from. With pose corrections in params ("cam_pose" [N, 6]):
+    when views is None, the training photos' own refined poses c2w_k T(xi_k) (train [N, 4, 4]: their given
+    poses); else the views' given poses [M, 4, 4] mapped by refinement_similarity(train, xi) (ValueError when
+    xi and train differ in length). Without corrections, the given poses."""
+    if not isinstance(params, dict) or "cam_pose" not in params:
+        return np.asarray(train if views is None else views, np.float32)
+    xi = np.asarray(params["cam_pose"], np.float32)
+    if len(xi) != len(train):
+        raise ValueError(f"{len(xi)} pose corrections for {len(train)} training photos")
+    if views is not None:
+        return apply_similarity(views, *refinement_similarity(train, xi)[0]).astype(np.float32)
+    return np.asarray(corrected_pose(jnp.asarray(train, jnp.float32), jnp.asarray(xi), camera_extent(train)),
+                      np.float32)
 
 
 def perturb_poses(poses: np.ndarray, degrees: float, distance: float, seed: int = 0) -> np.ndarray:

@@ -22,7 +22,9 @@ import numpy as np
 
 from nerfkit.core.config import Config
 from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.models.registry import METHODS, build_model
+from nerfkit.rays.correction import run_poses
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.step import init_state, make_optimizer
 
@@ -51,6 +53,30 @@ class TrainedRun:
         """Half-size B of the box [-B, B]^3 exports sample (normalised units): the field's box, or
         the inner ball of an unbounded scene (the contracted far region is not exported)."""
         return float(self.cfg.field.resolved_bound())
+
+    @property
+    def refined_poses(self) -> bool:
+        """Whether the run learned a pose correction per training photo (--pose-refine on)."""
+        return isinstance(self.params, dict) and "cam_pose" in self.params
+
+    def seen_from(self, split: str, poses: np.ndarray, data_dir: Path | None = None) -> np.ndarray:
+        """The poses [M, 4, 4] to render the frames of `split` from, given theirs [M, 4, 4] (normalised): these,
+        unless the run refined its training poses (rays/correction.run_poses): then the training photos' own
+        refined poses for the training split, and for any other the given poses moved with the training rig (the
+        training split's given poses are read from data_dir, default the run's)."""
+        if not self.refined_poses:
+            return np.asarray(poses)
+        d = self.cfg.data
+        if split == d.train_split:
+            return run_poses(self.params, poses)
+        cap = read_capture(RunFolder(self.run_dir).data_dir(data_dir), d.train_split, d.format, d.masks,
+                           d.holdout_every)
+        train = scene_cameras(cap, d.train_split, d.downscale, d.target_width, d.undistort).poses
+        try:
+            return run_poses(self.params, train, poses)
+        except ValueError as e:
+            raise ConfigError(f"{RunFolder(self.run_dir).data_dir(data_dir)}: {e} in the training split "
+                              f"{d.train_split!r}; use the data the run was trained on") from None
 
 
 class RunFolder:

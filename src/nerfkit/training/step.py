@@ -1,6 +1,15 @@
 """One training step, jit-compiled: the optimiser, the batch of rays drawn from the training images,
 and step(state, step, images, poses) -> (state, metrics) for ray models (image models make their own,
 models/base.py). The loop that runs it and writes the run folder is trainer.py.
+
+Pose refinement (--pose-refine on; rays/correction.py): params["cam_pose"] [N, 6] holds a correction xi_k of
+each training photo's pose, c2w_k T(xi_k) (translations in units of correction.camera_extent of the training
+poses), learned with the field by its own Adam at
+
+    lr_pose(s) = POSE_LR ramp(s) decay(s),  ramp(s) = clip((s - POSE_WARMUP) / POSE_WARMUP, 0, 1),
+
+decay(s) the field's exponential decay (--lr-decay-rate ** (s / --lr-decay-steps)): still for the first
+W = min(POSE_WARMUP, --max-steps / 10) steps (the field is too blurred to pull a pose), then a ramp of as many.
 """
 
 from __future__ import annotations
@@ -20,7 +29,24 @@ from nerfkit.rays.cameras import (
     rotate_directions,
     table_directions,
 )
+from nerfkit.rays.correction import camera_extent, corrected_pose
 from nerfkit.training import parallel
+
+POSE_LR = 5e-4  # nerfstudio's camera optimiser uses 6e-4 (SO3xR3); 3DGS ports 5e-4 to 1e-3
+POSE_WARMUP = 200  # steps (about a minute of ngp on 2 CPU cores)
+
+
+def refines_poses(model) -> bool:
+    """Whether a ray model learns a pose correction per training photo (--pose-refine on, where it supports it)."""
+    return model.supports.pose_refine and model.cfg.train.pose_refine == "on"
+
+
+def pose_schedule(cfg: Config):
+    """lr_pose(step) (module docstring)."""
+    t = cfg.train
+    w = max(1, min(POSE_WARMUP, t.max_steps // 10)) if t.max_steps else POSE_WARMUP
+    decay = optax.exponential_decay(POSE_LR, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
+    return lambda step: decay(step) * jnp.clip((step - w) / w, 0.0, 1.0)
 
 
 def make_optimizer(cfg: Config, model=None):
@@ -30,7 +56,11 @@ def make_optimizer(cfg: Config, model=None):
         return model.make_optimizer(cfg)
     t = cfg.train
     schedule = optax.exponential_decay(t.lr, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
-    return optax.adam(schedule, b2=t.adam_b2, eps=t.adam_eps), schedule
+    adam = optax.adam(schedule, b2=t.adam_b2, eps=t.adam_eps)
+    if model is None or not refines_poses(model):
+        return adam, schedule
+    labels = lambda params: {k: ("pose" if k == "cam_pose" else "field") for k in params}  # noqa: E731
+    return optax.multi_transform({"field": adam, "pose": optax.adam(pose_schedule(cfg), eps=1e-8)}, labels), schedule
 
 
 def draw_batch(key, step, n_images: int, h: int, w: int, t, sizes=None, batch: int | None = None):
@@ -84,6 +114,7 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
     base_key = jax.random.PRNGKey(t.seed)
     sizes = None if data.sizes is None else jnp.asarray(data.sizes)
     lossmult = jnp.asarray(data.lossmult)
+    extent = camera_extent(data.poses) if refines_poses(model) else None
 
     def step_fn(state, step, images, poses, table):
         key = jax.random.fold_in(base_key, step)
@@ -92,10 +123,10 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
         if split_rays:
             img, i, j = parallel.shard_rays((img, i, j), mesh)
         weights = None if sizes is None else lossmult[img]
-        o, d = rotate_directions(poses[img], table_directions(table, img, i, j))
+        rays = camera_rays(poses[img], table_directions(table, img, i, j), img, extent)
         params = state["params"]
         aux = model.update_aux(params, state["aux"], step, k_aux)
-        loss_fn = ray_loss(model, aux, o, d, k_render, img, table["radius"][img], images[img, i, j], weights)
+        loss_fn = ray_loss(model, aux, rays, k_render, img, table["radius"][img], images[img, i, j], weights)
         (loss, (parts, out)), grads = jax.value_and_grad(loss_fn, has_aux=True)(params)
         new_state, finite = apply_if_finite(optimizer, state, grads, loss, aux)
         metrics = {"loss": loss, "mse": parts["mse"], "finite": finite}
@@ -107,11 +138,22 @@ def make_train_step(model, optimizer, data: SceneData, cfg: Config, mesh=None):
     return lambda state, step, images, poses: jitted(state, step, images, poses, table)
 
 
-def ray_loss(model, aux, o, d, key, image_idx, radii, target, weights=None):
+def camera_rays(c2w, d_cam, img, extent: float | None):
+    """rays(params) -> (o, d) [R, 3]: the rays of camera-space directions d_cam [R, 3] from poses c2w [R, 4, 4] of
+    training photos img [R], corrected by params["cam_pose"][img] (module docstring) where extent is given."""
+    if extent is None:
+        o, d = rotate_directions(c2w, d_cam)
+        return lambda params: (o, d)
+    return lambda params: rotate_directions(corrected_pose(c2w, params["cam_pose"][img], extent), d_cam)
+
+
+def ray_loss(model, aux, rays, key, image_idx, radii, target, weights=None):
     """loss_fn(params) -> (loss, (parts, out)): the model's losses (model.losses, per-ray weights [R] when
-    given) of rendering rays o, d [R, 3] of images image_idx [R] (cones of radii [R]) against target [R, 3]."""
+    given) of rendering the rays o, d = rays(params) [R, 3] (camera_rays) of images image_idx [R] (cones of radii
+    [R]) against target [R, 3]."""
 
     def loss_fn(p):
+        o, d = rays(p)
         out = model.render_rays(p, aux, o, d, key, train=True, image_idx=image_idx, radii=radii)
         loss, parts = model.losses(out, target) if weights is None else model.losses(out, target, weights)
         return loss, (parts, out)
@@ -138,7 +180,10 @@ def apply_if_finite(optimizer, state, grads, loss, aux):
 
 
 def init_state(model, optimizer, seed: int):
+    """{params, opt_state, aux} at the start: the model's, with zero pose corrections where it refines poses."""
     params, aux = model.init(jax.random.PRNGKey(seed))
+    if not model.supports.renders_images and refines_poses(model):
+        params["cam_pose"] = jnp.zeros((model.cfg.field.appearance_count, 6), jnp.float32)
     return {"params": params, "opt_state": optimizer.init(params), "aux": aux}
 
 

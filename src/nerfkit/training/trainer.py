@@ -16,7 +16,7 @@ import json
 import math
 import shlex
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import jax
@@ -29,6 +29,7 @@ from nerfkit.core.errors import NerfkitError
 from nerfkit.core.metrics import mse_to_psnr
 from nerfkit.core.viz import background_rgb, plot_curves, read_jsonl
 from nerfkit.models.registry import build_model
+from nerfkit.rays.correction import run_poses
 from nerfkit.render.images import make_renderer
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training import parallel
@@ -174,7 +175,10 @@ class Trainer:
         (process 0 only)."""
         t0 = time.perf_counter()
         state = parallel.host_copy(state)
-        scores = render_validation(self.renderer, state["params"], state["aux"], self.val_data, self.val_ids,
+        val = self.val_data  # pose refinement: the views' poses moved with the training rig (correction.py)
+        if "cam_pose" in state["params"]:
+            val = replace(val, poses=run_poses(state["params"], self.train_data.poses, val.poses))
+        scores = render_validation(self.renderer, state["params"], state["aux"], val, self.val_ids,
                                    self.val_factor, self.run_dir / "val" / f"step_{step:07d}",
                                    background_rgb(self.cfg.data.background))
         mean = float(np.mean(scores))

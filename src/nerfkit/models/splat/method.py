@@ -46,10 +46,10 @@ from nerfkit.models.splat.optim import (
     init_state,
     make_optimizers,
     means_lr,
-    scene_extent,
 )
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.rays.cameras import Camera
+from nerfkit.rays.correction import camera_extent
 
 RANDOM_INIT = 100_000  # random Gaussians in the box without SfM points (3DGS's Blender init), fewer if capacity is
 # Their scales: this x the mean distance to the 3 nearest (1.0 in 3DGS). Measured on lego (seed protocol, 2 shared
@@ -223,7 +223,7 @@ class SplatModel:
         """Take the scene extent from the training poses and the initial Gaussians (--init-points): the
         capture's SfM points (in the normalised frame); else, with masks or alpha, uniform in the visual
         hull of the training silhouettes; else random in the scene box."""
-        self.extent = scene_extent(data.poses)
+        self.extent = camera_extent(data.poses)
         if data.sizes is not None:
             raise DataError(f"{capture.root}: --preset splat trains on images of one size; this selection has "
                             f"several (multiscale data): pick one level with --train-split")

@@ -54,12 +54,6 @@ class LearningRates:
 CORRECTIONS = ("cam_color", "cam_pose")  # the per-photo groups (their leading axis is the photo, not the Gaussian)
 
 
-def scene_extent(poses: np.ndarray) -> float:
-    """E = 1.1 max_k |o_k - mean(o)| of camera centres o_k = poses[:, :3, 3] (3DGS's cameras_extent)."""
-    centres = np.asarray(poses, np.float64)[:, :3, 3]
-    return float(1.1 * np.linalg.norm(centres - centres.mean(0), axis=-1).max())
-
-
 def means_lr(progress: float, extent: float, lrs: LearningRates = LearningRates()) -> float:
     """Log-linear decay of the means' rate from means_init E to means_final E as progress goes 0 -> 1."""
     t = float(np.clip(progress, 0.0, 1.0))

@@ -54,12 +54,11 @@ from nerfkit.models.splat.optim import (
     means_lr,
     pose_lr,
     reset_rows,
-    scene_extent,
 )
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
-from nerfkit.rays.correction import corrected_composite, corrected_pose
+from nerfkit.rays.correction import camera_extent, corrected_composite, corrected_pose
 
 
 _USER = SplatSettings()  # the user-facing defaults
@@ -316,7 +315,7 @@ def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: 
     """
     width, height = _image_size(minutes, steps, cameras)
     budget = None if minutes is None else 60.0 * minutes
-    extent = scene_extent(poses)
+    extent = camera_extent(poses)
     params, active, opts, opt_state, stats = _initial_state(cfg, init, extent)
     state = {"params": params, "opt_state": opt_state, "aux": {"active": active, **stats}}
     images, poses = jnp.asarray(train_images, jnp.float32), jnp.asarray(poses, jnp.float32)

@@ -1,0 +1,77 @@
+"""Pose refinement for the ray methods (--pose-refine on; training/step.py): the corrections are parameters of
+their own (zeros at the start, still through the warm-up, then learned at their own rate), the rays of a step are
+made from the corrected poses, and a run keeps them: `eval` and periodic validation render other views moved with
+the training rig (rays/correction.run_poses, run/folder.TrainedRun.seen_from)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from nerfkit.core.presets import preset
+from nerfkit.data.loader import load_frames, read_capture
+from nerfkit.data.procedural.captures import make_capture
+from nerfkit.models.registry import build_model
+from nerfkit.training.resolve import resolve_config
+from nerfkit.training.step import init_state, make_optimizer, make_train_step, pose_schedule
+
+
+def _setup(tmp_path, refine: str):
+    cap_dir = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16, masks=True, pose_noise=(1.0, 0.02))
+    cfg = preset("tiny")
+    cfg.train.pose_refine = refine
+    cfg.train.max_steps = 40
+    cap = read_capture(cap_dir, "train")
+    train = load_frames(cap, "train")
+    cfg = resolve_config(cfg, cap, train, log=lambda _: None)
+    model = build_model(cfg)
+    opt, _ = make_optimizer(cfg, model)
+    return cfg, model, opt, train
+
+
+def test_corrections_are_parameters_learned_after_the_warm_up(tmp_path):
+    cfg, model, opt, train = _setup(tmp_path, "on")
+    state = init_state(model, opt, 0)
+    assert state["params"]["cam_pose"].shape == (len(train.poses), 6) and not np.any(state["params"]["cam_pose"])
+    lr = pose_schedule(cfg)
+    assert float(lr(0)) == 0.0 and float(lr(4)) == 0.0 and 0.0 < float(lr(6)) < float(lr(8))  # W = 40 / 10 = 4
+    step = make_train_step(model, opt, train, cfg)
+    images, poses = jnp.asarray(train.images), jnp.asarray(train.poses)
+    moved_at = []
+    for s in range(12):
+        state, m = step(state, jnp.int32(s), images, poses)
+        moved_at.append(float(jnp.abs(state["params"]["cam_pose"]).max()))
+    assert moved_at[4] == 0.0 and moved_at[-1] > 0.0, moved_at  # still through the warm-up, then learned
+    # the other parameters are the field's own (the model renders without looking at the corrections)
+    assert set(state["params"]) == set(model.init(jax.random.PRNGKey(0))[0]) | {"cam_pose"}
+
+
+def test_off_adds_nothing(tmp_path):
+    cfg, model, opt, train = _setup(tmp_path, "off")
+    assert cfg.field.appearance_count == 0
+    assert "cam_pose" not in init_state(model, opt, 0)["params"]
+
+
+def test_a_refined_run_is_seen_from_its_refined_poses(tmp_path):
+    """Through the CLI: a run trained with --pose-refine on keeps its corrections; its training photos are seen from
+    their own refined poses (bake's fine-tuning, export's views), other views from their given poses moved by the
+    similarity of the rig (eval, which says so)."""
+    from nerfkit.cli.main import main
+    from nerfkit.evaluation.evaluate import POSE_NOTE, evaluate_run
+    from nerfkit.rays.correction import apply_similarity, camera_extent, corrected_pose, refinement_similarity
+    from nerfkit.run.folder import RunFolder
+
+    cap_dir = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16, masks=True, pose_noise=(1.0, 0.02))
+    run = tmp_path / "run"
+    assert main(["train", str(cap_dir), "--out", str(run), "--preset", "tiny", "--pose-refine", "on", "--max-steps",
+                 "30", "--val-every", "30", "--ckpt-every", "30", "--no-progress"]) == 0
+    loaded = RunFolder(run).load()
+    assert loaded.refined_poses
+    cap, val = read_capture(cap_dir, "train,val"), loaded.cfg.data.val_split
+    train, views = load_frames(cap, "train").poses, load_frames(cap, val).poses
+    xi = np.asarray(loaded.params["cam_pose"])
+    assert xi.shape == (len(train), 6) and np.abs(xi).max() > 0
+    want = np.asarray(corrected_pose(jnp.asarray(train), jnp.asarray(xi), camera_extent(train)))
+    assert np.allclose(loaded.seen_from("train", train), want, atol=1e-6)
+    moved = apply_similarity(views, *refinement_similarity(train, xi)[0])
+    assert np.allclose(loaded.seen_from(val, views), moved, atol=1e-5) and not np.allclose(moved, views, atol=1e-7)
+    assert evaluate_run(run, None, val, progress=False, write=False)["poses"] == POSE_NOTE
