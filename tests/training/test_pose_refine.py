@@ -36,11 +36,15 @@ def test_corrections_are_parameters_learned_after_the_warm_up(tmp_path):
     assert float(lr(0)) == 0.0 and float(lr(4)) == 0.0 and 0.0 < float(lr(6)) < float(lr(8))  # W = 40 / 10 = 4
     step = make_train_step(model, opt, train, cfg)
     images, poses = jnp.asarray(train.images), jnp.asarray(train.poses)
+    field0 = jax.tree_util.tree_leaves({k: v for k, v in state["params"].items() if k != "cam_pose"})
+    field0 = [np.array(x) for x in field0]
     moved_at = []
     for s in range(12):
         state, m = step(state, jnp.int32(s), images, poses)
         moved_at.append(float(jnp.abs(state["params"]["cam_pose"]).max()))
     assert moved_at[4] == 0.0 and moved_at[-1] > 0.0, moved_at  # still through the warm-up, then learned
+    field = jax.tree_util.tree_leaves({k: v for k, v in state["params"].items() if k != "cam_pose"})
+    assert all(np.abs(np.asarray(a) - b).max() > 0 for a, b in zip(field, field0))  # the field learns alongside
     # the other parameters are the field's own (the model renders without looking at the corrections)
     assert set(state["params"]) == set(model.init(jax.random.PRNGKey(0))[0]) | {"cam_pose"}
 
