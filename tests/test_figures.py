@@ -460,6 +460,14 @@ CHECKS = [
      [(("bake_lego_web.json", "ms_per_frame", "800x800"), per_s), (("bake_lego_web.json", "ms_per_frame", "400x400"), per_s)]),
     ("docs/verbs/bake.md", "For comparison, the field's own renderer", "takes {} s for an 800x800 frame",
      [(("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
+    # ---- docs/methods.md: pose refinement
+    ("docs/methods.md", "ngp scored", "ngp scored {} dB on the exact capture, {} on the imperfect one and {} with refinement, whose "
+     "poses stayed {} degrees off",
+     [(("corrections_procedural_ngp.json", "runs", v, "eval_psnr"), f2) for v in ("exact", "none", "pose")]
+     + [(("corrections_procedural_ngp.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
+    ("docs/methods.md", "ngp scored", "poses were written {} degrees and {}% of the camera radius off",
+     [(("corrections_procedural_ngp.json", "runs", "pose", "given_pose_error", "degrees"), f2),
+      ((lambda: 100 * R("corrections_procedural_ngp.json", "runs", "pose", "given_pose_error", "radius_share")), f1)]),
     # ---- docs/aliasing.md
     ("docs/aliasing.md", "| `ngp`, 10 min at 200 px", ", {} steps) | {} | {} | {} | {} | {} |",
      [(("multiscale_lego.json", "ngp_10min_200px", "step"), d)] + ms_scales("ngp_10min_200px")),
