@@ -76,6 +76,6 @@ def test_a_refined_run_is_seen_from_its_refined_poses(tmp_path):
     assert xi.shape == (len(train), 6) and np.abs(xi).max() > 0
     want = np.asarray(corrected_pose(jnp.asarray(train), jnp.asarray(xi), camera_extent(train)))
     assert np.allclose(loaded.seen_from("train", train), want, atol=1e-6)
-    moved = apply_similarity(views, *refinement_similarity(train, xi)[0])
+    moved = apply_similarity(views, *refinement_similarity(train, xi))
     assert np.allclose(loaded.seen_from(val, views), moved, atol=1e-5) and not np.allclose(moved, views, atol=1e-7)
     assert evaluate_run(run, None, val, progress=False, write=False)["poses"] == POSE_NOTE

@@ -17,7 +17,6 @@ are stored get gradients; the brick set does not change.
 from __future__ import annotations
 
 import dataclasses
-
 import time
 
 import jax
@@ -55,7 +54,7 @@ def training_frames(run):
     d = run.cfg.data
     data = load_frames(_training_capture(run), d.train_split, downscale=d.downscale, target_width=d.target_width,
                        background=d.background, progress=False, undistort=d.undistort)
-    return dataclasses.replace(data, poses=run.seen_from(d.train_split, data.poses)) if run.refined_poses else data
+    return dataclasses.replace(data, poses=run.seen_from(d.train_split, data.poses))
 
 
 def training_poses(run) -> np.ndarray:

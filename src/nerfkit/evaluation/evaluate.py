@@ -96,7 +96,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
 
     def score(spec, out_dir, ds, tw):
         data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background, undistort=d.undistort)
-        data = dataclasses.replace(data, poses=trained.seen_from(spec, data.poses, data_dir).astype(np.float32))
+        data = dataclasses.replace(data, poses=trained.seen_from(spec, data.poses, data_dir))
         return score_views(renderer, params, aux, data, every, progress, out_dir if write else None, bg), data
 
     if levels is None:

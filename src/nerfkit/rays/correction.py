@@ -120,37 +120,34 @@ def camera_extent(poses: np.ndarray) -> float:
     return float(1.1 * np.linalg.norm(centres - centres.mean(0), axis=-1).max())
 
 
-def refinement_similarity(train: np.ndarray, xi: np.ndarray) -> tuple[tuple, dict]:
-    """((s, R, t), size): the similarity (similarity_fit) that best maps the given training poses train [N, 4, 4]
-    onto the refined ones c2w_k T(xi_k) (xi [N, 6], translations in units of camera_extent(train)). Refinement
-    may move the whole rig (nothing pins the frame) besides mending each pose, so views that are no training
-    photo are rendered from apply_similarity(their given poses, s, R, t): in the refined frame, with their own
-    errors kept. size: {"degrees", "scale", "shift"}: its rotation angle, scale and mean move of the training
-    cameras' centres in units of the extent."""
-    extent = camera_extent(train)
-    refined = np.asarray(corrected_pose(jnp.asarray(train, jnp.float32), jnp.asarray(xi, jnp.float32), extent),
-                         np.float64)
-    s, r, t = similarity_fit(train, refined)
-    angle = float(np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
-    moved = apply_similarity(train, s, r, t)[:, :3, 3] - np.asarray(train, np.float64)[:, :3, 3]
-    shift = float(np.linalg.norm(moved, axis=-1).mean()) / max(extent, 1e-12)
-    return (s, r, t), {"degrees": angle, "scale": s, "shift": shift}
+def refined_poses(train: np.ndarray, xi: np.ndarray) -> np.ndarray:
+    """The training photos' refined poses c2w_k T(xi_k) [N, 4, 4] float64 of their given ones train [N, 4, 4] and
+    corrections xi [N, 6] (translations in units of camera_extent(train))."""
+    return np.asarray(corrected_pose(jnp.asarray(train, jnp.float32), jnp.asarray(xi, jnp.float32),
+                                     camera_extent(train)), np.float64)
+
+
+def refinement_similarity(train: np.ndarray, xi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """(s, R, t): the similarity (similarity_fit) that best maps the given training poses train [N, 4, 4] onto the
+    refined ones (refined_poses(train, xi)). Refinement may move the whole rig (nothing pins the frame) besides
+    mending each pose, so views that are no training photo are rendered from apply_similarity(their given poses,
+    s, R, t): in the refined frame, with their own errors kept."""
+    return similarity_fit(train, refined_poses(train, xi))
 
 
 def run_poses(params: dict, train: np.ndarray, views: np.ndarray | None = None) -> np.ndarray:
     """The poses [M, 4, 4] float32 a run's scene is seen from. With pose corrections in params ("cam_pose" [N, 6]):
-    when views is None, the training photos' own refined poses c2w_k T(xi_k) (train [N, 4, 4]: their given
-    poses); else the views' given poses [M, 4, 4] mapped by refinement_similarity(train, xi) (ValueError when
-    xi and train differ in length). Without corrections, the given poses."""
+    when views is None, the training photos' own refined poses (train [N, 4, 4]: their given poses); else the
+    views' given poses [M, 4, 4] mapped by refinement_similarity(train, xi) (ValueError when xi and train differ
+    in length). Without corrections, the given poses."""
     if not isinstance(params, dict) or "cam_pose" not in params:
         return np.asarray(train if views is None else views, np.float32)
     xi = np.asarray(params["cam_pose"], np.float32)
     if len(xi) != len(train):
         raise ValueError(f"{len(xi)} pose corrections for {len(train)} training photos")
-    if views is not None:
-        return apply_similarity(views, *refinement_similarity(train, xi)[0]).astype(np.float32)
-    return np.asarray(corrected_pose(jnp.asarray(train, jnp.float32), jnp.asarray(xi), camera_extent(train)),
-                      np.float32)
+    if views is None:
+        return refined_poses(train, xi).astype(np.float32)
+    return apply_similarity(views, *refinement_similarity(train, xi)).astype(np.float32)
 
 
 def perturb_poses(poses: np.ndarray, degrees: float, distance: float, seed: int = 0) -> np.ndarray:

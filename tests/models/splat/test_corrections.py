@@ -57,11 +57,11 @@ def test_corrections_find_the_gains_and_the_poses(capture, tmp_path, capsys):
     val = loaded.cfg.data.val_split
     held_idx = [int(f.image.stem.split("_")[-1]) for f in read_capture(capture, val).frames(val)]
     held = np.asarray(load_frames(read_capture(capture, val), val).poses, np.float64)
-    (s, r, t), size = refinement_similarity(poses, np.asarray(loaded.params["cam_pose"]))
+    s, r, t = refinement_similarity(poses, np.asarray(loaded.params["cam_pose"]))
     truth_all = np.load(capture / "truth" / "poses.npy")[idx + held_idx]
     with_given = aligned_pose_error(np.concatenate([refined, held]), truth_all)
     with_aligned = aligned_pose_error(np.concatenate([refined, apply_similarity(held, s, r, t)]), truth_all)
-    print("held-out given", with_given, "aligned", with_aligned, size)
+    print("held-out given", with_given, "aligned", with_aligned, (s, r, t))
     assert with_aligned[0] <= 1.05 * with_given[0] and with_aligned[1] <= 1.05 * with_given[1]
     ev = evaluate_run(run, None, val, progress=False, write=False)
     assert ev["poses"] == POSE_NOTE
