@@ -3,13 +3,17 @@ embeddings --appearance-dim) on procedural captures whose photos were taken with
 written ones by a known amount; the same capture with exact poses and no gains is the reference.
 
     python benchmarks/corrections.py [--preset splat] [--steps 2000] [--size 64] [--masks] [--name NAME]
+        [--held-out exact|imperfect] [--random-start] [--flags "..."]
 
 For each variant (exact: the exact capture, corrections off; none: the imperfect capture, corrections off;
-colour, pose, both), one run of `nerfkit train --preset P` with --max-steps, then:
+colour, pose, both), one run of `nerfkit train --preset P` with --max-steps (splats: 20,000 slots, starting from
+points triangulated at the given poses as any posed capture without points does, or --random-start), then:
     held-out PSNR: the run's last validation (every held-out photo at its written pose, with the mean colour
     transform or embedding) and `nerfkit eval`'s (the same, but where poses were refined, from the written poses
     moved by the similarity that maps the given training poses onto the refined ones); the imperfect capture's
-    held-out photos have their own pose errors and gains,
+    held-out photos (every 8th) are taken and written at their exact poses with gain 1 (--held-out exact, BARF's
+    protocol: the score measures the scene learned), or have pose errors and gains of their own (imperfect: the
+    score is then bounded by their own errors, whatever the training learned),
     the training poses' median error against the truth in degrees and in units of the camera radius (4),
     before and after refinement, after the similarity that best aligns the camera centres (the frame is free),
     the gains' median error (each photo's colour-transform diagonal relative to their mean, against the true
@@ -60,6 +64,12 @@ def main() -> None:
     ap.add_argument("--degrees", type=float, default=1.0)
     ap.add_argument("--shift", type=float, default=0.02, help="pose error as a fraction of the camera radius")
     ap.add_argument("--gains", type=float, default=0.15)
+    ap.add_argument("--held-out", choices=("exact", "imperfect"), default="exact",
+                    help="held-out photos at their exact poses and gains (BARF's protocol: their score measures the "
+                         "scene learned) or with errors of their own, as the training photos")
+    ap.add_argument("--random-start", action="store_true",
+                    help="splats: random points (else triangulated at the given poses, as any posed capture)")
+    ap.add_argument("--flags", default="", help="more `nerfkit train` flags for every variant, e.g. \"--sh-degree 0\"")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS))
     ap.add_argument("--out", type=Path, default=Path("runs/corrections"))
     ap.add_argument("--name", default="corrections_procedural")
@@ -70,15 +80,17 @@ def main() -> None:
         caps[kind] = make_capture(a.out / f"cap_{kind}", "nerfstudio", n_views=a.views, size=a.size, seed=3,
                                   environment=not a.masks, masks=a.masks,
                                   pose_noise=(a.degrees, a.shift) if noisy else (0.0, 0.0),
-                                  gains=a.gains if noisy else 0.0)
+                                  gains=a.gains if noisy else 0.0, exact_every=8 if a.held_out == "exact" else 0)
     truth_poses = np.load(caps["imperfect"] / "truth" / "poses.npy")
     truth_gains = np.load(caps["imperfect"] / "truth" / "gains.npy")
     result = {"what": __doc__.split("\n\n")[0], "preset": a.preset, "steps": a.steps, "size": a.size, "views": a.views, "masks": a.masks,
-              "pose_noise_degrees": a.degrees, "pose_noise_radius_share": a.shift, "gains": a.gains, "runs": {},
+              "pose_noise_degrees": a.degrees, "pose_noise_radius_share": a.shift, "gains": a.gains,
+              "held_out": a.held_out, "flags": a.flags, "start": "random" if a.random_start else "auto", "runs": {},
               "provenance": provenance()}
-    extra = []  # splats: random points where the procedural textures would give SfM a few dozen
+    extra = []
     if a.preset == "splat":
-        extra = ([] if a.masks else ["--init-points", "random"]) + ["--capacity", "20000"]
+        extra = (["--init-points", "random"] if a.random_start else []) + ["--capacity", "20000"]
+    extra += a.flags.split()
     for name in a.variants:
         kind, names = VARIANTS[name]
         flags = flags_of(names, a.preset)

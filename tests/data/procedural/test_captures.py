@@ -247,3 +247,23 @@ def test_exact_points_lie_on_the_surfaces_the_photos_show(tmp_path):
     assert cols.max() <= 1.0 and cols[near].std(0).min() > 0.05
     with pytest.raises(DataError, match="nerfstudio"):
         make_capture(tmp_path / "l", "llff", n_views=4, size=16, points=10)
+
+
+def test_imperfect_captures_spare_the_held_out_photos_when_asked(tmp_path):
+    """pose_noise and gains reach every photo, or with exact_every only the training split's."""
+    from nerfkit.rays.correction import pose_error
+
+    def written(root):
+        meta = json.loads((root / "transforms.json").read_text())
+        return np.array([f["transform_matrix"] for f in sorted(meta["frames"], key=lambda f: f["file_path"])])
+
+    every = make_capture(tmp_path / "all", n_views=9, size=8, pose_noise=(1.0, 0.02), gains=0.2)
+    spared = make_capture(tmp_path / "spared", n_views=9, size=8, pose_noise=(1.0, 0.02), gains=0.2, exact_every=4)
+    truth = np.load(spared / "truth" / "poses.npy")
+    held = np.arange(9) % 4 == 0
+    for root, exact in ((every, np.zeros(9, bool)), (spared, held)):
+        deg, dist = pose_error(written(root), truth)
+        assert np.all(deg[exact] < 1e-4) and np.all(dist[exact] < 1e-5)
+        assert np.allclose(deg[~exact], 1.0, atol=1e-3) and np.allclose(dist[~exact], 0.02 * proc.CAMERA_RADIUS)
+        gains = np.load(root / "truth" / "gains.npy")
+        assert np.all(gains[exact] == 1.0) and np.all(np.abs(gains[~exact] - 1.0).max(1) > 0.01)

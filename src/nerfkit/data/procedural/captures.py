@@ -141,7 +141,7 @@ def _write_points(path: Path, cloud: list[tuple[np.ndarray, np.ndarray]], n: int
 def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16, size: int = 48,
                  camera: Camera | None = None, environment: bool = False, masks: bool = False,
                  seed: int = 0, text: bool = True, pose_noise: tuple[float, float] = (0.0, 0.0),
-                 gains: float = 0.0, points: int = 0, rig: str = "ring") -> Path:
+                 gains: float = 0.0, points: int = 0, rig: str = "ring", exact_every: int = 0) -> Path:
     """Write a synthetic photo capture (see the module docstring) and return its folder.
 
     fmt: "nerfstudio" | "llff" | "colmap". camera: intrinsics of every image (default: an
@@ -153,6 +153,8 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
     (correction.perturb_poses) while the photos are taken at the exact ones; gains g multiplies each
     photo's red, green and blue by factors drawn uniformly in [1 - g, 1 + g] (exposure and white
     balance). The exact poses and gains [N, 3] are written to truth/poses.npy and truth/gains.npy.
+    exact_every E > 0 spares every E-th photo (index % E == 0: the held-out split of --holdout-every E) both:
+    held-out photos whose score measures the scene learned, not their own errors (BARF's protocol).
 
     rig: "ring" (ring_poses: all around the objects) or "forward" (forward_poses: every camera facing
     one way, LLFF-like; with environment=True the room's far wall fills the view behind the objects).
@@ -168,6 +170,8 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
     poses = rig_poses(rig, n_views, seed)
     rng = np.random.default_rng([seed, 1])
     photo_gains = rng.uniform(1 - gains, 1 + gains, (n_views, 3)) if gains else np.ones((n_views, 3))
+    spared = np.arange(n_views) % exact_every == 0 if exact_every else np.zeros(n_views, bool)
+    photo_gains[spared] = 1.0
     for sub in ("images", "depth") + (("masks",) if masks else ()):
         (out / sub).mkdir(parents=True, exist_ok=True)
     if points and fmt != "nerfstudio":
@@ -184,7 +188,8 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
         (out / "truth").mkdir(exist_ok=True)
         np.save(out / "truth" / "poses.npy", poses, allow_pickle=False)
         np.save(out / "truth" / "gains.npy", photo_gains, allow_pickle=False)
-        poses = perturb_poses(poses, pose_noise[0], pose_noise[1] * proc.CAMERA_RADIUS, seed)
+        poses = np.where(spared[:, None, None], poses,
+                         perturb_poses(poses, pose_noise[0], pose_noise[1] * proc.CAMERA_RADIUS, seed))
     frames = [{"file_path": f"images/{name}", "transform_matrix": c2w.tolist(),
                "mask_path": f"masks/{name}" if masks else None} for name, c2w in zip(names, poses)]
     if fmt == "nerfstudio":
