@@ -102,7 +102,10 @@ class ProposalNGPModel(NGPModel):
     def sample(self, params, o, d, key, train: bool, anneal=1.0):
         """The proposal rounds for rays o, d [R, 3]: the field's edges [R, field_samples + 1] in s, and each
         round's (edges, weights) (the interlevel loss compares them with the field's weights); the weights
-        are resampled raised to the power `anneal`."""
+        are resampled raised to the power `anneal`. The rays reach the proposal networks without their
+        gradient: they only place the field's samples, so pose corrections (--pose-refine) learn from the
+        field's colours, and the step skips a backward pass through every proposal round's positions."""
+        o, d = jax.lax.stop_gradient(o), jax.lax.stop_gradient(d)
         n = o.shape[0]
         s_lo, s_hi = self.s_range()
         keys = jax.random.split(key, 1 + len(self.proposals))
