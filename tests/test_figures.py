@@ -467,6 +467,8 @@ CHECKS = [
      "poses stayed {} degrees off",
      [(("corrections_procedural_ngp.json", "runs", v, "eval_psnr"), f2) for v in ("exact", "none", "pose")]
      + [(("corrections_procedural_ngp.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
+    ("docs/methods.md", "It costs", "the ngp preset ran {} steps per second with it and {} without",
+     [(("pose_refine_speed_ngp.json", "steps_per_s_on"), f2), (("pose_refine_speed_ngp.json", "steps_per_s_off"), f2)]),
     ("docs/methods.md", "ngp scored", "poses were written {} degrees and {}% of the camera radius off",
      [(("corrections_procedural_ngp.json", "runs", "pose", "given_pose_error", "degrees"), f2),
       ((lambda: 100 * R("corrections_procedural_ngp.json", "runs", "pose", "given_pose_error", "radius_share")), f1)]),
