@@ -14,6 +14,7 @@ from nerfkit.core.errors import ConfigError, DataError
 from nerfkit.core.viz import background_rgb, to_uint8
 from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.rays.cameras import Camera
+from nerfkit.rays.correction import run_poses
 from nerfkit.render.images import check_chunk, make_renderer
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.callbacks import Callback
@@ -67,10 +68,11 @@ def _photo_thumbnails(data_dir: Path, names: list[str]) -> list[np.ndarray] | No
     return out
 
 
-def scene_view_of_run(run_dir: Path, cfg) -> SceneView:
-    """Training cameras (with thumbnails when the photos are still where the run found them), box, background."""
+def scene_view_of_run(run_dir: Path, cfg, params: dict | None = None) -> SceneView:
+    """Training cameras (with thumbnails when the photos are still where the run found them), box, background;
+    the cameras at their refined poses where the run's params learned pose corrections (--pose-refine)."""
     scene = RunFolder(run_dir).scene()
-    poses = np.asarray(scene["train_poses"], np.float64)
+    poses = np.asarray(run_poses(params, np.asarray(scene["train_poses"], np.float32)), np.float64)
     cams = [Camera.from_json(scene["camera"])] * len(poses)
     thumbs = None
     d = cfg.data
@@ -99,7 +101,7 @@ def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: in
     check_chunk(chunk)
     trained = RunFolder(run_dir).load(scene=False)
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
-    viewer = Viewer(make_renderer(model, cfg.train.chunk if chunk is None else chunk), scene_view_of_run(run_dir, cfg),
+    viewer = Viewer(make_renderer(model, cfg.train.chunk if chunk is None else chunk), scene_view_of_run(run_dir, cfg, params),
                     run_dir, host=host, port=port, splats=model.supports.gaussians)
     viewer.set_params(params, aux, step)
     try:
