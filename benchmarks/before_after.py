@@ -1,7 +1,7 @@
 """A record's picture before and after: the version of a results image at an older commit beside today's, each
 under its commit, for a note or a page to show what changed.
 
-    python benchmarks/before_after.py own_photos_buddha.jpg --before ccf6048 [--after HEAD] [--out NAME]
+    python benchmarks/before_after.py own_photos_buddha.jpg --before 8ec6ee9 [--after HEAD] [--scale 0.5] [--out NAME]
 
 Reads both versions with `git show REV:benchmarks/results/NAME` and writes benchmarks/results/<stem>_before_after.jpg.
 """
@@ -37,10 +37,13 @@ def main() -> None:
     ap.add_argument("--before", required=True, help="the older commit")
     ap.add_argument("--after", default="HEAD")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--scale", type=float, default=0.5, help="of each picture's size (records' pictures are large)")
     a = ap.parse_args()
     revs = [subprocess.run(["git", "rev-parse", "--short", r], cwd=ROOT, check=True, capture_output=True,
                            text=True).stdout.strip() for r in (a.before, a.after)]
-    ims = [labelled(version(r, a.name), f"{a.name} at {r}") for r in revs]
+    pics = [version(r, a.name) for r in revs]
+    pics = [p.resize((round(p.width * a.scale), round(p.height * a.scale)), Image.LANCZOS) for p in pics]
+    ims = [labelled(p, f"{a.name} at {r}") for p, r in zip(pics, revs)]
     h = max(x.shape[0] for x in ims)
     ims = [np.pad(x, ((0, h - x.shape[0]), (0, 0), (0, 0)), constant_values=255) for x in ims]
     gap = np.full((h, 16, 3), 255, np.uint8)
