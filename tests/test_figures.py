@@ -292,6 +292,22 @@ CHECKS = [
      [((BUDDHA, "presets", "splat", "eval", "seconds_per_view"), f1), ((BUDDHA, "presets", "splat", "orbit60", "seconds_per_frame"), f2),
       ((MARY, "presets", "splat", "eval", "seconds_per_view"), f1), ((MARY, "presets", "splat", "orbit60", "seconds_per_frame"), f2)]),
     ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "buddha: `own_photos_buddha.json` at {h}", [commit(BUDDHA)]),
+    # ---- docs/getting-started.md: a room as splats
+    ("docs/getting-started.md", "posed 11 of the 13 photos", "posed {} of the {} photos in {} s, with {} SfM points",
+     [((BUDDHA, "process_data", "registered"), d), ((BUDDHA, "process_data", "photos"), d),
+      ((BUDDHA, "process_data", "wall_s"), f1), ((BUDDHA, "process_data", "points"), d)]),
+    ("docs/getting-started.md", "then a progress bar (step, loss",
+     "In {} minutes it ran {} steps and scored **{} dB / SSIM {}** on the {} held-out photos (the `ngp` preset, the "
+     "same way: {} dB / SSIM {} in {} steps)",
+     [((lambda: R(BUDDHA, "presets", "splat", "train_wall_s") / 60), f0), ((BUDDHA, "presets", "splat", "steps"), d),
+      ((BUDDHA, "presets", "splat", "eval", "psnr"), f2), ((BUDDHA, "presets", "splat", "eval", "ssim"), f3),
+      ((BUDDHA, "presets", "splat", "eval", "views"), d), ((BUDDHA, "presets", "ngp", "eval", "psnr"), f2),
+      ((BUDDHA, "presets", "ngp", "eval", "ssim"), f3), ((BUDDHA, "presets", "ngp", "steps"), d)]),
+    ("docs/getting-started.md", "took 1.0 s per held-out photo",
+     "took {} s per held-out photo at full size; `render --orbit {}` took {} minutes (the `ngp` preset: {} minutes)",
+     [((BUDDHA, "presets", "splat", "eval", "seconds_per_view"), f1), ((BUDDHA, "presets", "splat", "orbit60", "frames"), d),
+      ((lambda: R(BUDDHA, "presets", "splat", "orbit60_wall_s") / 60), f1),
+      ((lambda: R(BUDDHA, "presets", "ngp", "orbit60_wall_s") / 60), f1)]),
     ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "maryrose: `own_photos_maryrose.json` at {h}", [commit(MARY)]),
     # ---- docs/splats.md
     ("docs/splats.md", "A background of its own: on photos without masks",
@@ -591,3 +607,12 @@ def test_user_docs_hold_no_development_history():
     texts["README.md"] = readme[readme.index("## Your own photos"):]
     found = [(name, m.group(0)) for name, text in texts.items() for m in HISTORY.finditer(text)]
     assert not found, found
+
+
+def test_quoted_train_log_lines_are_the_records():
+    """The lines of `train`'s plan that docs/getting-started.md shows are the ones the buddha record logged."""
+    text = (ROOT / "docs" / "getting-started.md").read_text()
+    block = text[text.index("## A room, no masks"):text.index("## Lego quickstart")]
+    quoted = [line.strip() for line in block.split("```text")[1].split("```")[0].splitlines() if line.strip()]
+    assert len(quoted) == 3
+    assert set(quoted) <= set(R(BUDDHA, "presets", "splat", "log"))
