@@ -59,8 +59,11 @@ def side_by_side(runs: dict[str, Path], views: list[int], out: Path) -> None:
     photos = load_scene(first.data_dir(), "test", format=d.format, downscale=d.downscale, target_width=d.target_width,
                         background=d.background, masks=d.masks, holdout_every=d.holdout_every,
                         undistort=d.undistort).images
-    rows = [np.concatenate([to_uint8(photos[k])] + [iio.imread(r / "eval_test" / f"view_{k:03d}_rgb.png")[..., :3]
-                                                   for r in runs.values()], axis=1) for k in views]
+    tiles = [[to_uint8(photos[k])] + [iio.imread(r / "eval_test" / f"view_{k:03d}_rgb.png")[..., :3]
+                                      for r in runs.values()] for k in views]
+    h, w = min(t.shape[0] for row in tiles for t in row), min(t.shape[1] for row in tiles for t in row)
+    # (splats render the undistorted pinhole camera, which may be a pixel smaller than the photos: cropped alike)
+    rows = [np.concatenate([t[:h, :w] for t in row], axis=1) for row in tiles]
     iio.imwrite(out, np.concatenate(rows, axis=0), quality=90)
 
 
