@@ -138,6 +138,26 @@ def _write_points(path: Path, cloud: list[tuple[np.ndarray, np.ndarray]], n: int
     trimesh.PointCloud(xyz, colors=rgba.astype(np.uint8)).export(path)
 
 
+def _imperfections(n: int, gains: float, exact_every: int, rng) -> tuple[np.ndarray, np.ndarray]:
+    """(gains [n, 3] drawn uniformly in [1 - gains, 1 + gains], spared [n] bool): the photos every exact_every-th
+    (index % exact_every == 0) keep gain 1 and their exact pose (make_capture)."""
+    photo_gains = rng.uniform(1 - gains, 1 + gains, (n, 3)) if gains else np.ones((n, 3))
+    spared = np.arange(n) % exact_every == 0 if exact_every else np.zeros(n, bool)
+    photo_gains[spared] = 1.0
+    return photo_gains, spared
+
+
+def _written_poses(out: Path, poses: np.ndarray, photo_gains: np.ndarray, pose_noise: tuple[float, float],
+                   spared: np.ndarray, seed: int) -> np.ndarray:
+    """Save the exact poses and gains under out/truth/ and return the poses to write: perturbed by pose_noise
+    (degrees, share of the camera radius; correction.perturb_poses), the spared photos' kept exact."""
+    (out / "truth").mkdir(exist_ok=True)
+    np.save(out / "truth" / "poses.npy", poses, allow_pickle=False)
+    np.save(out / "truth" / "gains.npy", photo_gains, allow_pickle=False)
+    moved = perturb_poses(poses, pose_noise[0], pose_noise[1] * proc.CAMERA_RADIUS, seed)
+    return np.where(spared[:, None, None], poses, moved)
+
+
 def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16, size: int = 48,
                  camera: Camera | None = None, environment: bool = False, masks: bool = False,
                  seed: int = 0, text: bool = True, pose_noise: tuple[float, float] = (0.0, 0.0),
@@ -169,9 +189,7 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
         raise DataError("make_capture: LLFF holds only centred pinhole cameras")
     poses = rig_poses(rig, n_views, seed)
     rng = np.random.default_rng([seed, 1])
-    photo_gains = rng.uniform(1 - gains, 1 + gains, (n_views, 3)) if gains else np.ones((n_views, 3))
-    spared = np.arange(n_views) % exact_every == 0 if exact_every else np.zeros(n_views, bool)
-    photo_gains[spared] = 1.0
+    photo_gains, spared = _imperfections(n_views, gains, exact_every, rng)
     for sub in ("images", "depth") + (("masks",) if masks else ()):
         (out / sub).mkdir(parents=True, exist_ok=True)
     if points and fmt != "nerfstudio":
@@ -185,11 +203,7 @@ def make_capture(out: str | Path, fmt: str = "nerfstudio", *, n_views: int = 16,
         hit = depth[np.isfinite(depth)]
         bounds.append([hit.min(), hit.max()] if hit.size else [1.0, 10.0])
     if any(pose_noise) or gains:
-        (out / "truth").mkdir(exist_ok=True)
-        np.save(out / "truth" / "poses.npy", poses, allow_pickle=False)
-        np.save(out / "truth" / "gains.npy", photo_gains, allow_pickle=False)
-        poses = np.where(spared[:, None, None], poses,
-                         perturb_poses(poses, pose_noise[0], pose_noise[1] * proc.CAMERA_RADIUS, seed))
+        poses = _written_poses(out, poses, photo_gains, pose_noise, spared, seed)
     frames = [{"file_path": f"images/{name}", "transform_matrix": c2w.tolist(),
                "mask_path": f"masks/{name}" if masks else None} for name, c2w in zip(names, poses)]
     if fmt == "nerfstudio":
