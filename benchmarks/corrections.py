@@ -27,7 +27,6 @@ import argparse
 import json
 from pathlib import Path
 
-import jax.numpy as jnp
 import numpy as np
 from provenance import provenance
 
@@ -52,7 +51,7 @@ def main() -> None:
     from nerfkit.data.procedural.captures import make_capture
     from nerfkit.data.procedural.scene import CAMERA_RADIUS
     from nerfkit.evaluation.evaluate import evaluate_run
-    from nerfkit.rays.correction import aligned_pose_error, camera_extent, corrected_pose
+    from nerfkit.rays.correction import aligned_pose_error, refined_poses
     from nerfkit.run.folder import RunFolder
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -112,8 +111,7 @@ def main() -> None:
             given = aligned_pose_error(poses, truth_poses[idx])
             r["given_pose_error"] = {"degrees": round(given[0], 4), "radius_share": round(given[1] / CAMERA_RADIUS, 5)}
             if "cam_pose" in loaded.params:
-                refined = np.asarray(corrected_pose(jnp.asarray(poses, jnp.float32), loaded.params["cam_pose"],
-                                                    camera_extent(poses)), np.float64)
+                refined = refined_poses(poses, loaded.params["cam_pose"])
                 after = aligned_pose_error(refined, truth_poses[idx])
                 r["refined_pose_error"] = {"degrees": round(after[0], 4),
                                            "radius_share": round(after[1] / CAMERA_RADIUS, 5)}

@@ -72,7 +72,7 @@ def scene_view_of_run(run_dir: Path, cfg, params: dict | None = None) -> SceneVi
     """Training cameras (with thumbnails when the photos are still where the run found them), box, background;
     the cameras at their refined poses where the run's params learned pose corrections (--pose-refine)."""
     scene = RunFolder(run_dir).scene()
-    poses = np.asarray(run_poses(params, np.asarray(scene["train_poses"], np.float32)), np.float64)
+    poses = np.asarray(run_poses(params, scene["train_poses"]), np.float64)
     cams = [Camera.from_json(scene["camera"])] * len(poses)
     thumbs = None
     d = cfg.data

@@ -13,7 +13,7 @@ from nerfkit.core.presets import preset
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.data.procedural.captures import make_capture
 from nerfkit.evaluation.evaluate import POSE_NOTE, evaluate_run
-from nerfkit.rays.correction import aligned_pose_error, apply_similarity, corrected_pose, refinement_similarity
+from nerfkit.rays.correction import aligned_pose_error, apply_similarity, refined_poses, refinement_similarity
 from nerfkit.run.folder import RunFolder
 
 N_VIEWS, SIZE, GAINS, NOISE = 24, 48, 0.15, (1.0, 0.02)
@@ -44,8 +44,7 @@ def test_corrections_find_the_gains_and_the_poses(capture, tmp_path, capsys):
     assert np.median(np.abs(found - truth)) < 0.8 * np.median(np.abs(truth - 1.0)), (found, truth)  # 0.65 measured
     # Poses: the refined ones nearer the truth than the given ones, in angle and in position.
     poses = np.asarray(loaded.scene["train_poses"], np.float64)
-    refined = np.asarray(corrected_pose(jnp.asarray(poses, jnp.float32), loaded.params["cam_pose"],
-                                        loaded.model.extent), np.float64)
+    refined = refined_poses(poses, loaded.params["cam_pose"])
     true_poses = np.load(capture / "truth" / "poses.npy")[idx]
     given, after = aligned_pose_error(poses, true_poses), aligned_pose_error(refined, true_poses)
     print("given", given, "refined", after)
