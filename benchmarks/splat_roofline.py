@@ -1,0 +1,265 @@
+"""The CPU tile rasteriser against the machine's limit: work counted, rate achieved, peak measured.
+
+    python benchmarks/splat_roofline.py RUN [RUN ...] [--views 6] [--reps 5] [--name splat_roofline]
+
+For each trained splat run (its Gaussians, at the run's image size) and `--views` training views evenly spaced:
+
+work     pixel-Gaussian pairs, counted by a mirror of the kernels' loops (tiles_kernels.py): forward, the pairs
+         tested (a pixel of a Gaussian's ellipse span, not yet done) and blended (the alpha test passed);
+         backward, the pairs tested (k < the pixel's n_contrib) and blended; flops per pair from the kernels'
+         arithmetic (FLOPS below: an exp, a division and a min count one flop each, as a roofline counts them);
+         bytes from memory per pair: a Gaussian's 10 float64 parameters read once per tile it lands in, the
+         image, T and n_contrib once per pixel (everything else lives in the tile's L1-resident arrays).
+time     tiles_numba.forward and .backward (binning included, as a training step pays it), median of --reps,
+         on every core and on one (parallel efficiency), and the binning alone.
+machine  measured peaks: float64 and float32 matrix products (numpy's BLAS on every core: what the cores'
+         vector units do at their best), a plain numba loop of independent multiply-adds over both cores (what
+         numba's vectoriser reaches on easy code), and memory bandwidth (a numba triad over 3 x 96 MB arrays).
+
+achieved = flops / time; attainable = min(peak, intensity x bandwidth) (the roofline); the gap is their ratio.
+Writes benchmarks/results/<name>.json with its provenance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from numba import njit, prange
+from provenance import provenance
+
+from nerfkit.models.splat import tiles_numba
+from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, intrinsics_of, splat_inputs
+from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
+from nerfkit.models.splat.tiles_kernels import TILE, _cols, _gaussian, _rows, _tile_box
+from nerfkit.rays.cameras import Camera
+from nerfkit.run.folder import RunFolder
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Flops per pair, read off tiles_kernels.py's inner loops (3 colour channels):
+#   tested: e *= r, r *= q (2); d_x = m_x - (x0 + x + 0.5) (2); sigma = 0.5 (a dx^2 + c dy^2) + b dx dy (9)
+#   forward blended: alpha = min(ALPHA_MAX, o e) (2); next_t = T (1 - alpha) (2); w = alpha T (1);
+#       acc += w c (6)
+#   backward blended: alpha (2); 1 / (1 - alpha) (2); t_k, w (2); per channel g_col += w G, d_alpha +=
+#       (c - R) G, R += alpha (c - R) (7 x 3); d_alpha t_k - g_end inv (3); g_o += e d_alpha (2);
+#       d_sigma = -alpha d_alpha (2); g_mx, g_my += d_sigma (a dx + b dy) (5 + 5); g_a, g_b, g_c (3 x 3)
+FLOPS = {"tested": 13, "forward_blended": 11, "backward_blended": 53}
+PARAM_BYTES = 10 * 8  # per Gaussian-tile entry: mean 2, conic 3, opacity 1, colour 3, id (as 8)
+PIXEL_BYTES = {"forward": 3 * 8 + 8 + 4, "backward": 3 * 8 + 8 + 4 + 8}  # image, T, n_contrib (+ dL/dT)
+
+
+@njit(cache=False)
+def _pair_passes(g, means2d, conics, opacities, x0, y0, nx, ny):
+    """The pixels (y, x) of Gaussian g's ellipse span in the tile and whether each passes the alpha test
+    (tiles_kernels._blend_tile's tests), as a list of (y, x, alpha or -1)."""
+    res = []
+    mx, my, a, b, c, o, det, span, ok = _gaussian(g, means2d, conics, opacities)
+    if not ok:
+        return res
+    ys, ye = _rows(my, a, det, span, y0, ny)
+    for y in range(ys, ye + 1):
+        dy = my - (y0 + y + 0.5)
+        xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
+        for x in range(xs, xe + 1):
+            dx = mx - (x0 + x + 0.5)
+            sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
+            alpha = min(ALPHA_MAX, o * math.exp(-sigma))
+            res.append((y, x, alpha if (0.0 <= sigma <= SIGMA_MAX and alpha >= ALPHA_MIN) else -1.0))
+    return res
+
+
+@njit(cache=False)
+def count_pairs(means2d, conics, opacities, offsets, ids, n_contrib, width, height):
+    """(forward tested, forward blended, backward tested, backward blended, Gaussian-tile entries the forward
+    pass visits, entries the backward pass visits): the kernels' loops (tiles_kernels._blend_tile,
+    _unblend_tile) run with counters instead of arithmetic (the same tests, so the same pairs)."""
+    tiles_x = (width + TILE - 1) // TILE
+    f_test = f_blend = b_test = b_blend = f_entries = b_entries = 0
+    for t in range(offsets.size - 1):
+        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
+        start, count = offsets[t], offsets[t + 1] - offsets[t]
+        trans = np.ones((TILE, TILE))
+        done = np.zeros((TILE, TILE), np.bool_)
+        n_live = nx * ny
+        for k in range(count):  # forward, front to back, until every pixel is done
+            f_entries += 1
+            for y, x, alpha in _pair_passes(ids[start + k], means2d, conics, opacities, x0, y0, nx, ny):
+                if done[y, x]:
+                    continue
+                f_test += 1
+                if alpha < 0.0:
+                    continue
+                next_t = trans[y, x] * (1.0 - alpha)
+                if next_t < T_MIN:
+                    done[y, x] = True
+                    n_live -= 1
+                    continue
+                f_blend += 1
+                trans[y, x] = next_t
+            if n_live == 0:
+                break
+        last = 0
+        for y in range(ny):
+            for x in range(nx):
+                last = max(last, n_contrib[y0 + y, x0 + x])
+        for k in range(last - 1, -1, -1):  # backward, from the tile's largest n_contrib
+            b_entries += 1
+            for y, x, alpha in _pair_passes(ids[start + k], means2d, conics, opacities, x0, y0, nx, ny):
+                if k >= n_contrib[y0 + y, x0 + x]:
+                    continue
+                b_test += 1
+                b_blend += alpha >= 0.0
+    return f_test, f_blend, b_test, b_blend, f_entries, b_entries
+
+
+@njit(parallel=True, fastmath=True, cache=False)
+def _fma_loop(x, reps):
+    """x [workers, 64]: reps rounds of x = x 0.9999999 + 1e-9 per row, rows across the cores (2 flops each)."""
+    for w in prange(x.shape[0]):
+        v = x[w].copy()
+        for _ in range(reps):
+            for j in range(v.size):
+                v[j] = v[j] * 0.9999999 + 1e-9
+        x[w] = v
+
+
+@njit(parallel=True, cache=False)
+def _triad(a, b, c, s):
+    for i in prange(a.size):
+        a[i] = b[i] + s * c[i]
+
+
+def _best(fn, reps: int) -> float:
+    fn()
+    ts = []
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return min(ts)
+
+
+def machine_peaks(reps: int = 5) -> dict:
+    """Measured: GFLOP/s of BLAS matrix products (float64, float32; 2 n^3 flops), of the numba multiply-add
+    loop, and the triad's GB/s (24 bytes moved per element: two reads, one write)."""
+    out = {}
+    for dt in (np.float64, np.float32):
+        n = 2048
+        a, b = np.random.default_rng(0).random((2, n, n)).astype(dt)
+        out[f"blas_{np.dtype(dt).name}_gflops"] = round(2 * n ** 3 / _best(lambda: a @ b, reps) / 1e9, 1)
+    workers = 64
+    x = np.ones((workers, 64))
+    r = 200_000
+    out["numba_fma_float64_gflops"] = round(2 * x.size * r / _best(lambda: _fma_loop(x, r), reps) / 1e9, 1)
+    n = 12_000_000
+    a, b, c = np.zeros(n), np.ones(n), np.ones(n)
+    out["triad_gbs"] = round(24 * n / _best(lambda: _triad(a, b, c, 0.5), reps) / 1e9, 1)
+    return out
+
+
+def _median(fn, reps: int) -> float:
+    fn()
+    ts = []
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return float(np.median(ts))
+
+
+def view_inputs(run, view: int) -> tuple:
+    """The rasteriser's numpy inputs for training view `view` of a loaded run, and (width, height)."""
+    p = {k: jnp.asarray(v) for k, v in run.params.items() if k in PARAM_NAMES}
+    cam = Camera.from_json(run.scene["camera"])
+    w, h = cam.width, cam.height
+    c2w = jnp.asarray(np.asarray(run.scene["train_poses"][view], np.float32))
+    intr = jnp.asarray(intrinsics_of(cam), jnp.float32)
+    proj, colors, opac = jax.jit(lambda q: splat_inputs(q, c2w, (intr[0], intr[1], intr[2], intr[3]), w, h,
+                                                        all_sh(q) * band_mask(3)))(p)
+    arr = [np.asarray(x) for x in (proj["means2d"], proj["conics"], colors, opac, proj["depths"], proj["radii"])]
+    return (*arr, np.ones(3, np.float32)), (w, h)
+
+
+def measure_view(run, view: int, reps: int) -> dict:
+    args, (w, h) = view_inputs(run, view)
+    means2d, conics, colors, opac, depths, radii, bg = args
+    image, t_final, n_contrib = tiles_numba.forward(*args, w, h)
+    g_img = np.random.default_rng(view).normal(size=image.shape).astype(np.float32) * 1e-3
+    g_t = np.zeros_like(t_final)
+    m64, c64, o64 = (np.ascontiguousarray(x, np.float64) for x in (means2d, conics, opac))
+    offsets, ids = tiles_numba.bin_gaussians(m64, c64, o64, depths, np.ascontiguousarray(radii, np.int32), w, h)
+    f_test, f_blend, b_test, b_blend, f_entries, b_entries = count_pairs(m64, c64, o64, offsets, ids, n_contrib, w, h)
+    times = {"forward_s": _median(lambda: tiles_numba.forward(*args, w, h), reps),
+             "backward_s": _median(lambda: tiles_numba.backward(*args, w, h, t_final, n_contrib, g_img, g_t), reps),
+             "forward_1thread_s": _median(lambda: tiles_numba.forward(*args, w, h, threads=1), reps),
+             "backward_1thread_s": _median(lambda: tiles_numba.backward(*args, w, h, t_final, n_contrib, g_img, g_t,
+                                                                        threads=1), reps),
+             "binning_s": _median(lambda: tiles_numba.bin_gaussians(m64, c64, o64, depths, radii, w, h), reps)}
+    return {"view": view, "width": w, "height": h, "gaussians_live": int((radii > 0).sum()),
+            "tile_entries": int(ids.size), "entries_visited": {"forward": int(f_entries), "backward": int(b_entries)},
+            "pairs": {"forward_tested": int(f_test), "forward_blended": int(f_blend),
+                      "backward_tested": int(b_test), "backward_blended": int(b_blend)},
+            **{k: round(v, 5) for k, v in times.items()}}
+
+
+def roofline(views: list[dict], peaks: dict) -> dict:
+    """Totals over the views: flops, bytes, seconds per pass; achieved GFLOP/s and the attainable one."""
+    out = {}
+    for pas in ("forward", "backward"):
+        tested = sum(v["pairs"][f"{pas}_tested"] for v in views)
+        blended = sum(v["pairs"][f"{pas}_blended"] for v in views)
+        flops = FLOPS["tested"] * tested + FLOPS[f"{pas}_blended"] * blended
+        nbytes = sum(PARAM_BYTES * v["entries_visited"][pas] + PIXEL_BYTES[pas] * v["width"] * v["height"]
+                     for v in views)
+        secs = sum(v[f"{pas}_s"] for v in views)
+        secs1 = sum(v[f"{pas}_1thread_s"] for v in views)
+        intensity = flops / nbytes
+        peak = peaks["blas_float64_gflops"]
+        attainable = min(peak, intensity * peaks["triad_gbs"])
+        achieved = flops / secs / 1e9
+        out[pas] = {"pairs_tested": tested, "pairs_blended": blended, "gflop": round(flops / 1e9, 4),
+                    "mbytes": round(nbytes / 1e6, 2), "flops_per_byte": round(intensity, 1),
+                    "ms_per_view": round(1e3 * secs / len(views), 2),
+                    "ns_per_tested_pair": round(1e9 * secs / tested, 2),
+                    "achieved_gflops": round(achieved, 2), "attainable_gflops": round(attainable, 1),
+                    "gap": round(attainable / achieved, 1),
+                    "numba_loop_gap": round(peaks["numba_fma_float64_gflops"] / achieved, 1),
+                    "parallel_speedup": round(secs1 / secs, 2)}
+    out["binning_share_of_forward"] = round(sum(v["binning_s"] for v in views) / sum(v["forward_s"] for v in views), 3)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("runs", type=Path, nargs="+")
+    ap.add_argument("--views", type=int, default=6)
+    ap.add_argument("--reps", type=int, default=5)
+    ap.add_argument("--name", default="splat_roofline")
+    a = ap.parse_args()
+    peaks = machine_peaks()
+    print("machine:", peaks, flush=True)
+    result = {"what": __doc__.split("\n\n")[0], "flops_per_pair": FLOPS, "machine": peaks, "runs": {},
+              "provenance": provenance()}
+    for path in a.runs:
+        run = RunFolder(path).load()
+        n_train = len(run.scene["train_poses"])
+        views = [measure_view(run, int(v), a.reps) for v in np.linspace(0, n_train - 1, a.views).round()]
+        result["runs"][str(path)] = {"gaussians": int(np.asarray(run.params["means"]).shape[0]), "views": views,
+                                     "roofline": roofline(views, peaks)}
+        print(path, json.dumps(result["runs"][str(path)]["roofline"], indent=1), flush=True)
+    peaks_after = machine_peaks()  # the machine is shared: the peaks again, after
+    result["machine_after"] = peaks_after
+    out = ROOT / "benchmarks" / "results" / f"{a.name}.json"
+    out.write_text(json.dumps(result, indent=1))
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
