@@ -12,7 +12,7 @@ work     pixel-Gaussian pairs, counted by a mirror of the kernels' loops (tiles_
          image, T and n_contrib once per pixel (everything else lives in the tile's L1-resident arrays).
 time     tiles_numba.forward and .backward (binning included, as a training step pays it), median of --reps,
          on every core and on one (parallel efficiency), and the binning alone.
-machine  measured peaks: float64 and float32 matrix products (numpy's BLAS on every core: what the cores'
+machine  measured peaks (before and after the runs, the better of the two: the machine is shared): float64 and float32 matrix products (numpy's BLAS on every core: what the cores'
          vector units do at their best), a plain numba loop of independent multiply-adds over both cores (what
          numba's vectoriser reaches on easy code), and memory bandwidth (a numba triad over 3 x 96 MB arrays).
 
@@ -228,6 +228,7 @@ def roofline(views: list[dict], peaks: dict) -> dict:
                     "mbytes": round(nbytes / 1e6, 2), "flops_per_byte": round(intensity, 1),
                     "ms_per_view": round(1e3 * secs / len(views), 2),
                     "ns_per_tested_pair": round(1e9 * secs / tested, 2),
+                    "pairs_per_entry": round(tested / sum(v["entries_visited"][pas] for v in views), 1),
                     "achieved_gflops": round(achieved, 2), "attainable_gflops": round(attainable, 1),
                     "gap": round(attainable / achieved, 1),
                     "numba_loop_gap": round(peaks["numba_fma_float64_gflops"] / achieved, 1),
@@ -243,19 +244,24 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=5)
     ap.add_argument("--name", default="splat_roofline")
     a = ap.parse_args()
-    peaks = machine_peaks()
-    print("machine:", peaks, flush=True)
-    result = {"what": __doc__.split("\n\n")[0], "flops_per_pair": FLOPS, "machine": peaks, "runs": {},
-              "provenance": provenance()}
+    before = machine_peaks()
+    print("machine:", before, flush=True)
+    measured = {}
     for path in a.runs:
         run = RunFolder(path).load()
         n_train = len(run.scene["train_poses"])
         views = [measure_view(run, int(v), a.reps) for v in np.linspace(0, n_train - 1, a.views).round()]
-        result["runs"][str(path)] = {"gaussians": int(np.asarray(run.params["means"]).shape[0]), "views": views,
-                                     "roofline": roofline(views, peaks)}
-        print(path, json.dumps(result["runs"][str(path)]["roofline"], indent=1), flush=True)
-    peaks_after = machine_peaks()  # the machine is shared: the peaks again, after
-    result["machine_after"] = peaks_after
+        log = path / "metrics.jsonl"
+        steps = json.loads(log.read_text().splitlines()[-1])["step"] if log.is_file() else None
+        measured[str(path)] = {"gaussians": int(np.asarray(run.params["means"]).shape[0]), "trained_steps": steps,
+                               "views": views}
+    after = machine_peaks()  # the machine is shared: the peaks again, after; the roofline takes the better
+    peaks = {k: max(before[k], after[k]) for k in before}
+    result = {"what": __doc__.split("\n\n")[0], "flops_per_pair": FLOPS, "machine": peaks,
+              "machine_before_after": [before, after], "runs": {}, "provenance": provenance()}
+    for path, m in measured.items():
+        result["runs"][path] = m | {"roofline": roofline(m["views"], peaks)}
+        print(path, json.dumps(result["runs"][path]["roofline"], indent=1), flush=True)
     out = ROOT / "benchmarks" / "results" / f"{a.name}.json"
     out.write_text(json.dumps(result, indent=1))
     print(f"wrote {out}")
