@@ -86,6 +86,7 @@ BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
+ROOF = "splat_roofline.json"  # the CPU rasteriser against the machine's peaks
 REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
 ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.json"
 SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
@@ -192,6 +193,34 @@ CHECKS = [
       ((BUDDHA, "presets", "ngp", "eval_downscale4", "seconds_per_view"), f1),
       ((BUDDHA, "presets", "ngp", "orbit60", "width"), d), ((BUDDHA, "presets", "ngp", "orbit60", "height"), d),
       ((BUDDHA, "presets", "ngp", "orbit60", "seconds_per_frame"), f1)]),
+    # ---- docs/measurements.md: the splat rasteriser's roofline
+    *[("docs/measurements.md", f"| {label} | {pas} |",
+       f"| {label} | {pas} | {{}} M{' ({} % blended)' if pas == 'forward' else ''} | {{}} | {{}} GFLOP/s | "
+       "{} GFLOP/s | {}x | {}x |".replace(" %", "%"),
+       [(lambda r=run, p=pas: R(ROOF, "runs", r, "roofline", p, "pairs_tested") / len(R(ROOF, "runs", r, "views")) / 1e6,
+         f1)]
+       + ([(lambda r=run: R(ROOF, "runs", r, "roofline", "forward", "pairs_blended")
+            / R(ROOF, "runs", r, "roofline", "forward", "pairs_tested"), pct0)] if pas == "forward" else [])
+       + [((ROOF, "runs", run, "roofline", pas, "ms_per_view"), f0),
+          ((ROOF, "runs", run, "roofline", pas, "achieved_gflops"), f2),
+          ((ROOF, "runs", run, "roofline", pas, "attainable_gflops"), f1),
+          ((ROOF, "runs", run, "roofline", pas, "gap"), f0),
+          ((ROOF, "runs", run, "roofline", pas, "parallel_speedup"), f2)])
+      for label, run in (("lego 200x200, a 2-minute run", "/tmp/w/lego_splat"),
+                         ("maryrose 432x432, a 10-minute run", "/tmp/w/mr_runs/splat"))
+      for pas in ("forward", "backward")],
+    ("docs/measurements.md", "`python benchmarks/splat_roofline.py RUN",
+     "(numpy's BLAS) **{} GFLOP/s** (float32 {}), a plain numba loop of independent multiply-adds {} GFLOP/s, "
+     "memory {} GB/s", [((ROOF, "machine", "blas_float64_gflops"), f1), ((ROOF, "machine", "blas_float32_gflops"), f1),
+                        ((ROOF, "machine", "numba_fma_float64_gflops"), f1), ((ROOF, "machine", "triad_gbs"), f1)]),
+    ("docs/measurements.md", "The kernels run 30 to 100 times",
+     "lego's tile entries (a Gaussian in a tile) cover {} pairs each and cost {} ns a pair, maryrose's cover {} and "
+     "cost {} ns", [((ROOF, "runs", "/tmp/w/lego_splat", "roofline", "forward", "pairs_per_entry"), f0),
+                    ((ROOF, "runs", "/tmp/w/lego_splat", "roofline", "forward", "ns_per_tested_pair"), f1),
+                    ((ROOF, "runs", "/tmp/w/mr_runs/splat", "roofline", "forward", "pairs_per_entry"), f0),
+                    ((ROOF, "runs", "/tmp/w/mr_runs/splat", "roofline", "forward", "ns_per_tested_pair"), f1)]),
+    ("docs/measurements.md", "The kernels run 30 to 100 times", "splat run took {} steps,",
+     [(("maryrose_recheck_cli.json", "presets", "splat", "steps"), d)]),
     # ---- docs/measurements.md
     ("docs/measurements.md", "| `--preset ngp` (hash grid + occupancy grid), through the CLI",
      "**{} dB** after 2 min ({} steps), **{} dB** after 5 min ({} steps), **{} dB / SSIM {} after 10 min** ({} steps, {} steps/s) "

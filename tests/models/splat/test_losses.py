@@ -14,6 +14,7 @@ import pytest
 from nerfkit.core.metrics import ssim as ssim_metric
 from nerfkit.models.splat.losses import (
     band_matrix,
+    filter_valid,
     gaussian_window,
     l1,
     photometric_loss,
@@ -48,6 +49,22 @@ def test_window_and_band_matrix():
     b = band_matrix(20, g)
     x = np.random.default_rng(1).normal(size=20)
     np.testing.assert_allclose(b @ x, np.convolve(x, g[::-1], mode="valid"), rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("h, w", [(11, 12), (31, 43), (42, 42), (75, 64), (97, 130)])
+def test_filter_valid_is_the_separable_valid_correlation(h, w):
+    """The blocked filter (blocks of FILTER_BLOCK, a block's tail read from the next) against scipy's 2D valid
+    correlation with the outer product of the window, on sizes below, at and across the block edges."""
+    from scipy.signal import correlate2d
+
+    g = gaussian_window()
+    x = np.random.default_rng(h * w).uniform(size=(2, h, w, 3)).astype(np.float32)
+    ours = np.asarray(filter_valid(jnp.asarray(x), g))
+    assert ours.shape == (2, h - 10, w - 10, 3)
+    for m in range(2):
+        for c in range(3):
+            np.testing.assert_allclose(ours[m, :, :, c], correlate2d(x[m, :, :, c], np.outer(g, g), mode="valid"),
+                                       rtol=1e-5, atol=1e-6)
 
 
 def test_loss_mix_and_gradient():

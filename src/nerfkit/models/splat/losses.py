@@ -10,9 +10,12 @@ SSIM (Wang et al. 2004) with an 11 x 11 Gaussian window (sigma 1.5, normalised),
 computed only where the window fits inside the image ("valid": pixels at least 5 px from the
 border), averaged over those pixels and the channels: the same number as nerfkit.core.metrics.ssim
 (skimage, gaussian_weights, use_sample_covariance=False), which reflects the border and then
-crops it. The separable window is applied as two matrix products with banded matrices
-B [H - 10, H], B_ij = g_{j - i} (valid filtering along one axis): on a CPU its gradient is ~20x
-faster than XLA's convolution or 11 shifted slices (11 vs 150-200 ms at 200 x 200, measured).
+crops it. The separable window is applied along each axis as matrix products with banded blocks: the
+axis is cut into blocks of FILTER_BLOCK (32) samples, and output block b = B1 x_b + B2 x_{b+1}[:10], with
+B1 [32, 32] and B2 [32, 10] the square part and the tail of the band B_ij = g_{j - i} (filter_valid). On a
+CPU this gradient is ~20x faster than XLA's convolution or 11 shifted slices, and 2-3x faster than one band
+matrix over the whole axis, whose cost grows as H^2 W (interleaved, one sitting: 11 vs 22 ms at 200 x 200,
+105 vs 273 ms at 432 x 432, the five SSIM maps' filter with its gradient).
 D-SSIM = 1 - SSIM (as the 3DGS code).
 """
 
@@ -46,17 +49,41 @@ def band_matrix(n: int, g: np.ndarray) -> np.ndarray:
     return b
 
 
-def _filter_valid(x: jax.Array, g: np.ndarray) -> jax.Array:
+FILTER_BLOCK = 32
+
+
+def _valid_along(x: jax.Array, g: np.ndarray, axis: int, block: int = FILTER_BLOCK) -> jax.Array:
+    """x [M, H, W, C] 'valid'-filtered by g [k] along axis 1 (H) or 2 (W): that axis becomes n - k + 1 long.
+    The axis, zero-padded to nb + 1 blocks of `block` (nb = ceil(n / block)), is filtered block by block:
+    y_b = B1 x_b + B2 x_{b+1}[:k - 1] with band_matrix(block + k - 1, g) = [B1 | B2] (block >= k - 1)."""
+    k, n = len(g), x.shape[axis]
+    full = band_matrix(block + k - 1, g)
+    b1, b2 = jnp.asarray(full[:, :block]), jnp.asarray(full[:, block:])
+    nb = -(-n // block)
+    pad = [(0, 0)] * 4
+    pad[axis] = (0, (nb + 1) * block - n)
+    xb = jnp.pad(x, pad)
+    shape = list(x.shape)
+    shape[axis:axis + 1] = [nb + 1, block]
+    xb = xb.reshape(shape)
+    spec = "ih,mbhwc->mbiwc" if axis == 1 else "iw,mhbwc->mhbic"
+    head = jax.lax.slice_in_dim(xb, 0, nb, axis=axis)
+    tail = jax.lax.slice_in_dim(jax.lax.slice_in_dim(xb, 1, nb + 1, axis=axis), 0, k - 1, axis=axis + 1)
+    y = jnp.einsum(spec, b1, head) + jnp.einsum(spec, b2, tail)
+    shape = list(x.shape)
+    shape[axis] = nb * block
+    return jax.lax.slice_in_dim(y.reshape(shape), 0, n - k + 1, axis=axis)
+
+
+def filter_valid(x: jax.Array, g: np.ndarray) -> jax.Array:
     """Separable 'valid' filter of x [M, H, W, C] with weights g [k] along H and W: [M, H-k+1, W-k+1, C]."""
-    bh = jnp.asarray(band_matrix(x.shape[-3], g))
-    bw = jnp.asarray(band_matrix(x.shape[-2], g))
-    return jnp.einsum("jw,miwc->mijc", bw, jnp.einsum("ih,mhwc->miwc", bh, x))
+    return _valid_along(_valid_along(x, g, 1), g, 2)
 
 
 def ssim_map(x: jax.Array, y: jax.Array, window: int = SSIM_WINDOW, sigma: float = SSIM_SIGMA) -> jax.Array:
     """SSIM [H-10, W-10, C] of images x, y [H, W, C] in [0, 1] at every valid window position."""
     g = gaussian_window(window, sigma)
-    mu_x, mu_y, xx, yy, xy = _filter_valid(jnp.stack([x, y, x * x, y * y, x * y]), g)
+    mu_x, mu_y, xx, yy, xy = filter_valid(jnp.stack([x, y, x * x, y * y, x * y]), g)
     var_x, var_y, cov = xx - mu_x * mu_x, yy - mu_y * mu_y, xy - mu_x * mu_y
     num = (2 * mu_x * mu_y + SSIM_C1) * (2 * cov + SSIM_C2)
     den = (mu_x * mu_x + mu_y * mu_y + SSIM_C1) * (var_x + var_y + SSIM_C2)
