@@ -136,14 +136,23 @@ def _triad(a, b, c, s):
         a[i] = b[i] + s * c[i]
 
 
-def _best(fn, reps: int) -> float:
+def _times(fn, reps: int) -> list[float]:
+    """Seconds of `reps` calls of fn, after one untimed call (compilation, caches)."""
     fn()
     ts = []
     for _ in range(reps):
         t0 = time.perf_counter()
         fn()
         ts.append(time.perf_counter() - t0)
-    return min(ts)
+    return ts
+
+
+def _best(fn, reps: int) -> float:
+    return min(_times(fn, reps))
+
+
+def _median(fn, reps: int) -> float:
+    return float(np.median(_times(fn, reps)))
 
 
 def machine_peaks(reps: int = 5) -> dict:
@@ -162,16 +171,6 @@ def machine_peaks(reps: int = 5) -> dict:
     a, b, c = np.zeros(n), np.ones(n), np.ones(n)
     out["triad_gbs"] = round(24 * n / _best(lambda: _triad(a, b, c, 0.5), reps) / 1e9, 1)
     return out
-
-
-def _median(fn, reps: int) -> float:
-    fn()
-    ts = []
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return float(np.median(ts))
 
 
 def view_inputs(run, view: int) -> tuple:
