@@ -12,9 +12,10 @@ work     pixel-Gaussian pairs, counted by a mirror of the kernels' loops (tiles_
          image, T and n_contrib once per pixel (everything else lives in the tile's L1-resident arrays).
 time     tiles_numba.forward and .backward (binning included, as a training step pays it), median of --reps,
          on every core and on one (parallel efficiency), and the binning alone.
-machine  measured peaks (before and after the runs, the better of the two: the machine is shared): float64 and float32 matrix products (numpy's BLAS on every core: what the cores'
-         vector units do at their best), a plain numba loop of independent multiply-adds over both cores (what
-         numba's vectoriser reaches on easy code), and memory bandwidth (a numba triad over 3 x 96 MB arrays).
+machine  measured peaks (before and after the runs, the better of the two: the machine is shared): float64 and
+         float32 matrix products (numpy's BLAS on every core: what the cores' vector units do at their best), a
+         plain numba loop of independent multiply-adds over both cores (what numba's vectoriser reaches on easy
+         code), and memory bandwidth (a numba triad over 3 x 96 MB arrays).
 
 achieved = flops / time; attainable = min(peak, intensity x bandwidth) (the roofline); the gap is their ratio.
 Writes benchmarks/results/<name>.json with its provenance.
@@ -105,11 +106,7 @@ def count_pairs(means2d, conics, opacities, offsets, ids, n_contrib, width, heig
                 trans[y, x] = next_t
             if n_live == 0:
                 break
-        last = 0
-        for y in range(ny):
-            for x in range(nx):
-                last = max(last, n_contrib[y0 + y, x0 + x])
-        for k in range(last - 1, -1, -1):  # backward, from the tile's largest n_contrib
+        for k in range(n_contrib[y0:y0 + ny, x0:x0 + nx].max() - 1, -1, -1):  # backward, from the tile's largest n_contrib
             b_entries += 1
             for y, x, alpha in _pair_passes(ids[start + k], means2d, conics, opacities, x0, y0, nx, ny):
                 if k >= n_contrib[y0 + y, x0 + x]:
@@ -173,27 +170,32 @@ def machine_peaks(reps: int = 5) -> dict:
     return out
 
 
-def view_inputs(run, view: int) -> tuple:
-    """The rasteriser's numpy inputs for training view `view` of a loaded run, and (width, height)."""
+def view_projector(run):
+    """(inputs(view) -> the rasteriser's numpy inputs for training view `view` of a loaded run, (width, height)):
+    the projection compiled once for the run, the pose an argument."""
     p = {k: jnp.asarray(v) for k, v in run.params.items() if k in PARAM_NAMES}
     cam = Camera.from_json(run.scene["camera"])
     w, h = cam.width, cam.height
-    c2w = jnp.asarray(np.asarray(run.scene["train_poses"][view], np.float32))
     intr = jnp.asarray(intrinsics_of(cam), jnp.float32)
-    proj, colors, opac = jax.jit(lambda q: splat_inputs(q, c2w, (intr[0], intr[1], intr[2], intr[3]), w, h,
-                                                        all_sh(q) * band_mask(3)))(p)
-    arr = [np.asarray(x) for x in (proj["means2d"], proj["conics"], colors, opac, proj["depths"], proj["radii"])]
-    return (*arr, np.ones(3, np.float32)), (w, h)
+    project = jax.jit(lambda q, c2w: splat_inputs(q, c2w, (intr[0], intr[1], intr[2], intr[3]), w, h,
+                                                  all_sh(q) * band_mask(3)))
+
+    def inputs(view: int) -> tuple:
+        proj, colors, opac = project(p, jnp.asarray(np.asarray(run.scene["train_poses"][view], np.float32)))
+        arr = [np.asarray(x) for x in (proj["means2d"], proj["conics"], colors, opac, proj["depths"])]
+        return (*arr, np.ascontiguousarray(proj["radii"], np.int32), np.ones(3, np.float32))
+
+    return inputs, (w, h)
 
 
-def measure_view(run, view: int, reps: int) -> dict:
-    args, (w, h) = view_inputs(run, view)
+def measure_view(inputs, size: tuple[int, int], view: int, reps: int) -> dict:
+    args, (w, h) = inputs(view), size
     means2d, conics, colors, opac, depths, radii, bg = args
     image, t_final, n_contrib = tiles_numba.forward(*args, w, h)
     g_img = np.random.default_rng(view).normal(size=image.shape).astype(np.float32) * 1e-3
     g_t = np.zeros_like(t_final)
-    m64, c64, o64 = (np.ascontiguousarray(x, np.float64) for x in (means2d, conics, opac))
-    offsets, ids = tiles_numba.bin_gaussians(m64, c64, o64, depths, np.ascontiguousarray(radii, np.int32), w, h)
+    m64, c64, o64 = tiles_numba._f64(means2d, conics, opac)
+    offsets, ids = tiles_numba.bin_gaussians(m64, c64, o64, depths, radii, w, h)
     f_test, f_blend, b_test, b_blend, f_entries, b_entries = count_pairs(m64, c64, o64, offsets, ids, n_contrib, w, h)
     times = {"forward_s": _median(lambda: tiles_numba.forward(*args, w, h), reps),
              "backward_s": _median(lambda: tiles_numba.backward(*args, w, h, t_final, n_contrib, g_img, g_t), reps),
@@ -249,7 +251,8 @@ def main() -> None:
     for path in a.runs:
         run = RunFolder(path).load()
         n_train = len(run.scene["train_poses"])
-        views = [measure_view(run, int(v), a.reps) for v in np.linspace(0, n_train - 1, a.views).round()]
+        inputs, size = view_projector(run)
+        views = [measure_view(inputs, size, int(v), a.reps) for v in np.linspace(0, n_train - 1, a.views).round()]
         log = path / "metrics.jsonl"
         steps = json.loads(log.read_text().splitlines()[-1])["step"] if log.is_file() else None
         measured[str(path)] = {"gaussians": int(np.asarray(run.params["means"]).shape[0]), "trained_steps": steps,
