@@ -48,12 +48,54 @@ def viser_render(chromium: str, profile: Path, gaussians: dict, c2w: np.ndarray,
         if not server.get_clients():
             raise RuntimeError(f"no browser connected to viser on port {port} within 60 s")
         client = next(iter(server.get_clients().values()))
-        client.camera.wxyz, client.camera.position = viser_from_c2w(c2w)
-        client.camera.fov = float(fov_y)
-        time.sleep(1.0)
+        got = _settled_render(client, c2w, float(fov_y), deadline=time.time() + 90)
         w, h, fov = client.camera.image_width, client.camera.image_height, client.camera.fov
-        got = client.camera.get_render(height=h, width=w)[..., :3].astype(np.float32) / 255.0
     finally:
         browser.close()
         server.stop()
     return got, Camera.pinhole(w, h, 0.5 * h / np.tan(0.5 * fov))
+
+
+def _settled_render(client, c2w: np.ndarray, fov_y: float, deadline: float) -> np.ndarray:
+    """The browser's render [h, w, 3] in [0, 1] once it draws the pose c2w with vertical field of view fov_y.
+
+    A fixed wait is a race on a loaded machine (CI once rendered viser's start-up view: 13 dB): the browser's
+    first camera report can arrive after the pose was sent and overwrite it, and its sorter can lag the camera.
+    So: wait for the browser's own camera report, send the pose, wait until the browser reports that pose back
+    (sending it again when it reports another), then render until two renders in a row agree.
+    """
+    reports = []
+    client.camera.on_update(lambda cam: reports.append((cam.wxyz.copy(), cam.position.copy(), cam.fov)))
+    want_wxyz, want_pos = viser_from_c2w(c2w)
+    want_wxyz, want_pos = np.asarray(want_wxyz, float), np.asarray(want_pos, float)
+
+    def wait(ok, what):
+        while not ok():
+            if time.time() > deadline:
+                raise RuntimeError(f"viser: {what}, within the time allowed")
+            time.sleep(0.1)
+
+    wait(lambda: client.camera._state.update_timestamp != 0.0, "the browser never reported its camera")
+
+    def there(r):  # q and -q are one rotation
+        wxyz, pos, fov = r
+        return (min(np.abs(wxyz - want_wxyz).max(), np.abs(wxyz + want_wxyz).max()) < 1e-4
+                and np.abs(pos - want_pos).max() < 1e-4 and abs(fov - fov_y) < 1e-5)
+
+    while not (reports and there(reports[-1])):
+        seen = len(reports)
+        client.camera.wxyz, client.camera.position = want_wxyz, want_pos
+        client.camera.fov = fov_y
+        wait(lambda: len(reports) > seen, "the browser never reported the pose sent")
+        if reports and not there(reports[-1]):
+            time.sleep(0.2)  # let the reply settle before sending again
+    prev = None
+    while True:
+        h, w = client.camera.image_height, client.camera.image_width
+        got = client.camera.get_render(height=h, width=w)[..., :3].astype(np.float32) / 255.0
+        if prev is not None and prev.shape == got.shape and np.abs(got - prev).max() <= 2 / 255:
+            return got
+        if time.time() > deadline:
+            raise RuntimeError("viser: two renders in a row never agreed, within the time allowed")
+        prev = got
+        time.sleep(0.5)
