@@ -1,21 +1,32 @@
 #!/usr/bin/env bash
-# Lego on a GPU through the CLI, as a user runs it: ngp then splat at M minutes (benchmarks/lego_cli.py:
-# nerfkit train + nerfkit eval, seed protocol, 200x200), then each run's 800x800 frame time
-# (benchmarks/render_speed.py). The splat rasteriser's numba tile kernels run on the host CPU (the rest of a
-# step on the GPU); benchmarks/results/gpu_h200/ was measured before that, with the pure-JAX reference.
-# Writes into RESULTS: lego_cli_{ngp,splat}.json + .png, render_speed_{ngp,splat}.json and device.txt
-# (the GPU, the driver, jax's version and devices).
+# The GPU measurements of issue 41, in parts that each fit one 10-minute call on a lent GPU machine (run them
+# in order; each writes into RESULTS and prints what it measured):
 #
-#     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [MINUTES=2]
+#   part 1 (~7 min): device.txt (the GPU, the driver, jax's version and devices); the rasteriser backends
+#          image for image and their times (splat_raster_gpu.py: pallas = Triton vs the numba host kernels,
+#          200 px / 50k and 800 px / 50k and 200k Gaussians); then lego 200x200 `--preset splat` for 2 minutes
+#          through the CLI (lego_cli.py: nerfkit train + eval, seed protocol; "auto" = the pallas kernels on a
+#          GPU) and that run's 800x800 frame time (render_speed.py)
+#   part 2 (~7 min): lego at its shared 400x400 (--target-width 400), --preset splat, 5 minutes
+#   part 3 (~7 min): the same with --preset ngp
+#
+#     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [PART=1]
 set -euo pipefail
-data=$1; results=$2; minutes=${3:-2}
+data=$1; results=$2; part=${3:-1}
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$results"
-{ nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
-  python3 -c "import jax; print('jax', jax.__version__, jax.devices())"; } | tee "$results/device.txt"
-for preset in ngp splat; do
-  python3 "$here/lego_cli.py" --data "$data" --preset "$preset" --minutes "$minutes" --out runs/gpu_lego \
-    --results "$results"
-  python3 "$here/render_speed.py" "runs/gpu_lego/${preset}_${minutes}min" --data "$data" \
-    --results "$results/render_speed_$preset.json"
-done
+export PYTHONPATH="$here${PYTHONPATH:+:$PYTHONPATH}"
+case "$part" in
+  1)
+    { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
+      python3 -c "import jax; print('jax', jax.__version__, jax.devices())"; } | tee "$results/device.txt"
+    python3 "$here/splat_raster_gpu.py" --reps 5 --out "$results/splat_raster_gpu.json"
+    python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results"
+    python3 "$here/render_speed.py" runs/gpu_lego/splat_2min --data "$data" \
+      --results "$results/render_speed_splat.json" ;;
+  2) python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 5 --target-width 400 --out runs/gpu_lego \
+       --results "$results" ;;
+  3) python3 "$here/lego_cli.py" --data "$data" --preset ngp --minutes 5 --target-width 400 --out runs/gpu_lego \
+       --results "$results" ;;
+  *) echo "gpu_lego.sh: PART must be 1, 2 or 3 (got $part)" >&2; exit 1 ;;
+esac

@@ -1,8 +1,10 @@
 """Lego through the command line, as a user runs it: PSNR against the CLI's own wall clock.
 
     python benchmarks/lego_cli.py [--data LEGO] [--preset ngp] [--minutes 2 5 10] [--out runs/lego_cli]
+                                  [--target-width 200]
 
-For each budget M, one fresh run of exactly what a user types (seed protocol, 200x200):
+For each budget M, one fresh run of exactly what a user types (seed protocol, 200x200; --target-width 400 is
+the shared data's own resolution, written to lego_cli_<preset>_400.json):
 
     nerfkit train LEGO --out OUT/<preset>_<M>min --preset P --train-split "train,val[0:50]"
                        --val-split "val[50:100]" --target-width 200 --max-minutes M
@@ -49,11 +51,15 @@ def main():
     ap.add_argument("--minutes", type=float, nargs="+", default=[2.0, 5.0, 10.0])
     ap.add_argument("--out", type=Path, default=Path("runs/lego_cli"))
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
+    ap.add_argument("--target-width", type=int, default=200)
     a = ap.parse_args()
+    width = a.target_width
+    suffix = "" if width == 200 else f"_{width}"
     rows = []
     for minutes in a.minutes:
-        run = a.out / f"{a.preset}_{minutes:g}min"
-        train_s, out = nerfkit("train", str(a.data), "--out", str(run), "--preset", a.preset, *SEED,
+        run = a.out / f"{a.preset}{suffix}_{minutes:g}min"
+        train_s, out = nerfkit("train", str(a.data), "--out", str(run), "--preset", a.preset, *SEED[:-1],
+                               str(width),
                                "--max-minutes", f"{minutes:g}", "--no-progress", "--overwrite")
         eval_s, _ = nerfkit("eval", str(run), "--split", "val[50:100]", "--overwrite")
         ev = json.loads((run / "eval_val_50_100.json").read_text())
@@ -67,14 +73,14 @@ def main():
         rows.append(row)
         print(f"{a.preset} {minutes:g} min: {row['steps']} steps in {train_s / 60:.2f} min of wall clock, "
               f"{ev['psnr']:.2f} dB / SSIM {ev['ssim']:.4f} on all {ev['n_views']} views of val[50:100]", flush=True)
-    result = {"what": "nerfkit train + nerfkit eval on lego (seed protocol, 200x200), wall clock of the CLI",
-              "data": str(a.data), "preset": a.preset, "runs": rows, "provenance": provenance()}
+    result = {"what": f"nerfkit train + nerfkit eval on lego (seed protocol, {width}x{width}), wall clock of the CLI",
+              "data": str(a.data), "preset": a.preset, "target_width": width, "runs": rows, "provenance": provenance()}
     a.results.mkdir(parents=True, exist_ok=True)
-    path = a.results / f"lego_cli_{a.preset}.json"
+    path = a.results / f"lego_cli_{a.preset}{suffix}.json"
     path.write_text(json.dumps(result, indent=2))
     plot_curves({a.preset: ([r["train_wall_s"] / 60 for r in rows], [r["psnr"] for r in rows])},
                 path.with_suffix(".png"), "wall clock of nerfkit train (min)", "PSNR on val[50:100] (dB)",
-                f"lego 200x200, seed protocol: {a.preset}")
+                f"lego {width}x{width}, seed protocol: {a.preset}")
     print(f"wrote {path} and {path.with_suffix('.png')}")
 
 

@@ -269,9 +269,10 @@ class SplatSettings:
     on for photo captures without masks, off for Blender scenes and masked object captures (as the fields'
     --appearance-dim)."""
     backend: str = "auto"
-    """The rasteriser: auto (numba), numba (CPU tile kernels through a host callback) or reference (pure JAX,
-    every pixel against every Gaussian: slow, the definition the tests hold numba to); the table of backends
-    is models/splat/backends.py."""
+    """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host
+    callback), pallas (tile kernels compiled to Triton on a GPU; on a CPU interpreted, far slower than numba)
+    or reference (pure JAX, every pixel against every Gaussian: slow, the definition the tests hold the others
+    to); the table of backends is models/splat/backends.py."""
 
     def loss_name(self) -> str:
         """The photometric loss in words: "L1", "RMSE" or "0.8 L1 + 0.2 D-SSIM"."""

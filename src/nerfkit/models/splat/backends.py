@@ -1,5 +1,5 @@
 """Rasteriser backends, by name (--backend): adding one is a module defining BACKEND (a `Backend`) and one
-line in BACKENDS; `--backend auto` picks AUTO.
+line in BACKENDS; `--backend auto` picks AUTO[platform] for JAX's default device ("gpu", "cpu", ...).
 
 The interface. With N projected Gaussians (project.project_gaussians) and static width W, height H:
 
@@ -29,13 +29,17 @@ import importlib
 from dataclasses import dataclass
 from typing import Callable
 
+import jax
+
 from nerfkit.core.errors import ConfigError
 
 BACKENDS: dict[str, str] = {  # name -> the module that defines its BACKEND (imported when used)
     "numba": "nerfkit.models.splat.rasterize_numba",
+    "pallas": "nerfkit.models.splat.rasterize_pallas",
     "reference": "nerfkit.models.splat.reference",
 }
-AUTO = "numba"  # on every platform (rasterize_numba.py says why)
+AUTO = {"gpu": "pallas"}  # JAX's default platform -> its backend; any other platform: AUTO_OTHER
+AUTO_OTHER = "numba"  # host kernels; on a CPU the pallas kernels run interpreted (tests only)
 
 
 @dataclass(frozen=True)
@@ -47,8 +51,13 @@ class Backend:
 
 
 def backend(name: str) -> Backend:
-    """The backend called `name` ("auto": AUTO); ConfigError naming the ones there are otherwise."""
-    name = AUTO if name == "auto" else name
+    """The backend called `name` ("auto": auto_name()); ConfigError naming the ones there are otherwise."""
+    name = auto_name() if name == "auto" else name
     if name not in BACKENDS:
         raise ConfigError(f"--backend must be auto or one of {', '.join(BACKENDS)} (got {name!r})")
     return importlib.import_module(BACKENDS[name]).BACKEND
+
+
+def auto_name() -> str:
+    """The backend "auto" means on JAX's default device: AUTO[platform], else AUTO_OTHER."""
+    return AUTO.get(jax.default_backend(), AUTO_OTHER)

@@ -19,7 +19,7 @@ def rasterize(means2d, conics, colors, opacities, depths, radii, background, wid
       covariance (positive definite, as project_gaussians gives; the tile kernels skip
       others, the reference does not), colors [N, C], opacities [N] (in [0, 1]), depths [N] z-depth (sort key),
       radii [N] int (0 = culled), background [C]; width, height (static).
-      backend: a name of backends.BACKENDS, or "auto" (backends.AUTO).
+      backend: a name of backends.BACKENDS, or "auto" (backends.auto_name(): pallas on a GPU, numba elsewhere).
       return_contrib: also return n_contrib [H, W] int32 (backends with `contrib` only): 1 + the tile-list
       position of the last Gaussian each pixel blended (0: none).
 

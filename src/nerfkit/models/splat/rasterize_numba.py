@@ -12,10 +12,8 @@ rebuilds the tile lists (cheap next to the blend) and returns the gradients
     dL/d means2d [N, 2], conics [N, 3], colors [N, C], opacities [N], background [C].
 
 depths and radii get none (the depth order and the culling are piecewise constant). It is the
-"auto" choice on every platform: on a GPU the rest of a step stays on the device and only the
-rasteriser's inputs and outputs (a few MB) cross to the host. The reference on a GPU was measured
-too slow to train with (an H200, lego at 200x200, 50k Gaussians: 1.1 steps/s against about 10 on 2
-CPU cores; an 800x800 frame did not finish in two minutes; benchmarks/results/gpu_h200/).
+"auto" choice off a GPU. On a GPU it runs too (the rest of a step stays on the device and only the
+rasteriser's inputs and outputs, a few MB, cross to the host) but "auto" picks the pallas kernels there.
 """
 
 from __future__ import annotations

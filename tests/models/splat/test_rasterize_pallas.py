@@ -1,0 +1,242 @@
+"""The pallas backend's kernels (rasterize_pallas.py) against the brute-force reference and finite differences.
+
+On a CPU the kernels run in Pallas's interpret mode: the same kernel source the GPU compiles, so every
+rule (alpha test, 3-sigma cut, T_MIN stop, chunk and rectangle skipping, the front-to-back backward) is
+checked here. The scenes and tolerances are test_rasterize.py's (44 x 36 px: partial edge tiles); the
+float64 ones are tighter than float32 rounding could meet, so a skipped or extra Gaussian would show. The
+last tests lower the kernels for CUDA (no GPU needed): what a GPU would compile is Triton, not the
+interpreter, and "auto" picks it there.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from test_rasterize import (
+    NAMES,
+    H,
+    W,
+    _reference_forward,
+    as_jax,
+    assert_grads_close,
+    conic_of,
+    enable_x64,
+    loss_weights,
+    padded,
+    random_scene,
+    reference_grads,
+)
+
+from nerfkit.models.splat import backends
+from nerfkit.models.splat.project import project_gaussians
+from nerfkit.models.splat.rasterize import rasterize
+from nerfkit.models.splat.rasterize_pallas import CHUNK, interpret_default, rasterize_pallas
+from nerfkit.rays.cameras import look_at
+
+_forward = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True))
+
+
+@jax.jit
+def _grads(m, q, c, o, d, r, bg, g_img, g_alpha):
+    def loss(m, q, c, o, bg):
+        image, alpha = rasterize_pallas(m, q, c, o, d, r, bg, W, H, interpret=True)
+        return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
+
+    return jax.grad(loss, argnums=(0, 1, 2, 3, 4))(m, q, c, o, bg)
+
+
+def pallas_grads(scene, g_img, g_alpha):
+    return [np.asarray(g) for g in _grads(*as_jax(scene), g_img, g_alpha)]
+
+
+def test_interpret_mode_is_the_default_off_a_gpu():
+    assert jax.default_backend() != "gpu" and interpret_default()
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+def test_forward_float32_matches_reference(channels):
+    scene = as_jax(random_scene(channels=channels))
+    image, alpha = _forward(*scene)
+    ref_image, ref_alpha = _reference_forward(*scene, W, H)
+    np.testing.assert_allclose(image, ref_image, rtol=0, atol=5e-6)
+    np.testing.assert_allclose(alpha, ref_alpha, rtol=0, atol=5e-6)
+    assert image.dtype == jnp.float32 and float(alpha.max()) > 0.5 and float(alpha.max()) <= 1.0 - 1e-4
+
+
+def test_forward_and_backward_float64_match_reference():
+    with enable_x64(True):
+        scene = random_scene(seed=1, dtype=np.float64)
+        image, alpha = _forward(*as_jax(scene))
+        ref_image, ref_alpha = _reference_forward(*as_jax(scene), W, H)
+        np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(alpha, ref_alpha, rtol=0, atol=1e-12)
+        g_img, g_alpha = loss_weights(1, 3, np.float64)
+        assert_grads_close(pallas_grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha), 1e-10)
+
+
+def test_backward_float32_matches_reference_autodiff():
+    scene = random_scene(n=3 * CHUNK + 5, seed=2)  # several chunks, the last one part padding
+    g_img, g_alpha = loss_weights(2, 3, np.float32)
+    got = pallas_grads(scene, g_img, g_alpha)
+    assert all(g.dtype == np.float32 for g in got)
+    assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 2e-5)
+
+
+def test_backward_matches_finite_differences():
+    with enable_x64(True):
+        scene = list(random_scene(n=14, seed=3, dtype=np.float64))
+        g_img, g_alpha = loss_weights(3, 3, np.float64)
+        forward = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True))
+
+        def loss(s):
+            image, alpha = forward(*as_jax(s))
+            return float(np.sum(np.asarray(image) * g_img) + np.sum(np.asarray(alpha) * g_alpha))
+
+        got = pallas_grads(scene, g_img, g_alpha)
+        h = 1e-6
+        for name, slot, grad in zip(NAMES, (0, 1, 2, 3, 6), got):
+            fd = np.zeros_like(scene[slot])
+            for idx in np.ndindex(fd.shape):
+                plus, minus = [a.copy() for a in scene], [a.copy() for a in scene]
+                plus[slot][idx] += h
+                minus[slot][idx] -= h
+                fd[idx] = (loss(plus) - loss(minus)) / (2 * h)
+            assert np.abs(fd).max() > 0, name
+            np.testing.assert_allclose(grad, fd, rtol=0, atol=1e-6 * np.abs(fd).max() + 1e-7, err_msg=name)
+
+
+def test_opaque_front_stops_blending_and_hidden_gaussians_get_zero_gradient():
+    # as test_rasterize.py: five wide opaque Gaussians in front of two small ones at the centre
+    cx, cy = 22.0, 18.0
+    n_front = 5
+    cov = np.array([[900.0, 0.0], [0.0, 900.0]] * n_front + [[2.0, 0.3], [0.3, 1.5]] * 2).reshape(-1, 2, 2)
+    conics, radii = conic_of(cov)
+    means = np.array([[cx, cy]] * n_front + [[cx + 0.4, cy - 0.3], [cx - 0.5, cy + 0.2]])
+    opacities = np.array([0.98] * n_front + [0.9, 0.5])
+    colors = np.random.default_rng(0).uniform(0, 1, (len(means), 3))
+    depths = np.array([1.0, 1.1, 1.2, 1.3, 1.4, 3.0, 4.0])
+    scene = padded([np.asarray(a, np.float32) for a in (means, conics, colors, opacities, depths)] + [
+        radii, np.full(3, 0.5, np.float32)])
+    image, _ = _forward(*as_jax(scene))
+    g_img, g_alpha = loss_weights(4, 3, np.float32)
+    got = pallas_grads(scene, g_img, g_alpha)
+    for g in got[:4]:
+        assert np.all(g[n_front:] == 0.0)  # exactly zero: never blended (the padding too)
+        assert np.any(g[:n_front] != 0.0)
+    assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 2e-5)
+    hidden = [a.copy() for a in scene]
+    hidden[2][n_front:] = 1.0 - hidden[2][n_front:]  # recolouring the hidden ones changes nothing
+    assert np.array_equal(np.asarray(_forward(*as_jax(hidden))[0]), np.asarray(image))
+
+
+@pytest.mark.parametrize("center", [(16.0, 16.0), (15.5, 15.5), (32.2, 31.7)])
+def test_gaussian_straddling_tile_corners(center):
+    cov = np.array([[[40.0, 25.0], [25.0, 30.0]], [[200.0, 0.0], [0.0, 150.0]]])
+    conics, radii = conic_of(cov)
+    with enable_x64(True):
+        scene = padded([np.asarray(a, np.float64) for a in (
+            [center, (20.0, 17.0)], conics, [[0.9, 0.2, 0.1], [0.1, 0.3, 0.8]], [0.8, 0.3], [1.0, 2.0])] + [
+            radii, np.zeros(3)])
+        image, _ = _forward(*as_jax(scene))
+        ref_image, _ = _reference_forward(*as_jax(scene), W, H)
+        np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
+        tx, ty = (int(round(v / 16)) * 16 for v in center)
+        corner = np.asarray(image)[ty - 1:ty + 1, tx - 1:tx + 1, 0]  # 4 pixels, 4 tiles, all lit by the first
+        assert corner.shape == (2, 2) and np.all(corner > 0.05)
+        g_img, g_alpha = loss_weights(5, 3, np.float64)
+        assert_grads_close(pallas_grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha), 1e-10)
+
+
+def test_sharp_and_needle_conics_match_reference():
+    cov = np.array([[[1e-4, 0.0], [0.0, 1e-4]], [[0.02, 0.0], [0.0, 3.0]], [[60.0, 59.7], [59.7, 60.0]],
+                    [[0.5, 0.0], [0.0, 0.04]]])
+    conics, radii = conic_of(cov)
+    with enable_x64(True):
+        scene = padded([np.asarray(a, np.float64) for a in (
+            [(10.5, 7.5), (20.3, 12.0), (22.0, 18.0), (30.0, 30.1)], conics, np.eye(4)[:, :3] + 0.1,
+            [0.9, 0.8, 0.7, 1.0], [1.0, 2.0, 3.0, 4.0])] + [radii, np.zeros(3)])
+        image, _ = _forward(*as_jax(scene))
+        ref_image, _ = _reference_forward(*as_jax(scene), W, H)
+        np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
+        assert image[7, 10, 0] > 0.8
+        g_img, g_alpha = loss_weights(9, 3, np.float64)
+        assert_grads_close(pallas_grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha), 1e-10)
+
+
+def test_empty_scene_gives_background():
+    background = np.array([0.2, 0.4, 0.6], np.float32)
+    empty = [np.zeros((0, 2), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32),
+             np.zeros(0, np.float32), np.zeros(0, np.float32), np.zeros(0, np.int32), background]
+    image, alpha = _forward(*empty)
+    assert np.array_equal(np.asarray(image), np.broadcast_to(background, (H, W, 3)))
+    assert np.array_equal(np.asarray(alpha), np.zeros((H, W), np.float32))
+    g_bg = jax.grad(lambda bg: jnp.sum(rasterize_pallas(*empty[:6], bg, W, H, interpret=True)[0]))(background)
+    np.testing.assert_allclose(g_bg, np.full(3, W * H), rtol=1e-6)
+
+
+def test_gaussians_behind_the_camera_and_off_screen_contribute_nothing():
+    # a real projection: half the Gaussians in front of a camera, half behind it (project culls them:
+    # radius 0) or far off to the side; the image and the gradients of the ones in front are the same
+    # as with the others removed, and the others get exactly zero gradient
+    rng = np.random.default_rng(10)
+    n = 24
+    c2w = look_at(np.array([0.0, 0.0, 4.0]), np.zeros(3))
+    front = rng.uniform(-0.5, 0.5, (n, 3))
+    behind = front + np.array([0.0, 0.0, 8.0])  # 4 units behind the camera
+    aside = front + np.array([30.0, 0.0, 0.0])  # far outside the view
+    means = np.concatenate([front, behind, aside]).astype(np.float32)
+    m = len(means)
+    log_scales = np.full((m, 3), np.log(0.08), np.float32)
+    quats = np.tile(np.array([1.0, 0.0, 0.0, 0.0], np.float32), (m, 1))
+    colors = rng.uniform(0, 1, (m, 3)).astype(np.float32)
+    opacities = rng.uniform(0.3, 0.9, m).astype(np.float32)
+    p = project_gaussians(jnp.asarray(means), jnp.asarray(log_scales), jnp.asarray(quats),
+                          jnp.asarray(c2w, jnp.float32), (40.0, 40.0, 0.5 * W, 0.5 * H), W, H)
+    means2d, conics, depths, radii = p["means2d"], p["conics"], p["depths"], p["radii"]
+    assert int((radii[:n] > 0).sum()) == n and int((radii[n:2 * n] > 0).sum()) == 0
+    bg = jnp.full(3, 0.3, jnp.float32)
+    args = (means2d, conics, jnp.asarray(colors), jnp.asarray(opacities), depths, radii, bg)
+    image, alpha = _forward(*args)
+    ref_image, _ = _reference_forward(*args, W, H)
+    np.testing.assert_allclose(image, ref_image, rtol=0, atol=5e-6)
+    only_front = tuple(a[:n] for a in args[:6]) + (bg,)
+    np.testing.assert_allclose(image, _forward(*only_front)[0], rtol=0, atol=1e-6)
+    assert float(alpha.max()) > 0.5
+    g_img, g_alpha = loss_weights(10, 3, np.float32)
+    got = [np.asarray(g) for g in _grads(*args, g_img, g_alpha)]
+    alone = [np.asarray(g) for g in _grads(*only_front, g_img, g_alpha)]
+    for g, a in zip(got[:4], alone[:4]):
+        assert np.all(g[n:] == 0.0)
+        np.testing.assert_allclose(g[:n], a, rtol=0, atol=1e-5 * np.abs(a).max())
+
+
+def _cuda_text(fn, *args) -> str:
+    """fn lowered for CUDA (on any machine: lowering needs no GPU), as StableHLO text."""
+    return jax.jit(fn).trace(*args).lower(lowering_platforms=("cuda",)).as_text()
+
+
+def test_the_gpu_path_lowers_to_triton_kernels():
+    """What a GPU runs: interpret=False lowers both kernels to Triton (custom calls holding Triton IR), a
+    forward and a backward under value_and_grad, with no host callback."""
+    scene = as_jax(random_scene(seed=4))
+    g_img, g_alpha = loss_weights(4, 3, np.float32)
+
+    def loss(m, q, c, o, bg):
+        image, alpha = rasterize_pallas(m, q, c, o, scene[4], scene[5], bg, W, H, interpret=False)
+        return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
+
+    text = _cuda_text(jax.value_and_grad(loss, argnums=(0, 1, 2, 3, 4)), *scene[:4], scene[6])
+    calls = [line for line in text.splitlines() if "custom_call" in line]
+    triton = [line for line in calls if "xla.gpu.triton" in line]
+    assert len(triton) == 2, calls
+    assert any('name = "splat_forward"' in c for c in triton) and any('name = "splat_backward"' in c for c in triton)
+    assert not any("callback" in c for c in calls)
+
+
+def test_auto_picks_the_pallas_kernels_on_a_gpu(monkeypatch):
+    assert backends.backend("auto").name == "numba"
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    assert backends.backend("auto").name == "pallas" and not interpret_default()
+    scene = as_jax(random_scene(seed=5))
+    text = _cuda_text(lambda *a: rasterize(*a, W, H), *scene)  # backend "auto"
+    assert text.count("xla.gpu.triton") == 1 and "callback" not in text
