@@ -287,3 +287,42 @@ def test_auto_picks_the_host_kernels_off_a_gpu():
     np.testing.assert_allclose(image, want_image, atol=5e-6)
     np.testing.assert_allclose(alpha, want_alpha, atol=5e-6)
     assert int(n_contrib.max()) > 0
+
+
+def test_depth_order_is_a_stable_argsort():
+    rng = np.random.default_rng(11)
+    depths = rng.choice(np.array([-2.5, -0.0, 0.0, 1e-30, 0.7, 0.7, 3.0, np.inf], np.float32), 300)
+    depths[::7] = rng.normal(size=len(depths[::7])).astype(np.float32)
+    live = np.flatnonzero(rng.uniform(size=300) < 0.8)
+    want = live[np.argsort(depths[live], kind="stable")]
+    np.testing.assert_array_equal(tiles_numba.depth_order(depths, live), want)
+    d64 = depths.astype(np.float64) + rng.normal(size=300) * 1e-12  # other dtypes: numpy's stable argsort
+    np.testing.assert_array_equal(tiles_numba.depth_order(d64, live), live[np.argsort(d64[live], kind="stable")])
+
+
+def test_backward_takes_the_forwards_tile_lists(monkeypatch):
+    """rasterize under jax.grad bins once per step: the backward takes the lists its forward kept (by token);
+    a token that is gone (or none) bins again, with the same gradients."""
+    scene = random_scene(seed=12)
+    g_img, g_alpha = loss_weights(12, 3, np.float32)
+    calls = []
+    binner = tiles_numba.bin_gaussians
+    monkeypatch.setattr(tiles_numba, "bin_gaussians", lambda *a: calls.append(1) or binner(*a))
+    image, t_final, n_contrib, token = tiles_numba.forward(*scene, W, H, keep_bins=True)
+    kept = tiles_numba.backward(*scene, W, H, t_final, n_contrib, g_img, -g_alpha, bins=token)
+    assert len(calls) == 1
+    again = tiles_numba.backward(*scene, W, H, t_final, n_contrib, g_img, -g_alpha, bins=token)  # taken: gone
+    assert len(calls) == 2
+    for a, b in zip(kept, again):
+        np.testing.assert_array_equal(a, b)
+    calls.clear()
+    sj = as_jax(scene)
+
+    def loss(m, q, c, o, bg):
+        image, alpha = rasterize(m, q, c, o, sj[4], sj[5], bg, W, H, backend="numba")
+        return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
+
+    got = jax.jit(jax.grad(loss, argnums=(0, 1, 2, 3, 4)))(sj[0], sj[1], sj[2], sj[3], sj[6])
+    assert len(calls) == 1
+    for a, b in zip(got, kept):
+        np.testing.assert_allclose(np.asarray(a), b, rtol=0, atol=1e-6 * np.abs(b).max())
