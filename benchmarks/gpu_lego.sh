@@ -8,7 +8,8 @@
 #          through the CLI (lego_cli.py: nerfkit train + eval, seed protocol; "auto" = the pallas kernels on a
 #          GPU) and that run's 800x800 frame time (render_speed.py)
 #   part 2 (~7 min): lego at its shared 400x400 (--target-width 400), --preset splat, 5 minutes
-#   part 3 (~7 min): the same with --preset ngp
+#   part 3 (~8 min): the same with --preset ngp, and that run's 800x800 frame time (the wavefront renderer
+#          with all rays in flight on a GPU; 1.40 s in 205 rounds when it had 8192 slots, gpu_h200/)
 #
 #     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [PART=1]
 set -euo pipefail
@@ -27,6 +28,7 @@ case "$part" in
   2) python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 5 --target-width 400 --out runs/gpu_lego \
        --results "$results" ;;
   3) python3 "$here/lego_cli.py" --data "$data" --preset ngp --minutes 5 --target-width 400 --out runs/gpu_lego \
-       --results "$results" ;;
+       --results "$results"
+     python3 "$here/render_speed.py" runs/gpu_lego/ngp_400_5min --data "$data" --results "$results/render_speed_ngp.json" ;;
   *) echo "gpu_lego.sh: PART must be 1, 2 or 3 (got $part)" >&2; exit 1 ;;
 esac

@@ -1,12 +1,13 @@
 """Rendering speed of a trained run, compiled: one 800x800 frame and the viewer's 256x256, with a profile.
 
-    python benchmarks/render_speed.py RUN_DIR [--data DIR] [--split "val[50:100]"] [--profile]
+    python benchmarks/render_speed.py RUN_DIR [--data DIR] [--split "val[50:100]"] [--profile] [--slots N]
 
 Renders view 0 of the split (the run's own data folder unless --data) at 800x800 and 256x256 with the
 renderer `nerfkit render` uses (render.images.make_renderer), once to compile, then times the median of
 3 (800) / 5 (256) renders. Also prints the rounds and the samples the wavefront renderer shaded. With
 --profile, one more 800x800 render runs under jax.profiler and the time per XLA operation kind (summed
-over the render) is printed.
+over the render) is printed. --slots N: the wavefront renderer with N ray slots instead of make_renderer's
+(more slots: fewer, larger rounds).
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ def main():
     ap.add_argument("--data", type=Path, default=None)
     ap.add_argument("--split", default="val[50:100]")
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--slots", type=int, default=None)
     ap.add_argument("--results", type=Path, default=Path(__file__).resolve().parent / "results" / "render_speed.json")
     a = ap.parse_args()
 
@@ -76,6 +78,8 @@ def main():
     data = load_frames(read_capture(RunFolder(a.run).data_dir(a.data), a.split), a.split)
     c2w, cam = data.poses[0], data.cameras[0]
     renderer = make_renderer(model, cfg.train.chunk)
+    if a.slots and hasattr(renderer, "_shade"):
+        renderer = type(renderer)(model, a.slots)
     chunk = getattr(renderer, "chunk", None)  # ray renderers' batch; the splat rasteriser draws whole images
     print(f"{a.run} (step {step}), {type(renderer).__name__}, chunk {chunk}; jax {jax.__version__} on "
           f"{jax.devices()[0].platform}")
@@ -87,26 +91,13 @@ def main():
     record = {"run": str(a.run), "step": step, "renderer": type(renderer).__name__, "chunk": chunk,
               "seconds_per_frame": {f"{k}x{k}": round(v, 4) for k, v in results.items()},
               "what": "one compiled frame of the run's field (view 0 of the split), median of repeats"}
-    if hasattr(renderer, "_shade"):
-        rounds, shaded = 0, 0
-        shade = dict(renderer._shade)
-
-        def counting(f):
-            def g(*args):
-                nonlocal rounds, shaded
-                out = f(*args)
-                rounds += 1
-                shaded += int(out["shaded"])
-                return out
-            return g
-
-        renderer._shade = {m: counting(f) for m, f in shade.items()}
+    if hasattr(renderer, "last_rounds"):
         camera = Camera.pinhole(800, 800, cam.fx * 800 / cam.width)
         renderer.render_camera(params, aux, c2w, camera)
-        renderer._shade = shade
-        print(f"800x800: {rounds} shading rounds, {shaded / 1e6:.2f} M samples shaded "
-              f"({shaded / 800**2:.1f} per pixel)")
-        record.update({"rounds_800": rounds, "samples_shaded_800": shaded})
+        rounds, shaded = renderer.last_rounds, renderer.last_shaded
+        print(f"800x800: {rounds} shading rounds with {renderer.slots_for(800 * 800)} ray slots, "
+              f"{shaded / 1e6:.2f} M samples shaded ({shaded / 800**2:.1f} per pixel)")
+        record.update({"rounds_800": rounds, "samples_shaded_800": shaded, "slots_800": renderer.slots_for(800 * 800)})
     if a.profile:
         camera = Camera.pinhole(800, 800, cam.fx * 800 / cam.width)
         print("\nprofile of one 800x800 render (ms summed over the render, count):")

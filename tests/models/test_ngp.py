@@ -220,3 +220,25 @@ def test_warm_up_compiles_every_round_function_a_render_uses():
         assert sizes == [1] * len(fns)
         out = renderer.render_rays(params, aux, o, d)
         assert [f._cache_size() for f in fns] == sizes and out["opacity"].max() > 0.99
+
+
+def test_on_a_gpu_every_ray_is_in_flight_same_pixels_fewer_rounds(monkeypatch):
+    """On a GPU the wavefront renderer puts all of an image's rays in flight (slots_for: the rays rounded up to
+    a power of two): the same pixels as with `chunk` slots, in fewer rounds (device calls)."""
+    from nerfkit.render.wavefront import WavefrontRenderer
+
+    model, params, aux, o, d = _ball_model("bounded")
+    few = WavefrontRenderer(model, chunk=32)
+    want = few.render_rays(params, aux, o, d, median=True)
+    rounds_few = few.last_rounds
+    assert few.slots_for(len(o)) == 32  # off a GPU: chunk
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    many = WavefrontRenderer(model, chunk=32)
+    assert many.slots_for(len(o)) == 256 and many.slots_for(5) == 32 and many.slots_for(300) == 512
+    assert many.slots_for(10**8) == many.GPU_MAX_SLOTS
+    got = many.render_rays(params, aux, o, d, median=True)
+    for k in ("rgb", "depth", "depth_normalized", "depth_median", "opacity"):
+        np.testing.assert_allclose(got[k], want[k], rtol=1e-5, atol=1e-5, err_msg=k)
+    # (a spent ray may shade a few zero-weight samples more or fewer, as its last round falls)
+    assert 0 < many.last_rounds < rounds_few and abs(many.last_shaded - few.last_shaded) < 0.01 * few.last_shaded
+    assert want["opacity"].max() > 0.99

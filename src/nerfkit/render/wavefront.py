@@ -42,10 +42,35 @@ class WavefrontRenderer(Renderer):
     WINDOW = 64  # a multiple of 32 (bit-mask words)
     CAP = 8
     BUDGETS = (1, 2, 4)  # samples per slot: a round's budget is chunk * m for the smallest m that holds it
+    # On a GPU a round is a few device calls whatever its size, so every ray of an image is put in flight at
+    # once (slots: the rays rounded up to a power of two, at most GPU_MAX_SLOTS): a frame then takes about as
+    # many rounds as its longest ray needs, not that times the image's rays / chunk (tests/models/test_ngp.py
+    # holds it to the same pixels in fewer rounds). On a CPU rounds that large run slower (caches), so there
+    # the slots stay `chunk`.
+    GPU_MAX_SLOTS = 1 << 19
 
     def __post_init__(self):
+        self._by_slots: dict[int, tuple] = {}
+        self._window, self._shade = self._rounds(self.chunk)
+        self._dist = None
+        self.last_rounds = self.last_shaded = 0  # of the last march: rounds that shaded, samples shaded
+
+    def slots_for(self, n: int) -> int:
+        """Ray slots for a march of n rays: `chunk`, or on a GPU n rounded up to a power of two (at least
+        chunk, at most GPU_MAX_SLOTS)."""
+        if jax.default_backend() != "gpu":
+            return self.chunk
+        return int(min(self.GPU_MAX_SLOTS, max(self.chunk, 1 << max(0, int(n) - 1).bit_length())))
+
+    def _rounds(self, r: int) -> tuple:
+        """(window, {m: shade}): the round functions, jitted for r slots (built once per r)."""
+        if r not in self._by_slots:
+            self._by_slots[r] = self._make_rounds(r)
+        return self._by_slots[r]
+
+    def _make_rounds(self, r: int) -> tuple:
         model = self.model
-        r, w, cap = self.chunk, self.WINDOW, self.CAP
+        w, cap = self.WINDOW, self.CAP
         steps = jnp.arange(w, dtype=jnp.int32)
 
         field = model.field
@@ -97,9 +122,7 @@ class WavefrontRenderer(Renderer):
                     "next_first": (first + jnp.argmax(jnp.roll(take < count, -first))) % r,
                     "shaded": jnp.sum(take)}
 
-        self._window = jax.jit(window)
-        self._shade = {m: jax.jit(partial(shade, budget=r * m)) for m in self.BUDGETS}
-        self._dist = None
+        return jax.jit(window), {m: jax.jit(partial(shade, budget=r * m)) for m in self.BUDGETS}
 
     def empty_distance(self, aux) -> jnp.ndarray:
         """empty_distance of the occupancy bits in aux, computed once per bits array (the viewer renders
@@ -109,16 +132,17 @@ class WavefrontRenderer(Renderer):
             self._dist = (bits, jnp.asarray(empty_distance(np.asarray(bits), self.model.occ.resolution)))
         return self._dist[1]
 
-    def _free_slots(self) -> tuple[np.ndarray, ...]:
-        """The state of `chunk` free slots: o, d [chunk, 3], radii, k0 (far past every candidate) and
-        transmittance [chunk], with the shapes and dtypes the round functions are compiled for."""
-        r = self.chunk
+    def _free_slots(self, r: int | None = None) -> tuple[np.ndarray, ...]:
+        """The state of r (default `chunk`) free slots: o, d [r, 3], radii, k0 (far past every candidate) and
+        transmittance [r], with the shapes and dtypes the round functions are compiled for."""
+        r = self.chunk if r is None else r
         return (np.zeros((r, 3), np.float32), np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (r, 1)),
                 np.zeros(r, np.float32), np.full(r, 1 << 30, np.int32), np.ones(r, np.float32))
 
     def warm_up(self, params, aux) -> None:
-        """Compile the round functions (the window and every shading budget) on free slots, so that no
-        later frame waits for a compile (the viewer calls this in idle time)."""
+        """Compile the round functions (the window and every shading budget) on `chunk` free slots, so that
+        no later frame waits for a compile (the viewer calls this in idle time). On a GPU a frame marches
+        with slots_for(its rays) and compiles that size on its first use."""
         o, d, rad, k0, trans = self._free_slots()
         bits, _, _, k0 = self._window(aux, self.empty_distance(aux), o, d, k0)
         k0 = np.array(k0)
@@ -149,11 +173,14 @@ class WavefrontRenderer(Renderer):
     def _march(self, params, aux, origins, directions, radii, half) -> dict:
         """The rounds of the wavefront (class docstring) over rays [N, 3] with median thresholds half [N]
         (-1: none): the sums rgb [N, 3], depth, depth_median, opacity [N] of the shaded samples."""
-        n, r = origins.shape[0], self.chunk
+        n = origins.shape[0]
+        r = self.slots_for(n)
+        window, shade = self._rounds(r)
         acc = {"rgb": np.zeros((n, 3), np.float32), "depth": np.zeros(n, np.float32),
                "depth_median": np.zeros(n, np.float32), "opacity": np.zeros(n, np.float32)}
         slot_ray = np.full(r, -1)
-        o, d, rad, k0, trans = self._free_slots()
+        o, d, rad, k0, trans = self._free_slots(r)
+        self.last_rounds = self.last_shaded = 0
         slot_half = -np.ones(r, np.float32)
         dist = self.empty_distance(aux)
         nxt = first = 0
@@ -168,11 +195,13 @@ class WavefrontRenderer(Renderer):
             live = slot_ray >= 0
             if not live.any():
                 break
-            bits, shaded, exhausted, k0 = self._window(aux, dist, o, d, k0)
+            bits, shaded, exhausted, k0 = window(aux, dist, o, d, k0)
             shaded, exhausted, k0 = int(shaded), np.asarray(exhausted), np.array(k0)
             if shaded:
                 m = min([m for m in self.BUDGETS if r * m >= shaded] or [max(self.BUDGETS)])
-                res = self._shade[m](params, o, d, rad, k0, bits, trans, slot_half, first)
+                res = shade[m](params, o, d, rad, k0, bits, trans, slot_half, first)
+                self.last_rounds += 1
+                self.last_shaded += int(res["shaded"])
                 first = int(res["next_first"])
                 ids = slot_ray[live]
                 for key in acc:
