@@ -66,6 +66,47 @@ def as_jax(scene):
     return tuple(jnp.asarray(a) for a in scene)
 
 
+N_FRONT = 5  # opaque_front_scene's front stack
+FRONT_CENTRE = (22.0, 18.0)
+
+
+def opaque_front_scene():
+    """Five wide opaque Gaussians in front of two small ones at the image centre (float32, padded): the front
+    stack drives T below T_MIN around the centre, so blending stops before the small ones. (Opacity 0.98, not
+    >= 0.99: two clamped alphas give T = (1 - 0.99)^2, exactly T_MIN, where float32 and float64 rounding
+    disagree on whether the second one is blended.)"""
+    cx, cy = FRONT_CENTRE
+    cov = np.array([[900.0, 0.0], [0.0, 900.0]] * N_FRONT + [[2.0, 0.3], [0.3, 1.5]] * 2).reshape(-1, 2, 2)
+    conics, radii = conic_of(cov)
+    means = np.array([[cx, cy]] * N_FRONT + [[cx + 0.4, cy - 0.3], [cx - 0.5, cy + 0.2]])
+    opacities = np.array([0.98] * N_FRONT + [0.9, 0.5])
+    colors = np.random.default_rng(0).uniform(0, 1, (len(means), 3))
+    depths = np.array([1.0, 1.1, 1.2, 1.3, 1.4, 3.0, 4.0])
+    return padded([np.asarray(a, np.float32) for a in (means, conics, colors, opacities, depths)] + [
+        radii, np.full(3, 0.5, np.float32)])
+
+
+def straddle_scene(center):
+    """An elongated, rotated Gaussian centred at `center` (on or next to a tile corner) over a faint one behind
+    it (float64, padded; call under enable_x64)."""
+    cov = np.array([[[40.0, 25.0], [25.0, 30.0]], [[200.0, 0.0], [0.0, 150.0]]])
+    conics, radii = conic_of(cov)
+    return padded([np.asarray(a, np.float64) for a in (
+        [center, (20.0, 17.0)], conics, [[0.9, 0.2, 0.1], [0.1, 0.3, 0.8]], [0.8, 0.3], [1.0, 2.0])] + [
+        radii, np.zeros(3)])
+
+
+def needle_scene():
+    """Covariances far below the 0.3 px^2 dilation (conic a up to 1e4 px^-2) and a long thin needle (float64,
+    padded; call under enable_x64); the sharpest lights pixel (7, 10)."""
+    cov = np.array([[[1e-4, 0.0], [0.0, 1e-4]], [[0.02, 0.0], [0.0, 3.0]], [[60.0, 59.7], [59.7, 60.0]],
+                    [[0.5, 0.0], [0.0, 0.04]]])
+    conics, radii = conic_of(cov)
+    return padded([np.asarray(a, np.float64) for a in (
+        [(10.5, 7.5), (20.3, 12.0), (22.0, 18.0), (30.0, 30.1)], conics, np.eye(4)[:, :3] + 0.1,
+        [0.9, 0.8, 0.7, 1.0], [1.0, 2.0, 3.0, 4.0])] + [radii, np.zeros(3)])
+
+
 def loss_weights(seed, channels, dtype):
     rng = np.random.default_rng(100 + seed)
     return rng.normal(size=(H, W, channels)).astype(dtype), rng.normal(size=(H, W)).astype(dtype)
@@ -129,6 +170,20 @@ def test_backward_float32_matches_reference_autodiff():
     assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 2e-5)
 
 
+def assert_finite_differences(scene, loss, got, h=1e-6):
+    """got (gradients of NAMES) against central differences of loss(scene) (float64 scene): 1e-6 x max
+    |gradient| plus 1e-7; every array must have some gradient."""
+    for name, slot, grad in zip(NAMES, (0, 1, 2, 3, 6), got):
+        fd = np.zeros_like(scene[slot])
+        for idx in np.ndindex(fd.shape):
+            plus, minus = [a.copy() for a in scene], [a.copy() for a in scene]
+            plus[slot][idx] += h
+            minus[slot][idx] -= h
+            fd[idx] = (loss(plus) - loss(minus)) / (2 * h)
+        assert np.abs(fd).max() > 0, name
+        np.testing.assert_allclose(grad, fd, rtol=0, atol=1e-6 * np.abs(fd).max() + 1e-7, err_msg=name)
+
+
 def test_backward_matches_finite_differences():
     scene = list(random_scene(n=14, seed=3, dtype=np.float64))
     g_img, g_alpha = loss_weights(3, 3, np.float64)
@@ -137,55 +192,29 @@ def test_backward_matches_finite_differences():
         image, t_final, _ = tiles_numba.forward(*s, W, H)
         return float(np.sum(image * g_img) - np.sum(t_final * g_alpha))
 
-    got = kernel_grads(scene, g_img, g_alpha)
-    h = 1e-6
-    for name, slot, grad in zip(NAMES, (0, 1, 2, 3, 6), got):
-        fd = np.zeros_like(scene[slot])
-        for idx in np.ndindex(fd.shape):
-            plus, minus = [a.copy() for a in scene], [a.copy() for a in scene]
-            plus[slot][idx] += h
-            minus[slot][idx] -= h
-            fd[idx] = (loss(plus) - loss(minus)) / (2 * h)
-        np.testing.assert_allclose(grad, fd, rtol=0, atol=1e-6 * np.abs(fd).max() + 1e-7, err_msg=name)
+    assert_finite_differences(scene, loss, kernel_grads(scene, g_img, g_alpha))
 
 
 def test_opaque_front_stops_blending_and_hidden_gaussians_get_zero_gradient():
-    # five wide opaque Gaussians in front of two small ones at the image centre: the front stack
-    # drives T below T_MIN around the centre, so blending stops before the small ones. (Opacity
-    # 0.98, not >= 0.99: two clamped alphas give T = (1 - 0.99)^2, exactly T_MIN, where float32
-    # and float64 rounding disagree on whether the second one is blended.)
-    cx, cy = 22.0, 18.0
-    n_front = 5
-    cov = np.array([[900.0, 0.0], [0.0, 900.0]] * n_front + [[2.0, 0.3], [0.3, 1.5]] * 2).reshape(-1, 2, 2)
-    conics, radii = conic_of(cov)
-    means = np.array([[cx, cy]] * n_front + [[cx + 0.4, cy - 0.3], [cx - 0.5, cy + 0.2]])
-    opacities = np.array([0.98] * n_front + [0.9, 0.5])
-    colors = np.random.default_rng(0).uniform(0, 1, (len(means), 3))
-    depths = np.array([1.0, 1.1, 1.2, 1.3, 1.4, 3.0, 4.0])
-    scene = padded([np.asarray(a, np.float32) for a in (means, conics, colors, opacities, depths)] + [
-        radii, np.full(3, 0.5, np.float32)])
+    scene = opaque_front_scene()
+    cx, cy = FRONT_CENTRE
     image, t_final, n_contrib = tiles_numba.forward(*scene, W, H)
-    assert n_contrib[int(cy), int(cx)] <= n_front  # the centre pixel stopped inside the front stack
+    assert n_contrib[int(cy), int(cx)] <= N_FRONT  # the centre pixel stopped inside the front stack
     g_img, g_alpha = loss_weights(4, 3, np.float32)
     got = kernel_grads(scene, g_img, g_alpha)
     for g in got[:4]:
-        assert np.all(g[n_front:] == 0.0)  # exactly zero, not just small (the padding too)
-        assert np.any(g[:n_front] != 0.0)
+        assert np.all(g[N_FRONT:] == 0.0)  # exactly zero, not just small (the padding too)
+        assert np.any(g[:N_FRONT] != 0.0)
     assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 2e-5)
     hidden = [a.copy() for a in scene]
-    hidden[2][n_front:] = 1.0 - hidden[2][n_front:]  # recolouring the hidden ones changes nothing
+    hidden[2][N_FRONT:] = 1.0 - hidden[2][N_FRONT:]  # recolouring the hidden ones changes nothing
     assert np.array_equal(tiles_numba.forward(*hidden, W, H)[0], image)
 
 
 @pytest.mark.parametrize("center", [(16.0, 16.0), (15.5, 15.5), (32.2, 31.7)])
 def test_gaussian_straddling_tile_corners(center):
-    # an elongated, rotated Gaussian centred on / next to a tile corner, over a faint one behind it
-    cov = np.array([[[40.0, 25.0], [25.0, 30.0]], [[200.0, 0.0], [0.0, 150.0]]])
-    conics, radii = conic_of(cov)
     with enable_x64(True):
-        scene = padded([np.asarray(a, np.float64) for a in (
-            [center, (20.0, 17.0)], conics, [[0.9, 0.2, 0.1], [0.1, 0.3, 0.8]], [0.8, 0.3], [1.0, 2.0])] + [
-            radii, np.zeros(3)])
+        scene = straddle_scene(center)
         image, t_final, n_contrib = tiles_numba.forward(*scene, W, H)
         ref_image, _ = _reference_forward(*as_jax(scene), W, H)
         np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
@@ -197,15 +226,9 @@ def test_gaussian_straddling_tile_corners(center):
 
 
 def test_sharp_and_needle_conics_match_reference():
-    # covariances far below the 0.3 px^2 dilation (conic a up to 1e4 px^-2) and a long thin needle:
     # the scanline spans stay exact, and e^{-sigma} is not advanced by products where that would overflow
-    cov = np.array([[[1e-4, 0.0], [0.0, 1e-4]], [[0.02, 0.0], [0.0, 3.0]], [[60.0, 59.7], [59.7, 60.0]],
-                    [[0.5, 0.0], [0.0, 0.04]]])
-    conics, radii = conic_of(cov)
     with enable_x64(True):
-        scene = padded([np.asarray(a, np.float64) for a in (
-            [(10.5, 7.5), (20.3, 12.0), (22.0, 18.0), (30.0, 30.1)], conics, np.eye(4)[:, :3] + 0.1,
-            [0.9, 0.8, 0.7, 1.0], [1.0, 2.0, 3.0, 4.0])] + [radii, np.zeros(3)])
+        scene = needle_scene()
         image, _, _ = tiles_numba.forward(*scene, W, H)
         ref_image, _ = _reference_forward(*as_jax(scene), W, H)
         np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
@@ -214,14 +237,15 @@ def test_sharp_and_needle_conics_match_reference():
         assert_grads_close(kernel_grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha), 1e-10)
 
 
-def test_empty_scene_gives_background():
+@pytest.mark.parametrize("backend", ["numba", "pallas"])
+def test_empty_scene_gives_background(backend):
     background = np.array([0.2, 0.4, 0.6], np.float32)
     empty = [np.zeros((0, 2), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32),
              np.zeros(0, np.float32), np.zeros(0, np.float32), np.zeros(0, np.int32), background]
-    image, alpha = jax.jit(lambda *a: rasterize(*a, W, H, backend="numba"))(*empty)
+    image, alpha = jax.jit(lambda *a: rasterize(*a, W, H, backend=backend))(*empty)
     assert np.array_equal(np.asarray(image), np.broadcast_to(background, (H, W, 3)))
     assert np.array_equal(np.asarray(alpha), np.zeros((H, W), np.float32))
-    g_bg = jax.grad(lambda bg: jnp.sum(rasterize(*empty[:6], bg, W, H, backend="numba")[0]))(background)
+    g_bg = jax.grad(lambda bg: jnp.sum(rasterize(*empty[:6], bg, W, H, backend=backend)[0]))(background)
     np.testing.assert_allclose(g_bg, np.full(3, W * H), rtol=1e-6)
 
 

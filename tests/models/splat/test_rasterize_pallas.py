@@ -13,18 +13,20 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from test_rasterize import (
-    NAMES,
+    N_FRONT,
     H,
     W,
     _reference_forward,
     as_jax,
+    assert_finite_differences,
     assert_grads_close,
-    conic_of,
     enable_x64,
     loss_weights,
-    padded,
+    needle_scene,
+    opaque_front_scene,
     random_scene,
     reference_grads,
+    straddle_scene,
 )
 
 from nerfkit.models.splat import backends
@@ -86,57 +88,32 @@ def test_backward_matches_finite_differences():
     with enable_x64(True):
         scene = list(random_scene(n=14, seed=3, dtype=np.float64))
         g_img, g_alpha = loss_weights(3, 3, np.float64)
-        forward = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True))
 
         def loss(s):
-            image, alpha = forward(*as_jax(s))
+            image, alpha = _forward(*as_jax(s))
             return float(np.sum(np.asarray(image) * g_img) + np.sum(np.asarray(alpha) * g_alpha))
 
-        got = pallas_grads(scene, g_img, g_alpha)
-        h = 1e-6
-        for name, slot, grad in zip(NAMES, (0, 1, 2, 3, 6), got):
-            fd = np.zeros_like(scene[slot])
-            for idx in np.ndindex(fd.shape):
-                plus, minus = [a.copy() for a in scene], [a.copy() for a in scene]
-                plus[slot][idx] += h
-                minus[slot][idx] -= h
-                fd[idx] = (loss(plus) - loss(minus)) / (2 * h)
-            assert np.abs(fd).max() > 0, name
-            np.testing.assert_allclose(grad, fd, rtol=0, atol=1e-6 * np.abs(fd).max() + 1e-7, err_msg=name)
+        assert_finite_differences(scene, loss, pallas_grads(scene, g_img, g_alpha))
 
 
 def test_opaque_front_stops_blending_and_hidden_gaussians_get_zero_gradient():
-    # as test_rasterize.py: five wide opaque Gaussians in front of two small ones at the centre
-    cx, cy = 22.0, 18.0
-    n_front = 5
-    cov = np.array([[900.0, 0.0], [0.0, 900.0]] * n_front + [[2.0, 0.3], [0.3, 1.5]] * 2).reshape(-1, 2, 2)
-    conics, radii = conic_of(cov)
-    means = np.array([[cx, cy]] * n_front + [[cx + 0.4, cy - 0.3], [cx - 0.5, cy + 0.2]])
-    opacities = np.array([0.98] * n_front + [0.9, 0.5])
-    colors = np.random.default_rng(0).uniform(0, 1, (len(means), 3))
-    depths = np.array([1.0, 1.1, 1.2, 1.3, 1.4, 3.0, 4.0])
-    scene = padded([np.asarray(a, np.float32) for a in (means, conics, colors, opacities, depths)] + [
-        radii, np.full(3, 0.5, np.float32)])
+    scene = opaque_front_scene()
     image, _ = _forward(*as_jax(scene))
     g_img, g_alpha = loss_weights(4, 3, np.float32)
     got = pallas_grads(scene, g_img, g_alpha)
     for g in got[:4]:
-        assert np.all(g[n_front:] == 0.0)  # exactly zero: never blended (the padding too)
-        assert np.any(g[:n_front] != 0.0)
+        assert np.all(g[N_FRONT:] == 0.0)  # exactly zero: never blended (the padding too)
+        assert np.any(g[:N_FRONT] != 0.0)
     assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 2e-5)
     hidden = [a.copy() for a in scene]
-    hidden[2][n_front:] = 1.0 - hidden[2][n_front:]  # recolouring the hidden ones changes nothing
+    hidden[2][N_FRONT:] = 1.0 - hidden[2][N_FRONT:]  # recolouring the hidden ones changes nothing
     assert np.array_equal(np.asarray(_forward(*as_jax(hidden))[0]), np.asarray(image))
 
 
 @pytest.mark.parametrize("center", [(16.0, 16.0), (15.5, 15.5), (32.2, 31.7)])
 def test_gaussian_straddling_tile_corners(center):
-    cov = np.array([[[40.0, 25.0], [25.0, 30.0]], [[200.0, 0.0], [0.0, 150.0]]])
-    conics, radii = conic_of(cov)
     with enable_x64(True):
-        scene = padded([np.asarray(a, np.float64) for a in (
-            [center, (20.0, 17.0)], conics, [[0.9, 0.2, 0.1], [0.1, 0.3, 0.8]], [0.8, 0.3], [1.0, 2.0])] + [
-            radii, np.zeros(3)])
+        scene = straddle_scene(center)
         image, _ = _forward(*as_jax(scene))
         ref_image, _ = _reference_forward(*as_jax(scene), W, H)
         np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
@@ -148,30 +125,14 @@ def test_gaussian_straddling_tile_corners(center):
 
 
 def test_sharp_and_needle_conics_match_reference():
-    cov = np.array([[[1e-4, 0.0], [0.0, 1e-4]], [[0.02, 0.0], [0.0, 3.0]], [[60.0, 59.7], [59.7, 60.0]],
-                    [[0.5, 0.0], [0.0, 0.04]]])
-    conics, radii = conic_of(cov)
     with enable_x64(True):
-        scene = padded([np.asarray(a, np.float64) for a in (
-            [(10.5, 7.5), (20.3, 12.0), (22.0, 18.0), (30.0, 30.1)], conics, np.eye(4)[:, :3] + 0.1,
-            [0.9, 0.8, 0.7, 1.0], [1.0, 2.0, 3.0, 4.0])] + [radii, np.zeros(3)])
+        scene = needle_scene()
         image, _ = _forward(*as_jax(scene))
         ref_image, _ = _reference_forward(*as_jax(scene), W, H)
         np.testing.assert_allclose(image, ref_image, rtol=0, atol=1e-12)
         assert image[7, 10, 0] > 0.8
         g_img, g_alpha = loss_weights(9, 3, np.float64)
         assert_grads_close(pallas_grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha), 1e-10)
-
-
-def test_empty_scene_gives_background():
-    background = np.array([0.2, 0.4, 0.6], np.float32)
-    empty = [np.zeros((0, 2), np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32),
-             np.zeros(0, np.float32), np.zeros(0, np.float32), np.zeros(0, np.int32), background]
-    image, alpha = _forward(*empty)
-    assert np.array_equal(np.asarray(image), np.broadcast_to(background, (H, W, 3)))
-    assert np.array_equal(np.asarray(alpha), np.zeros((H, W), np.float32))
-    g_bg = jax.grad(lambda bg: jnp.sum(rasterize_pallas(*empty[:6], bg, W, H, interpret=True)[0]))(background)
-    np.testing.assert_allclose(g_bg, np.full(3, W * H), rtol=1e-6)
 
 
 def test_gaussians_behind_the_camera_and_off_screen_contribute_nothing():
