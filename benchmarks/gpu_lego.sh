@@ -6,7 +6,8 @@
 #          image for image and their times (splat_raster_gpu.py: pallas = Triton vs the numba host kernels,
 #          200 px / 50k and 800 px / 50k and 200k Gaussians); then lego 200x200 `--preset splat` for 2 minutes
 #          through the CLI (lego_cli.py: nerfkit train + eval, seed protocol; "auto" = the pallas kernels on a
-#          GPU) and that run's 800x800 frame time (render_speed.py)
+#          GPU, or --backend numba if they failed to compile: splat_raster_gpu.json then holds the error) and
+#          that run's 800x800 frame time (render_speed.py)
 #   part 2 (~7 min): lego at its shared 400x400 (--target-width 400), --preset splat, 5 minutes
 #   part 3 (~8 min): the same with --preset ngp, and that run's 800x800 frame time (the wavefront renderer
 #          with all rays in flight on a GPU; 1.40 s in 205 rounds when it had 8192 slots, gpu_h200/)
@@ -22,7 +23,11 @@ case "$part" in
     { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
       python3 -c "import jax; print('jax', jax.__version__, jax.devices())"; } | tee "$results/device.txt"
     python3 "$here/splat_raster_gpu.py" --reps 5 --out "$results/splat_raster_gpu.json"
-    python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results"
+    # "auto" is pallas on a GPU; if its kernels failed above (the JSON says why), train with numba's instead
+    backend=$(python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rows'][0]; print('numba' if 'error' in r['pallas'] else 'auto')" "$results/splat_raster_gpu.json")
+    echo "splat backend for the lego run: $backend" | tee -a "$results/device.txt"
+    python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results" \
+      --train-args "--backend $backend"
     python3 "$here/render_speed.py" runs/gpu_lego/splat_2min --data "$data" \
       --results "$results/render_speed_splat.json" ;;
   2) python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 5 --target-width 400 --out runs/gpu_lego \

@@ -1,7 +1,7 @@
 """Lego through the command line, as a user runs it: PSNR against the CLI's own wall clock.
 
     python benchmarks/lego_cli.py [--data LEGO] [--preset ngp] [--minutes 2 5 10] [--out runs/lego_cli]
-                                  [--target-width 200]
+                                  [--target-width 200] [--train-args "--backend numba"]
 
 For each budget M, one fresh run of exactly what a user types (seed protocol, 200x200; --target-width 400 is
 the shared data's own resolution, written to lego_cli_<preset>_400.json):
@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import shlex
 import subprocess
 import sys
 import time
@@ -52,6 +53,7 @@ def main():
     ap.add_argument("--out", type=Path, default=Path("runs/lego_cli"))
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--target-width", type=int, default=200)
+    ap.add_argument("--train-args", default="", help="more arguments for nerfkit train (one string)")
     a = ap.parse_args()
     width = a.target_width
     suffix = "" if width == 200 else f"_{width}"
@@ -59,7 +61,7 @@ def main():
     for minutes in a.minutes:
         run = a.out / f"{a.preset}{suffix}_{minutes:g}min"
         train_s, out = nerfkit("train", str(a.data), "--out", str(run), "--preset", a.preset, *SEED[:-1],
-                               str(width),
+                               str(width), *shlex.split(a.train_args),
                                "--max-minutes", f"{minutes:g}", "--no-progress", "--overwrite")
         eval_s, _ = nerfkit("eval", str(run), "--split", "val[50:100]", "--overwrite")
         ev = json.loads((run / "eval_val_50_100.json").read_text())
@@ -74,7 +76,7 @@ def main():
         print(f"{a.preset} {minutes:g} min: {row['steps']} steps in {train_s / 60:.2f} min of wall clock, "
               f"{ev['psnr']:.2f} dB / SSIM {ev['ssim']:.4f} on all {ev['n_views']} views of val[50:100]", flush=True)
     result = {"what": f"nerfkit train + nerfkit eval on lego (seed protocol, {width}x{width}), wall clock of the CLI",
-              "data": str(a.data), "preset": a.preset, "target_width": width, "runs": rows, "provenance": provenance()}
+              "data": str(a.data), "preset": a.preset, "target_width": width, "train_args": a.train_args, "runs": rows, "provenance": provenance()}
     a.results.mkdir(parents=True, exist_ok=True)
     path = a.results / f"lego_cli_{a.preset}{suffix}.json"
     path.write_text(json.dumps(result, indent=2))
