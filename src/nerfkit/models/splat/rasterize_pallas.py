@@ -52,6 +52,9 @@ PIX = TILE * TILE  # a tile's pixels, one vector (a power of two, as Triton want
 CHUNK = 32  # Gaussians per rectangle test (a power of two)
 NUM_WARPS = 4  # Triton: 128 threads per tile program, two pixels each
 _LOG_ALPHA_MIN = math.log(ALPHA_MIN)
+# Names that moved between JAX versions (the lowest allowed, 0.4.35, has the older ones)
+_CompilerParams = getattr(plt, "CompilerParams", None) or plt.TritonCompilerParams
+_atomic_add = getattr(plt, "atomic_add", None) or pl.atomic_add
 
 
 def interpret_default() -> bool:
@@ -210,7 +213,7 @@ def _backward_kernel(params_ref, colors_ref, rects_ref, image_ref, tfinal_ref, g
                 d_sigma * dx * dy, 0.5 * d_sigma * dy * dy, jnp.where(live, e * d_alpha, 0.0))
         sums = sums + tuple(w * gimg[ch] for ch in range(n_ch))
         for j, s in enumerate(sums):
-            plt.atomic_add(grads_ref, (jnp.int32(j), g), jnp.sum(s))
+            _atomic_add(grads_ref, (jnp.int32(j), g), jnp.sum(s))
         return new_t, done, acc
 
     zeros = jnp.zeros((PIX,), params_ref.dtype)
@@ -242,7 +245,7 @@ def _tile(x, width: int, height: int):
 
 
 def _params():
-    return plt.CompilerParams(num_warps=NUM_WARPS, num_stages=1)
+    return _CompilerParams(num_warps=NUM_WARPS, num_stages=1)
 
 
 def _forward(prepared, background, width, height, interpret):
