@@ -78,7 +78,7 @@ def main():
     data = load_frames(read_capture(RunFolder(a.run).data_dir(a.data), a.split), a.split)
     c2w, cam = data.poses[0], data.cameras[0]
     renderer = make_renderer(model, cfg.train.chunk)
-    if a.slots and hasattr(renderer, "_shade"):
+    if a.slots and hasattr(renderer, "slots_for"):  # a wavefront renderer
         renderer = type(renderer)(model, a.slots)
     chunk = getattr(renderer, "chunk", None)  # ray renderers' batch; the splat rasteriser draws whole images
     print(f"{a.run} (step {step}), {type(renderer).__name__}, chunk {chunk}; jax {jax.__version__} on "

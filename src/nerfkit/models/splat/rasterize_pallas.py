@@ -133,14 +133,25 @@ def _alpha(params_ref, g, px, py):
     return alpha, e, raw < ALPHA_MAX, dx, dy, a, b, c
 
 
-def _blend_step(alpha, trans, done):
-    """(blend [PIX] bool, next T, done): the pixels that blend this alpha (not done, alpha > 0, and
-    T (1 - alpha) >= T_MIN), and the pixels that stop here (T would drop below T_MIN)."""
+def _start_state(dtype, n_ch: int):
+    """A tile's state before its first Gaussian: (T = 1 [PIX], done = 0 [PIX] int32, acc = n_ch x 0 [PIX])."""
+    zeros = jnp.zeros((PIX,), dtype)
+    return zeros + 1.0, jnp.zeros((PIX,), jnp.int32), tuple(zeros for _ in range(n_ch))
+
+
+def _blend_step(alpha, colour, state):
+    """(state after, blend [PIX] bool, w [PIX]): one Gaussian of alpha [PIX] and colour (C scalars) blended
+    into the tile's state (T, done, acc) where it blends (not done, alpha > 0 and T (1 - alpha) >= T_MIN),
+    w = alpha T there (0 elsewhere); a pixel where T would drop below T_MIN is done instead. Both kernels
+    blend through this, so they make the same decisions."""
+    trans, done, acc = state
     next_t = trans * (1.0 - alpha)
     live = (done == 0) & (alpha > 0.0)
     stop = live & (next_t < T_MIN)
     blend = live & ~stop
-    return blend, jnp.where(blend, next_t, trans), jnp.where(stop, 1, done)
+    w = jnp.where(blend, alpha * trans, 0.0)
+    acc = tuple(a + w * c for a, c in zip(acc, colour))
+    return (jnp.where(blend, next_t, trans), jnp.where(stop, 1, done), acc), blend, w
 
 
 def _scan_tile(rects_ref, tx, ty, n_chunks: int, step, state):
@@ -171,16 +182,10 @@ def _forward_kernel(params_ref, colors_ref, rects_ref, bg_ref, image_ref, tfinal
     t = pl.program_id(0)
 
     def step(g, st):
-        trans, done, acc = st
-        alpha, *_ = _alpha(params_ref, g, px, py)
-        blend, new_t, done = _blend_step(alpha, trans, done)
-        w = jnp.where(blend, alpha * trans, 0.0)
-        acc = tuple(acc[ch] + w * colors_ref[ch, g] for ch in range(n_ch))
-        return new_t, done, acc
+        colour = tuple(colors_ref[ch, g] for ch in range(n_ch))
+        return _blend_step(_alpha(params_ref, g, px, py)[0], colour, st)[0]
 
-    zeros = jnp.zeros((PIX,), params_ref.dtype)
-    state = (zeros + 1.0, jnp.zeros((PIX,), jnp.int32), tuple(zeros for _ in range(n_ch)))
-    trans, _, acc = _scan_tile(rects_ref, tx, ty, n_chunks, step, state)
+    trans, _, acc = _scan_tile(rects_ref, tx, ty, n_chunks, step, _start_state(params_ref.dtype, n_ch))
     for ch in range(n_ch):
         image_ref[ch, t, :] = acc[ch] + trans * bg_ref[ch]
     tfinal_ref[t, :] = trans
@@ -196,15 +201,15 @@ def _backward_kernel(params_ref, colors_ref, rects_ref, image_ref, tfinal_ref, g
     g_end = gt_ref[t, :] * tfinal_ref[t, :]  # g_T T_final
 
     def step(g, st):
-        trans, done, acc = st
+        trans = st[0]  # T before this Gaussian
+        col = tuple(colors_ref[ch, g] for ch in range(n_ch))
         alpha, e, unclamped, dx, dy, a, b, c = _alpha(params_ref, g, px, py)
-        blend, new_t, done = _blend_step(alpha, trans, done)
-        w = jnp.where(blend, alpha * trans, 0.0)
-        acc = tuple(acc[ch] + w * colors_ref[ch, g] for ch in range(n_ch))
+        after, blend, w = _blend_step(alpha, col, st)
+        acc = after[2]  # A_k
         d_alpha = 0.0
         behind = g_end
         for ch in range(n_ch):
-            d_alpha = d_alpha + trans * colors_ref[ch, g] * gimg[ch]
+            d_alpha = d_alpha + trans * col[ch] * gimg[ch]
             behind = behind + (colour[ch] - acc[ch]) * gimg[ch]
         d_alpha = d_alpha - behind / (1.0 - alpha)
         live = blend & unclamped
@@ -214,11 +219,9 @@ def _backward_kernel(params_ref, colors_ref, rects_ref, image_ref, tfinal_ref, g
         sums = sums + tuple(w * gimg[ch] for ch in range(n_ch))
         for j, s in enumerate(sums):
             _atomic_add(grads_ref, (jnp.int32(j), g), jnp.sum(s))
-        return new_t, done, acc
+        return after
 
-    zeros = jnp.zeros((PIX,), params_ref.dtype)
-    state = (zeros + 1.0, jnp.zeros((PIX,), jnp.int32), tuple(zeros for _ in range(n_ch)))
-    _scan_tile(rects_ref, tx, ty, n_chunks, step, state)
+    _scan_tile(rects_ref, tx, ty, n_chunks, step, _start_state(params_ref.dtype, n_ch))
 
 
 def _grid(width: int, height: int):
