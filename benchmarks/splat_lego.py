@@ -151,7 +151,7 @@ def main():
     stem.with_suffix(".json").write_text(json.dumps(result, indent=2))
     plot(records, stem.with_suffix(".png"), cfg)
     if a.ply:
-        from nerfkit.models.splat.ply import export_ply
+        from nerfkit.models.splat.formats.ply import export_ply
 
         export_ply(a.ply, params)
     print(f"\nsteps {steps} ({result['steps_per_s']:.2f}/s), {result['gaussians']} Gaussians")

@@ -43,7 +43,7 @@ def main() -> None:
     from nerfkit.core.metrics import psnr
     from nerfkit.evaluation.evaluate import capture_poses
     from nerfkit.models.splat.gaussians import render
-    from nerfkit.models.splat.ply import import_ply
+    from nerfkit.models.splat.formats.ply import import_ply
     from nerfkit.rays.cameras import Camera
 
     chromium = find_chromium()

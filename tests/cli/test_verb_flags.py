@@ -76,6 +76,10 @@ PROOFS = {
         "overwrite": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"]},
     "ExportSplatArgs": {f: ["models/splat/test_splat_cli.py::test_export_splat_reads_back_and_renders_the_same_image"]
                         for f in ("out", "overwrite")},
+    "ImportSplatArgs": {
+        "out": ["run/test_imported.py::test_a_file_without_a_capture_gets_one_of_its_own_renders"],
+        "data": ["run/test_imported.py::test_a_file_imported_with_its_capture_is_the_run_that_wrote_it"],
+        "overwrite": ["run/test_imported.py::test_bad_files_and_folders_are_refused_and_nothing_is_written"]},
     "ExportCamerasArgs": {
         "out": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"],
         "split": ["export/test_export.py::test_cameras_round_trip_through_nerfstudio"],

@@ -56,6 +56,9 @@ LOOP = {"train.max_steps", "train.max_minutes", "train.val_every", "train.val_ma
         "train.keep_ckpts", "train.log_every", "train.max_bad_steps"}
 
 
+INIT_FILE: dict = {}  # "path": the splat file the scene fixture writes for --init
+
+
 def alternative(name: str, cfg) -> list[str]:
     """argv that sets `name` to a valid value other than cfg's."""
     section, field = name.split(".")
@@ -71,7 +74,7 @@ def alternative(name: str, cfg) -> list[str]:
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
         "splat.strategy": "mcmc" if v == "classic" else "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
         "splat.backend": "reference", "splat.appearance": "on", "train.pose_refine": "on",
-        "splat.far_points": "on",
+        "splat.far_points": "on", "splat.init": str(INIT_FILE.get("path")),
         "splat.coarse": "0.25", "splat.ssim_lambda": "0.2", "splat.pixel_loss": "rmse" if v == "l1" else "l1",
         "sampler.sampling": "proposal" if v != "proposal" else "occupancy",
     }
@@ -104,6 +107,10 @@ def scene(tmp_path_factory):
     write_nerfstudio(root / "transforms.json", [{"file_path": str(f.image.relative_to(root)), "transform_matrix":
                                                  f.c2w} for f in frames], [f.camera for f in frames])
     assert meta["frames"]
+    from nerfkit.models.splat.formats.ply import export_ply
+    from nerfkit.models.splat.gaussians import init_random
+
+    export_ply(INIT_FILE.setdefault("path", root / "start.ply"), init_random(50, box=0.5))  # for --init
     return root
 
 

@@ -116,6 +116,23 @@ class BakeArgs:
 
 
 @dataclasses.dataclass
+class ImportSplatArgs:
+    """A splat file made anywhere (.ply in the Inria layout from gsplat, 3DGS, Brush, SuperSplat or nerfkit; .spz;
+    .splat) as a run folder: nerfkit view, render, bake and export then work on it; with --data, eval scores it on
+    that capture's photos and train --resume fine-tunes it."""
+
+    file: tyro.conf.Positional[Path]
+    """The splat file (.ply, .spz or .splat)."""
+    out: Path
+    """The run folder to write."""
+    data: Path | None = None
+    """The capture the file was made from, in the same coordinates (the COLMAP model's or poses' frame): the run
+    takes its cameras and normalisation. Without it, the run gets cameras on an orbit around the Gaussians."""
+    overwrite: bool = False
+    """Replace an earlier run in --out."""
+
+
+@dataclasses.dataclass
 class ViewArgs:
     """Interactive viewer in the browser (viser): orbit / fly, RGB / depth / opacity, the training cameras,
     saved views and camera paths (render them with `nerfkit render RUN --camera-path FILE`)."""

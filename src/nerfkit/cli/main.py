@@ -18,6 +18,7 @@ from nerfkit.cli.args import (
     BenchmarkArgs,
     EvalArgs,
     ExperimentArgs,
+    ImportSplatArgs,
     MakeMultiscaleArgs,
     MakeSceneArgs,
     ProcessArgs,
@@ -192,6 +193,25 @@ def cmd_process_data(argv: list[str]) -> int:
     return 0
 
 
+def cmd_import(argv: list[str]) -> int:
+    from nerfkit.models.splat.formats import readable
+
+    if not argv or argv[0] != "splat":
+        if argv and argv[0] in ("-h", "--help"):
+            print(f"usage: nerfkit import splat FILE --out RUN_DIR [--data CAPTURE]  ({', '.join(readable())}; "
+                  f"nerfkit import splat --help for its options)")
+            return 0
+        got = f" (got {argv[0]!r})" if argv else ""
+        raise ConfigError(f"import needs a kind: nerfkit import splat FILE --out RUN_DIR{got}")
+    a = parse(ImportSplatArgs, argv[1:], "nerfkit import splat")
+    from nerfkit.run.imported import import_splat
+
+    import_splat(a.file, a.out, a.data, a.overwrite)
+    run = shlex.quote(str(a.out))
+    print(f"run folder: {a.out}\nnext: nerfkit view {run}, nerfkit render {run} --orbit 60, nerfkit eval {run}")
+    return 0
+
+
 def cmd_report(argv: list[str]) -> int:
     from nerfkit.experiments.report import write_experiment_report
     from nerfkit.report.run import write_report
@@ -219,6 +239,8 @@ COMMANDS = {
                        "or nerfkit train ... --viewer; a baked scene's WebGL page: nerfkit view --baked DIR"),
     "export": (cmd_export, "mesh, point cloud, cameras or Gaussian splats in standard formats: nerfkit export "
                            "mesh|pointcloud|cameras|splat RUN_DIR [--out FILE]"),
+    "import": (cmd_import, "a splat file someone else made (.ply, .spz, .splat) as a run folder to view, render, "
+                           "bake, score and fine-tune: nerfkit import splat FILE --out RUN_DIR [--data CAPTURE]"),
     "bake": (cmd_bake, "a web page that renders a trained scene in real time in any browser (WebGL2): "
                        "nerfkit bake RUN_DIR --out DIR"),
     "experiment": (cmd_experiment, "compare models under one budget: nerfkit experiment pe-ablation|antialias "
@@ -236,7 +258,7 @@ def usage() -> str:
     return "\n".join(lines)
 
 
-COMPILING = {"demo", "train", "eval", "render", "experiment", "view", "export", "bake", "benchmark"}
+COMPILING = {"demo", "train", "eval", "render", "experiment", "view", "export", "import", "bake", "benchmark"}
 
 
 def enable_compile_cache() -> None:

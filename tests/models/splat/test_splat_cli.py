@@ -14,7 +14,7 @@ from nerfkit.data.loader import load_scene, read_capture
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.models.splat.method import SplatModel
 from nerfkit.models.splat.gaussians import render
-from nerfkit.models.splat.ply import import_ply
+from nerfkit.models.splat.formats.ply import import_ply
 from nerfkit.run.folder import RunFolder
 
 TRAIN = ["--preset", "splat", "--no-progress", "--capacity", "2000", "--max-steps", "40"]
@@ -101,6 +101,22 @@ def test_export_splat_reads_back_and_renders_the_same_image(run, tmp_path, capsy
     assert main(["export", "mesh", str(out), "--out", str(tmp_path / "m.ply")]) == 1
     assert "export splat" in capsys.readouterr().err
     assert main(["export", "cameras", str(out), "--out", str(tmp_path / "c.json")]) == 0
+
+
+def test_export_splat_picks_the_format_by_extension(run, tmp_path, capsys):
+    _, out = run
+    recs = {}
+    for ext in ("ply", "spz", "splat"):
+        assert main(["export", "splat", str(out), "--out", str(tmp_path / f"s.{ext}")]) == 0
+        recs[ext] = json.loads((out / "exports" / "export_splat.json").read_text())
+        assert recs[ext]["bytes"] == (tmp_path / f"s.{ext}").stat().st_size > 0
+    assert recs["ply"]["format"] == "Inria 3DGS .ply" and recs["ply"]["psnr_vs_run"] >= 100  # float32: exact
+    assert recs["spz"]["psnr_vs_run"] >= 40 and recs["ply"]["bytes"] >= 8 * recs["spz"]["bytes"]
+    assert recs["splat"]["sh_degree"] == 0 and recs["splat"]["bytes"] == 32 * recs["splat"]["gaussians"]
+    assert "Niantic .spz" in capsys.readouterr().out
+    assert main(["export", "splat", str(out), "--out", str(tmp_path / "s.obj")]) == 1
+    assert "unsupported extension '.obj'; use .ply, .spz, .splat" in capsys.readouterr().err
+    assert not (tmp_path / "s.obj").exists()
 
 
 def test_pointcloud_is_the_centres(run, tmp_path, capsys):

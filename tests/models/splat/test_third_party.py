@@ -19,7 +19,7 @@ from viser_splats import viser_render
 from nerfkit.cli.main import main
 from nerfkit.core.metrics import psnr
 from nerfkit.models.splat.gaussians import render
-from nerfkit.models.splat.ply import import_ply
+from nerfkit.models.splat.formats.ply import import_ply
 from nerfkit.rays.cameras import Camera
 
 

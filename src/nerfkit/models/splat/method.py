@@ -27,7 +27,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.core.errors import DataError
+from nerfkit.core.errors import ConfigError, DataError
 from nerfkit.data.normalize import forward_facing, sample_visual_hull
 from nerfkit.data.points import far_points_through_photos, far_sphere_points, transform_points
 from nerfkit.models.base import Supports
@@ -48,6 +48,7 @@ from nerfkit.models.splat.optim import (
     means_lr,
 )
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
+from nerfkit.models.splat.transform import transform_gaussians
 from nerfkit.rays.cameras import Camera
 from nerfkit.rays.correction import camera_extent
 
@@ -154,7 +155,7 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "backend", "appearance", "far_points")) | {"train.pose_refine"}
+        "init", "backend", "appearance", "far_points")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -163,7 +164,7 @@ class SplatModel:
         return (f"splat: up to {g.capacity} Gaussians ({g.strategy} density control), SH degree {g.sh_degree}"
                 f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, loss {g.loss_name()}, "
                 f"{_describe_coarse(g.coarse)}"
-                f"{g.init_points} init, one view per step"
+                f"{f'init from {Path(g.init).name}' if g.init else f'{g.init_points} init'}, one view per step"
                 f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
@@ -193,6 +194,9 @@ class SplatModel:
         """Settings left unread at these values: field.kind (splats are no field), sh_interval at SH degree 0,
         init_points auto on a capture without SfM points."""
         out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
+        if cfg.splat.init:
+            out["splat.init_points"] = f"the Gaussians start from --init {cfg.splat.init}"
+            out["splat.far_points"] = f"the Gaussians start from --init {cfg.splat.init}"
         if cfg.splat.sh_degree == 0:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
@@ -205,7 +209,7 @@ class SplatModel:
         """Whether a capture should get points triangulated at its poses before bind_data: it has none, and
         --init-points is sfm, or auto on photos without masks or alpha (those start in the visual hull)."""
         choice = self.cfg.splat.init_points
-        if capture.points is not None or choice not in ("auto", "sfm"):
+        if self.cfg.splat.init or capture.points is not None or choice not in ("auto", "sfm"):
             return False
         return choice == "sfm" or not (capture.has_masks or capture.alpha)
 
@@ -236,6 +240,10 @@ class SplatModel:
                 intrinsics_of(cam)
             except ValueError as e:
                 raise DataError(f"{capture.root}: {e}") from None
+        if self.cfg.splat.init:
+            self._init_from_file(data)
+            log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}; {self._coarse_note(data)}")
+            return
         choice = self.cfg.splat.init_points
         has_points = capture.points is not None and choice in ("auto", "sfm")
         if choice == "sfm" and not has_points:
@@ -261,6 +269,21 @@ class SplatModel:
         if far == "on" or (far == "auto" and not (capture.has_masks or capture.alpha)):
             self._add_far_points(data)
         log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}; {self._coarse_note(data)}")
+
+    def _init_from_file(self, data) -> None:
+        """The Gaussians of --init FILE (capture coordinates), moved into the normalised frame (data.transform)."""
+        from dataclasses import replace
+
+        from nerfkit.models.splat.formats import read_gaussians
+
+        path = Path(self.cfg.splat.init)
+        g, degree, fmt = read_gaussians(path, "--init")
+        if len(g["means"]) > self.sc.capacity:
+            raise ConfigError(f"--init {path}: {len(g['means']):,} Gaussians, more than --capacity "
+                              f"{self.sc.capacity:,}; pass --capacity {len(g['means'])} or more")
+        self.init_gaussians = transform_gaussians(g, np.asarray(data.transform, np.float64))
+        self.sc = replace(self.sc, sh_start=degree)  # the file's bands are in use from the first step
+        self.init_note = f"{len(g['means']):,} Gaussians of {path.name} ({fmt.name}, SH degree {degree})"
 
     def _coarse_note(self, data) -> str:
         """What the coarse phase will be, and why when --coarse was left to the photos' size."""

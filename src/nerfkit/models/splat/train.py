@@ -78,6 +78,7 @@ class SplatConfig:
     pixel_loss: str = _USER.pixel_loss  # losses.PIXEL_LOSSES: "l1" (3DGS) or "rmse"
     sh_degree: int = _USER.sh_degree
     sh_interval: int = _USER.sh_interval  # steps per SH band (3DGS: 1000 of 30k; a CPU run is ~5k steps)
+    sh_start: int = 0  # the SH degree at step 0 (a run that starts from trained Gaussians: their file's degree)
     coarse_until: float = 0.0  # progress before which views train at half resolution (coarse to fine; 0: never)
     init_box: float = 1.5  # random init in [-box, box]^3 when no points are given
     init_opacity: float = 0.1
@@ -290,7 +291,7 @@ def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
     """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
     learning rate per unit of scene extent, whether density control may run (the window) and whether the
     step trains at half resolution (coarse to fine)."""
-    return {"sh_degree": min(sc.sh_degree, step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
+    return {"sh_degree": min(sc.sh_degree, sc.sh_start + step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
             "control": sc.strategy.window.due(step, progress),
             "half_resolution": progress < sc.coarse_until}
 

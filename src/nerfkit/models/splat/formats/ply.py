@@ -1,4 +1,4 @@
-"""Gaussians to and from the Inria 3DGS .ply layout (what SuperSplat, antimatter15/splat, gsplat, nerfstudio open).
+"""Gaussians to and from the Inria 3DGS .ply layout (what SuperSplat, Spark, gsplat, nerfstudio, Brush open).
 
 One binary little-endian `vertex` element with float32 properties, in this order:
 
@@ -23,10 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from nerfkit.models.splat.formats import N_REST, SplatFormat
 from nerfkit.models.splat.transform import transform_gaussians
-
-N_REST_MAX = 15
-
 
 def _rest_count(names) -> int:
     n = sum(1 for k in names if k.startswith("f_rest_"))
@@ -68,9 +66,19 @@ def import_ply(path: str | Path, transform: np.ndarray | None = None) -> dict:
 
     transform: optional [4, 4] similarity applied after reading (e.g. SceneData.transform to bring
     capture coordinates into nerfkit's normalised frame)."""
+    p, _ = read_ply(path)
+    return transform_gaussians(p, transform) if transform is not None else p
+
+
+def read_ply(path: str | Path) -> tuple[dict, int]:
+    """(Gaussians, SH degree) of a splat .ply: the properties are found by name, in any order and of any
+    numeric type (3DGS, gsplat, Brush, SuperSplat and nerfstudio order them differently; normals optional)."""
     from plyfile import PlyData
 
-    v = PlyData.read(str(path))["vertex"]
+    ply = PlyData.read(str(path))
+    if "vertex" not in [e.name for e in ply.elements]:
+        raise ValueError("no vertex element (a compressed or mesh .ply?)")
+    v = ply["vertex"]
     names = v.data.dtype.names
     missing = [k for k in ("x", "f_dc_0", "opacity", "scale_0", "rot_0") if k not in names]
     if missing:
@@ -81,10 +89,15 @@ def import_ply(path: str | Path, transform: np.ndarray | None = None) -> dict:
 
     n = len(v.data)
     k_rest = _rest_count(names)
-    rest = np.zeros((n, N_REST_MAX, 3), np.float32)
+    rest = np.zeros((n, N_REST, 3), np.float32)
     if k_rest:
         rest[:, :k_rest] = cols([f"f_rest_{i}" for i in range(3 * k_rest)]).reshape(n, 3, k_rest).transpose(0, 2, 1)
     p = {"means": cols(["x", "y", "z"]), "log_scales": cols(["scale_0", "scale_1", "scale_2"]),
          "quats": cols(["rot_0", "rot_1", "rot_2", "rot_3"]), "opacity": np.asarray(v["opacity"], np.float32),
          "sh_dc": cols(["f_dc_0", "f_dc_1", "f_dc_2"])[:, None, :], "sh_rest": rest}
-    return transform_gaussians(p, transform) if transform is not None else p
+    return p, {0: 0, 3: 1, 8: 2, 15: 3}[k_rest]
+
+
+FORMAT = SplatFormat(
+    name="Inria 3DGS .ply", opens="SuperSplat, Spark, GaussianSplats3D, gsplat, nerfstudio, Brush, viser", max_sh=3,
+    write=lambda path, g, degree: export_ply(path, g, sh_degree=degree), read=read_ply)

@@ -1,4 +1,4 @@
-"""Inria .ply export / import (splat/ply.py) and similarity transforms of Gaussians (splat/transform.py).
+"""Inria .ply export / import (splat/formats/ply.py) and similarity transforms of Gaussians (splat/transform.py).
 
 Image tolerances: renders of the same Gaussians after a round trip through float32 files and
 float64 transforms differ by float32 rounding of the inputs (~1e-7 relative); the rasteriser's
@@ -14,7 +14,7 @@ from plyfile import PlyData
 
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.models.splat.gaussians import init_random, render
-from nerfkit.models.splat.ply import export_ply, import_ply
+from nerfkit.models.splat.formats.ply import export_ply, import_ply
 from nerfkit.models.splat.project import quaternion_to_rotation
 from nerfkit.models.splat.transform import (
     fibonacci_sphere,

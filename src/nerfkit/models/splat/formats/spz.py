@@ -1,0 +1,73 @@
+"""Gaussians to and from Niantic's .spz (version 3: the gzip container with smallest-three rotations, what
+Spark, GaussianSplats3D, SuperSplat and Scaniverse read), through gsply (numpy and numba, from pip).
+
+SPZ quantises every attribute (nianticlabs/spz, load-spz.cc):
+
+    positions   24-bit fixed point, 12 fractional bits (steps of 1/4096 of the capture's unit)
+    scales      8 bits over log scales in [-10, 6)  (byte = (s + 10) 16, steps of 1/16)
+    rotations   smallest three of the unit quaternion, 9 bits and a sign each
+    opacity     8 bits of sigmoid(opacity)
+    colour      8 bits of 0.15 sh_dc + 0.5  (sh_dc in [-3.33, 3.33])
+    SH 1..3     8 bits of sh / 128 + 0.5  (|sh| < 1)
+
+and the whole payload is gzipped: about a tenth of the .ply's size.
+
+Axes: SPZ files are in RUB (x right, y up, z back: OpenGL's, three.js's), the .ply's RDF (x right, y down,
+z forward) turned 180 degrees about x: (x, y, z) -> (x, -y, -z), rotations and SH coefficients turned with
+them (transform.py). Written and read so, the Gaussians come back in the capture's coordinates.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from nerfkit.models.splat.formats import N_REST, SplatFormat
+from nerfkit.models.splat.transform import transform_gaussians
+
+RDF_TO_RUB = np.diag([1.0, -1.0, -1.0, 1.0])  # its own inverse
+SPZ_VERSION = 3
+FRACTIONAL_BITS = 12
+_REST_OF_DEGREE = (0, 3, 8, 15)
+
+
+def write_spz(path: str | Path, g: dict, sh_degree: int = 3) -> None:
+    """Write Gaussians (capture coordinates, gaussians.py's layout) to an .spz with `sh_degree` bands."""
+    import gsply
+
+    p = transform_gaussians({k: np.asarray(v) for k, v in g.items()}, RDF_TO_RUB)
+    k = _REST_OF_DEGREE[sh_degree]
+    n = len(p["means"])
+    data = gsply.GSData(means=p["means"], scales=p["log_scales"], quats=_unit(p["quats"]), opacities=p["opacity"],
+                        sh0=p["sh_dc"].reshape(n, 3), shN=np.ascontiguousarray(p["sh_rest"][:, :k], np.float32),
+                        _format=gsply.create_ply_format(sh_degree))
+    gsply.write_spz(path, data, version=SPZ_VERSION, fractional_bits=FRACTIONAL_BITS)
+
+
+def read_spz(path: str | Path) -> tuple[dict, int]:
+    """(Gaussians in the capture's coordinates, SH degree) of an .spz (versions 1-3; 4 with zstandard)."""
+    import gsply
+
+    d = gsply.read_spz(path)
+    n = len(d.means)
+    rest = np.zeros((n, N_REST, 3), np.float32)
+    k = 0 if d.shN is None else int(np.asarray(d.shN).shape[1])
+    if k not in _REST_OF_DEGREE:
+        raise ValueError(f"{k} higher SH coefficients per channel (expected 0, 3, 8 or 15)")
+    if k:
+        rest[:, :k] = np.asarray(d.shN, np.float32).reshape(n, k, 3)
+    p = {"means": np.asarray(d.means, np.float32), "log_scales": np.asarray(d.scales, np.float32),
+         "quats": np.asarray(d.quats, np.float32), "opacity": np.asarray(d.opacities, np.float32).reshape(n),
+         "sh_dc": np.asarray(d.sh0, np.float32).reshape(n, 1, 3), "sh_rest": rest}
+    return transform_gaussians(p, RDF_TO_RUB), _REST_OF_DEGREE.index(k)
+
+
+def _unit(q: np.ndarray) -> np.ndarray:
+    """Unit quaternions (SPZ stores only their direction)."""
+    q = np.asarray(q, np.float32)
+    return q / np.maximum(np.linalg.norm(q, axis=-1, keepdims=True), 1e-12)
+
+
+FORMAT = SplatFormat(name="Niantic .spz (version 3)", opens="Spark, GaussianSplats3D, SuperSplat, Scaniverse",
+                     max_sh=3, write=write_spz, read=read_spz)

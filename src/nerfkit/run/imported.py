@@ -1,0 +1,100 @@
+"""`nerfkit import splat FILE --out RUN`: a splat file made anywhere (.ply from gsplat, 3DGS, Brush, SuperSplat or
+nerfkit; .spz; .splat) as a run folder, so that view, render, bake, export, eval and train --resume work on it as on
+a trained run.
+
+The run is what `nerfkit train CAPTURE --preset splat --init FILE --capacity N --max-steps 0` writes: the
+file's Gaussians, moved into the capture's normalised frame, at step 0, with the capture's cameras and photos.
+
+With --data CAPTURE that capture is the one the file was made from, in the same coordinates: eval then scores
+the file on its photos and train --resume fine-tunes it there. Without one, the import makes a capture of the
+file itself, RUN/capture (nerfstudio's transforms.json): ORBIT_VIEWS cameras (ORBIT_SIZE px square,
+ORBIT_FOV_DEG field of view) circling the median of the Gaussians' centres at ORBIT_RADIUS times the distance
+within which KEEP_SHARE of the centres lie, ORBIT_ELEVATION_DEG above the horizon with -y up (the capture
+convention of the Inria .ply: COLMAP's frames have y down), and the file's own renders from them as photos.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from nerfkit.core.errors import ConfigError
+from nerfkit.core.presets import preset
+from nerfkit.models.splat.formats import read_gaussians
+from nerfkit.rays.cameras import Camera, look_at
+from nerfkit.training.setup import clear_run, refuse_earlier_run
+
+ORBIT_VIEWS = 16
+ORBIT_SIZE = 512
+ORBIT_FOV_DEG = 50.0
+ORBIT_RADIUS = 2.5  # times the distance from the centre within which KEEP_SHARE of the Gaussians lie
+ORBIT_ELEVATION_DEG = 20.0
+KEEP_SHARE = 0.9  # the share of the centres that sets the orbit's scale
+
+
+def orbit_poses(means: np.ndarray, n: int = ORBIT_VIEWS) -> np.ndarray:
+    """Camera-to-world poses [n, 4, 4] (capture coordinates) circling c, the per-axis median of the centres
+    [N, 3], at ORBIT_RADIUS r (r: the KEEP_SHARE quantile of their distances to c), ORBIT_ELEVATION_DEG up
+    (-y up), each looking at c."""
+    means = np.asarray(means, np.float64)
+    c = np.median(means, axis=0)
+    r = max(float(np.quantile(np.linalg.norm(means - c, axis=1), KEEP_SHARE)), 1e-6)
+    el = math.radians(ORBIT_ELEVATION_DEG)
+    poses = []
+    for k in range(n):
+        az = 2 * math.pi * k / n
+        eye = c + ORBIT_RADIUS * r * np.array([math.cos(el) * math.cos(az), -math.sin(el), math.cos(el) * math.sin(az)])
+        poses.append(look_at(eye, c, up=np.array([0.0, -1.0, 0.0])))
+    return np.stack(poses)
+
+
+def write_orbit_capture(g: dict, degree: int, root: Path) -> Path:
+    """RUN/capture: transforms.json with the orbit cameras (orbit_poses) and the Gaussians' renders from them
+    (white background) as its photos. Returns root."""
+    from imageio.v3 import imwrite
+
+    from nerfkit.data.formats.nerfstudio import write_nerfstudio
+    from nerfkit.models.splat.gaussians import render
+
+    focal = 0.5 * ORBIT_SIZE / math.tan(math.radians(ORBIT_FOV_DEG) / 2)
+    camera = Camera.pinhole(ORBIT_SIZE, ORBIT_SIZE, focal)
+    (root / "images").mkdir(parents=True, exist_ok=True)
+    frames = []
+    for k, pose in enumerate(orbit_poses(g["means"])):
+        rgb = np.clip(np.asarray(render(g, pose, camera, (1.0, 1.0, 1.0), degree)["rgb"]), 0, 1)
+        name = f"images/orbit_{k:03d}.png"
+        imwrite(root / name, np.round(255 * rgb).astype(np.uint8))
+        frames.append({"file_path": name, "transform_matrix": pose})
+    write_nerfstudio(root / "transforms.json", frames, [camera] * len(frames))
+    return root
+
+
+def import_splat(file: Path, out: Path, data: Path | None = None, overwrite: bool = False, log=print) -> dict:
+    """Make run folder `out` from splat file `file` (see the module docstring); refuses to replace an earlier run
+    unless `overwrite` (nerfkit train's rules). Returns {gaussians, sh_degree, format, capture}."""
+    from nerfkit.training.trainer import Trainer
+
+    file, out = Path(file), Path(out)
+    g, degree, fmt = read_gaussians(file)  # a bad file is refused before anything is written
+    if data is not None and not Path(data).is_dir():
+        raise ConfigError(f"--data {data}: no such folder; pass the capture the splat file was made from")
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out}: is a file; name a folder for the run")
+    if refuse_earlier_run(out, False, overwrite):
+        clear_run(out)
+    n = len(g["means"])
+    if data is None:
+        shutil.rmtree(out / "capture", ignore_errors=True)
+        data = write_orbit_capture(g, degree, out / "capture")
+        log(f"import: no capture given; {data} holds {ORBIT_VIEWS} renders of the file on an orbit around it")
+    cfg = preset("splat")
+    cfg.splat.capacity, cfg.splat.sh_degree, cfg.splat.init = n, degree, str(file.resolve())
+    cfg.train.max_steps = 0
+    if (Path(data) / "transforms.json").is_file() and Path(data) == out / "capture":  # renders: one exposure, exact poses
+        cfg.splat.appearance, cfg.train.pose_refine = "off", "off"
+    Trainer(data, out, cfg, progress=False).run()
+    log(f"import: {n:,} Gaussians of {file.name} ({fmt.name}, SH degree {degree}), in the frame of {data}")
+    return {"gaussians": n, "sh_degree": degree, "format": fmt.name, "capture": str(data)}
