@@ -259,8 +259,8 @@ class SplatSettings:
     masks or alpha; else triangulated; random only where no point could be triangulated)."""
     init: str | None = None
     """A splat file to start from instead of --init-points: .ply (Inria layout, from nerfkit, gsplat, 3DGS, Brush,
-    SuperSplat), .spz or .splat, in the capture's own coordinates (as nerfkit export splat writes them); training
-    fine-tunes it on this capture. --capacity must hold its Gaussians."""
+    SuperSplat), .spz, .splat, .glb or .gltf, in the capture's own coordinates (as nerfkit export splat writes
+    them); training fine-tunes it on this capture. --capacity must hold its Gaussians."""
     far_points: Literal["auto", "on", "off"] = "auto"
     """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre
     as the farthest camera, each coloured by a training photo that sees it (on a forward-facing capture, where the

@@ -1,4 +1,5 @@
-"""Splat files, by extension: the formats `nerfkit export splat` writes and `nerfkit import splat` reads.
+"""Splat files, by extension: the formats `nerfkit export splat` writes and `nerfkit import splat` reads
+(.ply, .spz, .splat, .glb / .gltf).
 
 Adding a format is a module defining FORMAT (a `SplatFormat`, below) and one line in FORMATS. The
 exporter (export/splat.py), the importer (run/imported.py) and their help read this table.
@@ -28,6 +29,8 @@ FORMATS: dict[str, str] = {  # extension -> the module that defines its FORMAT (
     ".ply": "nerfkit.models.splat.formats.ply",
     ".spz": "nerfkit.models.splat.formats.spz",
     ".splat": "nerfkit.models.splat.formats.antimatter",
+    ".glb": "nerfkit.models.splat.formats.gltf",
+    ".gltf": "nerfkit.models.splat.formats.gltf",
 }
 
 N_REST = 15  # SH coefficients of bands 1..3
