@@ -127,7 +127,8 @@ class ImportSplatArgs:
     """The run folder to write."""
     data: Path | None = None
     """The capture the file was made from, in the same coordinates (the COLMAP model's or poses' frame): the run
-    takes its cameras and normalisation. Without it, the run gets cameras on an orbit around the Gaussians."""
+    takes its cameras and normalisation. Without it, the import makes RUN/capture: the file's own renders from
+    16 cameras on an orbit around it."""
     overwrite: bool = False
     """Replace an earlier run in --out."""
 
