@@ -5,12 +5,12 @@
 
 1. One splat run, as a user trains it (lego: the seed protocol at 200 px; maryrose: masks, --downscale 2):
        nerfkit train DATA --out OUT/run --preset splat --max-minutes M ...
-2. For each format F (.ply, .spz, .splat):
+2. For each format F (.ply, .spz, .splat, .glb):
        nerfkit export splat OUT/run --out OUT/scene.F
        nerfkit import splat OUT/scene.F --data DATA --out OUT/import_F
        nerfkit eval OUT/import_F --split HELD_OUT --downscale D
    The file's bytes, its PSNR / SSIM against the held-out photos, and the PSNR of its renders against the .ply's
-   renders of the same views (eval's 8-bit PNGs: identical renders score inf; 8-bit rounding alone ~59 dB).
+   renders of the same views (eval's 8-bit PNGs: null where they are identical; 8-bit rounding alone ~59 dB).
 3. With --finetune-minutes T: the .ply cut to SH degree 0 (a degraded scene, as a file from a tool without view
    dependence), imported and scored, then `nerfkit train DATA --init scene_sh0.ply --max-minutes T` from it,
    scored again: what fine-tuning a foreign file on its capture recovers.
@@ -39,7 +39,7 @@ SCENES = {  # data, training arguments, held-out split, eval arguments
              "val[50:100]", ["--downscale", "2"]),
     "maryrose": (SHARED / "real" / "maryrose", ["--downscale", "2"], "test", ["--downscale", "2"]),
 }
-FORMATS = ("ply", "spz", "splat")
+FORMATS = ("ply", "spz", "splat", "glb")
 
 
 def nerfkit(*args: str) -> tuple[float, str]:
@@ -104,7 +104,8 @@ def main(argv: list[str] | None = None) -> None:
     for fmt in FORMATS:
         f = record["formats"][fmt]
         f["smaller_than_ply"] = round(ply["bytes"] / f["bytes"], 2)
-        f["psnr_vs_ply_render"] = round(mean_psnr(shown["ply"], shown[fmt]), 2)
+        same = mean_psnr(shown["ply"], shown[fmt])
+        f["psnr_vs_ply_render"] = round(same, 2) if np.isfinite(same) else None  # None: identical renders
         f["psnr_loss_vs_ply"] = round(ply["psnr"] - f["psnr"], 3)
     if a.finetune_minutes:
         record["finetune"] = finetune(out, data, train_args, split, eval_args, a.finetune_minutes)

@@ -1,0 +1,134 @@
+"""A third-party web renderer opens the splat files nerfkit writes and draws them as nerfkit does: Spark (npm
+@sparkjsdev/spark 2.2.0 on three.js 0.187.0, pinned in tests/web) in headless Chromium (tests/spark_splats.py:
+a loopback server, nothing from the network), against nerfkit's rasteriser on the same file as nerfkit reads it
+back, from the same pinhole camera, both on white.
+
+The shared 200-step run (conftest.splat_run) is exported through the CLI to .ply, .spz and .splat and each file
+drawn from training view 0 at 192 x 192 (the run's field of view; it trains at 32 px). Measured (SwiftShader
+WebGL2, Chromium's CPU renderer; Spark set to nerfkit's kernel, spark_splats.NERFKIT_MATCH):
+
+    .ply  51.3 dB   .spz  50.9 dB   .splat  50.0 dB     (views 0, 3, 6: 49.4-51.3 dB)
+    the other axis convention (the pose turned 180 degrees about x): 11.8 dB for each
+    Spark's own defaults (what a page gets without options): 45.4-46.0 dB
+
+so the floor is 40 dB (the issue's bar is 30; 9 dB under what was measured) for Spark set to nerfkit's kernel,
+38 dB for Spark's defaults (its Mip-Splatting filter dims the smallest Gaussians: 22.7-24.1 dB at the run's own
+32 px, where they are a pixel wide, which is why the test draws at 192), and a wrong camera must fall under 20 dB.
+The axes: Spark draws every file's coordinates as stored, so a .spz (RUB: nerfkit turns it by F = diag(1, -1, -1))
+is seen from F @ c2w and a .ply or .splat from c2w (spark_splats.AXIS_RULE; its docstring has the measurement).
+
+The run has no view-dependent colour yet (SH bands start later in training), so a second test draws Gaussians with
+strong SH bands 1-3 (test_ply.py's kind) from .ply and .spz, whose bands nerfkit turns with the axes: Spark
+scores 36.6-39.9 dB against nerfkit's degree-3 render (its SH are quantised to 7 bits and fewer) and 21.5-22.3
+against its degree-0 one; floors 33 dB and 8 dB above degree 0.
+
+Each comparison (nerfkit left, Spark right) is written as a PNG into the test's tmp_path and copied into the
+folder $NERFKIT_SPARK_SCREENSHOTS names, when set. Run time: about 40 s with the run's training (~17 s).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spark_splats import AXIS_RULE, F, SparkPage, spark_vs_nerfkit, training_view
+from web_tools import node_module
+
+from nerfkit.cli.main import main
+from nerfkit.models.splat.formats import splat_format
+from nerfkit.models.splat.gaussians import init_random
+from nerfkit.rays.cameras import Camera
+
+FORMATS = (".ply", ".spz", ".splat")
+SIZE = 192  # px: Spark and nerfkit agree to ~50 dB here; at the run's 32 px Spark's defaults dim 1-px Gaussians
+FLOOR = 40.0  # dB, Spark set to nerfkit's kernel (measured 49.4-51.3)
+FLOOR_DEFAULTS = 38.0  # dB, Spark's defaults (measured 45.1-46.3)
+WRONG_CEILING = 20.0  # dB, the other axis convention (measured 11.2-12.7)
+
+
+def keep(png: Path) -> None:
+    """Copy a comparison into $NERFKIT_SPARK_SCREENSHOTS (a folder), when set."""
+    folder = os.environ.get("NERFKIT_SPARK_SCREENSHOTS")
+    if folder:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        shutil.copy(png, Path(folder) / png.name)
+
+
+@pytest.fixture(scope="module")
+def exported(splat_run, tmp_path_factory):
+    """{extension: the shared run exported to it by `nerfkit export splat`}, and the run."""
+    _, run = splat_run
+    out = tmp_path_factory.mktemp("spark_exports")
+    files = {}
+    for ext in FORMATS:
+        files[ext] = out / f"scene{ext}"
+        assert main(["export", "splat", str(run), "--out", str(files[ext])]) == 0
+    return files, run
+
+
+@pytest.mark.parametrize("ext", FORMATS)
+def test_spark_draws_the_exported_file_like_nerfkit(chromium, exported, tmp_path, ext):
+    node_module("@sparkjsdev/spark")
+    files, run = exported
+    c2w, cam = training_view(run, 0, SIZE)
+    with SparkPage(chromium, tmp_path / "profile", (cam.width, cam.height)) as page:
+        png = tmp_path / f"spark_{ext[1:]}.png"
+        right = spark_vs_nerfkit(page, files[ext], c2w, cam, png=png)
+        keep(png)
+        wrong = spark_vs_nerfkit(page, files[ext], c2w, cam, flip=F @ AXIS_RULE[ext])  # the other convention
+        default = spark_vs_nerfkit(page, files[ext], c2w, cam, options={})  # Spark as a page gets it
+    assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
+    print(f"Spark vs nerfkit, {ext}: {right['psnr']:.2f} dB ({right['frames']} renders), other axes "
+          f"{wrong['psnr']:.2f} dB, Spark's defaults {default['psnr']:.2f} dB, {cam.width}x{cam.height}")
+    assert right["psnr"] >= FLOOR, right["psnr"]
+    assert wrong["psnr"] <= WRONG_CEILING, wrong["psnr"]
+    assert default["psnr"] >= FLOOR_DEFAULTS, default["psnr"]
+
+
+def view_dependent(n: int = 300, seed: int = 0) -> dict:
+    """Grey Gaussians whose colour is all SH bands 1-3 (test_ply.py's gaussians())."""
+    rng = np.random.default_rng(seed)
+    p = init_random(n, box=0.8, seed=seed)
+    p["log_scales"] = (np.log(0.06) + 0.4 * rng.normal(size=(n, 3))).astype(np.float32)
+    p["quats"] = rng.normal(size=(n, 4)).astype(np.float32)
+    p["opacity"] = rng.normal(0.5, 1.0, n).astype(np.float32)
+    p["sh_rest"] = (0.3 * rng.normal(size=p["sh_rest"].shape)).astype(np.float32)
+    return p
+
+
+def look_at(eye) -> np.ndarray:
+    """OpenGL camera-to-world at `eye` looking at the origin, +y up."""
+    eye = np.asarray(eye, np.float64)
+    f = -eye / np.linalg.norm(eye)
+    r = np.cross(f, [0.0, 1.0, 0.0])
+    r /= np.linalg.norm(r)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = r, np.cross(r, f), -f, eye
+    return m
+
+
+@pytest.mark.parametrize("ext", (".ply", ".spz"))
+def test_spark_draws_the_view_dependent_colour(chromium, tmp_path, ext):
+    from nerfkit.core.metrics import psnr
+    from nerfkit.models.splat.formats import read_gaussians
+    from nerfkit.models.splat.gaussians import render
+
+    node_module("@sparkjsdev/spark")
+    path = tmp_path / f"sh{ext}"
+    splat_format(path).write(path, view_dependent(), 3)
+    cam = Camera.pinhole(SIZE, SIZE, 220.0)
+    g, degree, _ = read_gaussians(path)
+    assert degree == 3
+    with SparkPage(chromium, tmp_path / "profile", (SIZE, SIZE)) as page:
+        for k, eye in enumerate(([1.0, 1.5, 3.0], [-2.5, 0.5, -2.0])):  # in front, and from behind
+            c2w = look_at(eye)
+            png = tmp_path / f"spark_sh_{ext[1:]}_{k}.png"
+            got = spark_vs_nerfkit(page, path, c2w, cam, png=png)
+            keep(png)
+            flat = float(psnr(got["spark"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
+            print(f"Spark vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB)")
+            assert got["psnr"] >= 33.0, got["psnr"]
+            assert got["psnr"] >= flat + 8.0, (got["psnr"], flat)
