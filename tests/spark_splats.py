@@ -28,8 +28,8 @@ Spark's own choices, and what the page sets by default so that it draws Gaussian
     maxStdDev sqrt(8) (default): nerfkit cuts at 3 sigma: 3.
     sortRadial true (default): nerfkit sorts by z-depth: false.
 
-Spark also quantises what it draws (PackedSplats: base colour 8 bits clipped to [0, 1], SH band 1 at 7 bits over
-[-1, 1], bands 2 and 3 coarser), so strongly view-dependent Gaussians score ~37-40 dB, not ~50.
+Spark also quantises what it draws (PackedSplats' default encoding: base colour 8 bits clipped to [0, 1], SH
+coefficients 6 to 8 bits over [-1, 1]), so strongly view-dependent Gaussians score 36.6-39.9 dB, not ~50.
 
 Axes, found by measurement (test_spark.py; the same Gaussians as .ply, .spz and .splat, each drawn with the pose
 as given and turned by F): Spark converts NO format's axes: it draws the coordinates stored in the file (its own

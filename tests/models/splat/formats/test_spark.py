@@ -18,12 +18,13 @@ The axes: Spark draws every file's coordinates as stored, so a .spz (RUB: nerfki
 is seen from F @ c2w and a .ply or .splat from c2w (spark_splats.AXIS_RULE; its docstring has the measurement).
 
 The run has no view-dependent colour yet (SH bands start later in training), so a second test draws Gaussians with
-strong SH bands 1-3 (test_ply.py's kind) from .ply and .spz, whose bands nerfkit turns with the axes: Spark
+strong SH bands 1-3 (test_ply.gaussians) from .ply and .spz, whose bands nerfkit turns with the axes: Spark
 scores 36.6-39.9 dB against nerfkit's degree-3 render (its SH are quantised to 7 bits and fewer) and 21.5-22.3
 against its degree-0 one; floors 33 dB and 8 dB above degree 0.
 
 Each comparison (nerfkit left, Spark right) is written as a PNG into the test's tmp_path and copied into the
-folder $NERFKIT_SPARK_SCREENSHOTS names, when set. Run time: about 40 s with the run's training (~17 s).
+folder $NERFKIT_SPARK_SCREENSHOTS names, when set. One browser serves the module's tests. Run time: 36 s on two
+busy cores, 16 s of it training the shared run (made once per session for all the tests that use it).
 """
 
 from __future__ import annotations
@@ -35,12 +36,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from spark_splats import AXIS_RULE, F, SparkPage, spark_vs_nerfkit, training_view
+from test_ply import gaussians
 from web_tools import node_module
 
 from nerfkit.cli.main import main
 from nerfkit.models.splat.formats import splat_format
-from nerfkit.models.splat.gaussians import init_random
-from nerfkit.rays.cameras import Camera
+from nerfkit.rays.cameras import Camera, look_at
 
 FORMATS = (".ply", ".spz", ".splat")
 SIZE = 192  # px: Spark and nerfkit agree to ~50 dB here; at the run's 32 px Spark's defaults dim 1-px Gaussians
@@ -69,17 +70,33 @@ def exported(splat_run, tmp_path_factory):
     return files, run
 
 
+@pytest.fixture(scope="module")
+def spark_page(tmp_path_factory):
+    """page(chromium): one SparkPage for the module's tests (a browser start and Spark's first render cost ~5 s),
+    opened by the first test that asks (after its skips) and closed after the last."""
+    pages = {}
+
+    def page(binary: str) -> SparkPage:
+        if binary not in pages:
+            pages[binary] = SparkPage(binary, tmp_path_factory.mktemp("spark_profile"), (SIZE, SIZE))
+        return pages[binary]
+
+    yield page
+    for p in pages.values():
+        p.close()
+
+
 @pytest.mark.parametrize("ext", FORMATS)
-def test_spark_draws_the_exported_file_like_nerfkit(chromium, exported, tmp_path, ext):
+def test_spark_draws_the_exported_file_like_nerfkit(chromium, spark_page, exported, tmp_path, ext):
     node_module("@sparkjsdev/spark")
     files, run = exported
     c2w, cam = training_view(run, 0, SIZE)
-    with SparkPage(chromium, tmp_path / "profile", (cam.width, cam.height)) as page:
-        png = tmp_path / f"spark_{ext[1:]}.png"
-        right = spark_vs_nerfkit(page, files[ext], c2w, cam, png=png)
-        keep(png)
-        wrong = spark_vs_nerfkit(page, files[ext], c2w, cam, flip=F @ AXIS_RULE[ext])  # the other convention
-        default = spark_vs_nerfkit(page, files[ext], c2w, cam, options={})  # Spark as a page gets it
+    page = spark_page(chromium)
+    png = tmp_path / f"spark_{ext[1:]}.png"
+    right = spark_vs_nerfkit(page, files[ext], c2w, cam, png=png)
+    keep(png)
+    wrong = spark_vs_nerfkit(page, files[ext], c2w, cam, flip=F @ AXIS_RULE[ext])  # the other convention
+    default = spark_vs_nerfkit(page, files[ext], c2w, cam, options={})  # Spark as a page gets it
     assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
     print(f"Spark vs nerfkit, {ext}: {right['psnr']:.2f} dB ({right['frames']} renders), other axes "
           f"{wrong['psnr']:.2f} dB, Spark's defaults {default['psnr']:.2f} dB, {cam.width}x{cam.height}")
@@ -88,47 +105,25 @@ def test_spark_draws_the_exported_file_like_nerfkit(chromium, exported, tmp_path
     assert default["psnr"] >= FLOOR_DEFAULTS, default["psnr"]
 
 
-def view_dependent(n: int = 300, seed: int = 0) -> dict:
-    """Grey Gaussians whose colour is all SH bands 1-3 (test_ply.py's gaussians())."""
-    rng = np.random.default_rng(seed)
-    p = init_random(n, box=0.8, seed=seed)
-    p["log_scales"] = (np.log(0.06) + 0.4 * rng.normal(size=(n, 3))).astype(np.float32)
-    p["quats"] = rng.normal(size=(n, 4)).astype(np.float32)
-    p["opacity"] = rng.normal(0.5, 1.0, n).astype(np.float32)
-    p["sh_rest"] = (0.3 * rng.normal(size=p["sh_rest"].shape)).astype(np.float32)
-    return p
-
-
-def look_at(eye) -> np.ndarray:
-    """OpenGL camera-to-world at `eye` looking at the origin, +y up."""
-    eye = np.asarray(eye, np.float64)
-    f = -eye / np.linalg.norm(eye)
-    r = np.cross(f, [0.0, 1.0, 0.0])
-    r /= np.linalg.norm(r)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = r, np.cross(r, f), -f, eye
-    return m
-
-
 @pytest.mark.parametrize("ext", (".ply", ".spz"))
-def test_spark_draws_the_view_dependent_colour(chromium, tmp_path, ext):
+def test_spark_draws_the_view_dependent_colour(chromium, spark_page, tmp_path, ext):
     from nerfkit.core.metrics import psnr
     from nerfkit.models.splat.formats import read_gaussians
     from nerfkit.models.splat.gaussians import render
 
     node_module("@sparkjsdev/spark")
     path = tmp_path / f"sh{ext}"
-    splat_format(path).write(path, view_dependent(), 3)
+    splat_format(path).write(path, gaussians(), 3)  # colour mostly from SH bands 1-3
     cam = Camera.pinhole(SIZE, SIZE, 220.0)
     g, degree, _ = read_gaussians(path)
     assert degree == 3
-    with SparkPage(chromium, tmp_path / "profile", (SIZE, SIZE)) as page:
-        for k, eye in enumerate(([1.0, 1.5, 3.0], [-2.5, 0.5, -2.0])):  # in front, and from behind
-            c2w = look_at(eye)
-            png = tmp_path / f"spark_sh_{ext[1:]}_{k}.png"
-            got = spark_vs_nerfkit(page, path, c2w, cam, png=png)
-            keep(png)
-            flat = float(psnr(got["spark"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
-            print(f"Spark vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB)")
-            assert got["psnr"] >= 33.0, got["psnr"]
-            assert got["psnr"] >= flat + 8.0, (got["psnr"], flat)
+    page = spark_page(chromium)
+    for k, eye in enumerate(([1.0, 1.5, 3.0], [-2.5, 0.5, -2.0])):  # in front, and from behind
+        c2w = look_at(np.asarray(eye), np.zeros(3), up=np.array([0.0, 1.0, 0.0]))
+        png = tmp_path / f"spark_sh_{ext[1:]}_{k}.png"
+        got = spark_vs_nerfkit(page, path, c2w, cam, png=png)
+        keep(png)
+        flat = float(psnr(got["spark"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
+        print(f"Spark vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB)")
+        assert got["psnr"] >= 33.0, got["psnr"]
+        assert got["psnr"] >= flat + 8.0, (got["psnr"], flat)
