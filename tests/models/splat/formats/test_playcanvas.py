@@ -1,0 +1,136 @@
+"""A third-party web renderer draws the glTF files nerfkit writes (KHR_gaussian_splatting, formats/gltf.py) as
+nerfkit does: the PlayCanvas engine (npm playcanvas 2.23.3, pinned in tests/web) in headless Chromium
+(tests/playcanvas_splats.py: a loopback server, nothing from the network; the engine's own glTF loader and its
+default settings, as a page that embeds the file gets them), against nerfkit's rasteriser on the same file as
+nerfkit reads it back, from the same pinhole camera, both on white.
+
+The shared 200-step run (conftest.splat_run; 1,000 Gaussians in its export) is exported through the CLI to .glb and
+drawn from training view 0 at 192 x 192 (the run's field of view; it trains at 32 px). Measured (SwiftShader WebGL2,
+Chromium's CPU renderer), training views 0, 3 and 6:
+
+    PlayCanvas vs nerfkit                       38.4-38.6 dB  (playcanvas_splats.PRECISE: 38.6-39.0)
+    PlayCanvas vs playcanvas_model              51.4-51.6 dB  (PRECISE: 56.5-56.8)
+    the other axis convention (c2w, not F c2w)  11.3-12.8 dB
+    at the run's own 32 px, vs nerfkit          23.9-25.0 dB  (vs playcanvas_model 49.9-51.7)
+
+PlayCanvas's kernel is not nerfkit's (playcanvas_splats' docstring, from its shaders): its dilation is 0.075 px^2,
+not 0.3 (it adds 0.3 to a covariance measured in half pixels), and its Gaussian is renormalised to vanish at
+sqrt(8) sigma, thinning the tails (-12 % at 2 sigma); both are in its shaders, not settings. Those two rules on
+nerfkit's own projection (playcanvas_model) account for all but 51-57 dB of what PlayCanvas draws (the rest is its
+work-buffer packing and 8-bit blending), at 32 px as at 192, and cost what separates it from nerfkit: mostly the
+tails at 192 px, mostly the dilation at 32 px (Gaussians about a pixel wide, which is why the test draws at 192).
+So the floors: 34 dB against nerfkit (the issue's bar is 30; 4.4 dB under what was measured), 46 dB against the
+model (5.4 under), and a wrong camera must fall under 20 dB. The axes: PlayCanvas draws the glTF node as stored
+(+Y up, no turn), so the capture seen from c2w is seen in the .glb from F @ c2w (F = diag(1, -1, -1)).
+
+The run has no view-dependent colour yet, so a second test writes Gaussians with strong SH bands 1-3
+(test_ply.gaussians) to .glb and .gltf at degree 3: PlayCanvas reads SH_DEGREE_1..3 from glTF and draws them
+(evaluated per Gaussian from the camera's centre, as nerfkit; coefficients packed to 11/10/11 bits): 38.3 dB
+against nerfkit's degree-3 render, 21.0-21.9 against its degree-0 one, 43.7-44.0 against playcanvas_model; floors
+34 dB, 8 dB above degree 0, and 40 dB.
+
+Each comparison (nerfkit, PlayCanvas, the model) is written as a PNG into the test's tmp_path and copied into the
+folder $NERFKIT_PLAYCANVAS_SCREENSHOTS names, when set. One browser serves the module's tests. Run time: 37-43 s
+on two busy cores, ~19 s of it training and exporting the shared run (made once per session for all the tests that
+use it); the tests themselves ~15 s (the browser's start and first render ~5 s).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from playcanvas_splats import PlayCanvasPage, playcanvas_vs_nerfkit
+from spark_splats import training_view
+from test_ply import gaussians
+from web_tools import node_module
+
+from nerfkit.cli.main import main
+from nerfkit.models.splat.formats import splat_format
+from nerfkit.rays.cameras import Camera, look_at
+
+SIZE = 192  # px: at the run's 32 px PlayCanvas's 0.075 px^2 dilation leaves 1-px Gaussians far thinner
+FLOOR = 34.0  # dB against nerfkit (measured 38.4-38.6)
+MODEL_FLOOR = 46.0  # dB against playcanvas_model (measured 51.4-51.6)
+WRONG_CEILING = 20.0  # dB, the other axis convention (measured 11.3-12.8)
+SH_FLOOR, SH_MODEL_FLOOR, SH_OVER_FLAT = 34.0, 40.0, 8.0  # measured 38.3, 43.7-44.0, 16.4-17.4
+
+
+def keep(png: Path) -> None:
+    """Copy a comparison into $NERFKIT_PLAYCANVAS_SCREENSHOTS (a folder), when set."""
+    folder = os.environ.get("NERFKIT_PLAYCANVAS_SCREENSHOTS")
+    if folder:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        shutil.copy(png, Path(folder) / png.name)
+
+
+@pytest.fixture(scope="module")
+def exported_glb(splat_run, tmp_path_factory):
+    """(the shared run exported to .glb by `nerfkit export splat`, the run)."""
+    _, run = splat_run
+    path = tmp_path_factory.mktemp("playcanvas_export") / "scene.glb"
+    assert main(["export", "splat", str(run), "--out", str(path)]) == 0
+    return path, run
+
+
+@pytest.fixture(scope="module")
+def playcanvas_page(tmp_path_factory):
+    """page(chromium): one PlayCanvasPage for the module's tests (a browser start and the engine's first render
+    cost ~5 s), opened by the first test that asks (after its skips) and closed after the last."""
+    pages = {}
+
+    def page(binary: str) -> PlayCanvasPage:
+        if binary not in pages:
+            pages[binary] = PlayCanvasPage(binary, tmp_path_factory.mktemp("playcanvas_profile"), (SIZE, SIZE))
+        return pages[binary]
+
+    yield page
+    for p in pages.values():
+        p.close()
+
+
+def test_playcanvas_draws_the_exported_glb_like_nerfkit(chromium, playcanvas_page, exported_glb, tmp_path):
+    node_module("playcanvas")
+    glb, run = exported_glb
+    c2w, cam = training_view(run, 0, SIZE)
+    page = playcanvas_page(chromium)
+    png = tmp_path / "playcanvas_glb.png"
+    right = playcanvas_vs_nerfkit(page, glb, c2w, cam, png=png, model=True)
+    keep(png)
+    wrong = playcanvas_vs_nerfkit(page, glb, c2w, cam, flip=np.eye(4))  # the pose as given: the capture's axes
+    assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
+    assert right["playcanvas"].std() > 0.05, "PlayCanvas drew nothing"
+    print(f"PlayCanvas vs nerfkit, .glb: {right['psnr']:.2f} dB ({right['frames']} renders), vs PlayCanvas's "
+          f"rules {right['psnr_model']:.2f} dB, other axes {wrong['psnr']:.2f} dB, {cam.width}x{cam.height}")
+    assert right["psnr"] >= FLOOR, right["psnr"]
+    assert right["psnr_model"] >= MODEL_FLOOR, right["psnr_model"]
+    assert wrong["psnr"] <= WRONG_CEILING, wrong["psnr"]
+
+
+@pytest.mark.parametrize("ext", (".glb", ".gltf"))
+def test_playcanvas_draws_the_view_dependent_colour(chromium, playcanvas_page, tmp_path, ext):
+    from nerfkit.core.metrics import psnr
+    from nerfkit.models.splat.formats import read_gaussians
+    from nerfkit.models.splat.gaussians import render
+
+    node_module("playcanvas")
+    path = tmp_path / f"sh{ext}"
+    splat_format(path).write(path, gaussians(), 3)  # colour mostly from SH bands 1-3
+    cam = Camera.pinhole(SIZE, SIZE, 220.0)
+    g, degree, _ = read_gaussians(path)
+    assert degree == 3
+    page = playcanvas_page(chromium)
+    for k, eye in enumerate(([1.0, 1.5, 3.0], [-2.5, 0.5, -2.0])):  # in front, and from behind
+        c2w = look_at(np.asarray(eye), np.zeros(3), up=np.array([0.0, 1.0, 0.0]))
+        png = tmp_path / f"playcanvas_sh_{ext[1:]}_{k}.png"
+        got = playcanvas_vs_nerfkit(page, path, c2w, cam, png=png, model=True)
+        keep(png)
+        flat = float(psnr(got["playcanvas"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
+        print(f"PlayCanvas vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB), "
+              f"vs PlayCanvas's rules {got['psnr_model']:.2f} dB")
+        assert got["psnr"] >= SH_FLOOR, got["psnr"]
+        assert got["psnr"] >= flat + SH_OVER_FLAT, (got["psnr"], flat)
+        assert got["psnr_model"] >= SH_MODEL_FLOOR, got["psnr_model"]
