@@ -2,8 +2,8 @@
 KHR_gaussian_splatting in headless Chromium, as a web page that embeds it would: shared by
 tests/models/splat/formats/test_playcanvas.py (playcanvas_vs_nerfkit).
 
-How: the loopback server of tests/spark_splats.py (its _Handler: tests/web's node_modules and the registered files
-on 127.0.0.1, nothing from the network) serves another page, which imports the engine's single module build
+How: a WebPage (tests/splat_pages.py: tests/web's node_modules and the registered files on 127.0.0.1, nothing
+from the network; headless Chromium; the page's errors) serves a page which imports the engine's single module build
 (build/playcanvas.min.mjs). It makes a pc.Application on a W x H canvas (WebGL2, no antialiasing,
 preserveDrawingBuffer; FILLMODE_NONE, RESOLUTION_FIXED), a camera entity (clear colour white, as nerfkit's renders)
 and, per file, a 'container' asset whose resource's instantiateRenderEntity() is added to the root at the identity:
@@ -16,7 +16,7 @@ lossless) agree: the first frames draw nothing or an older order. Page errors (w
 console.*, Runtime.exceptionThrown) go into the RuntimeError of a failure.
 
 Camera: the entity's world transform is the pose given (PlayCanvas's camera and nerfkit's c2w are both OpenGL:
-looking down -z, +y up), fov the vertical field of view 2 atan(H / 2 fy) (spark_splats.fov_y: fx = fy and a
+looking down -z, +y up), fov the vertical field of view 2 atan(H / 2 fy) (splat_pages.fov_y: fx = fy and a
 centred principal point, anything else refused), aspect W / H, near 0.01, far 1000. The .glb's world is the
 capture's turned by F = diag(1, -1, -1) (formats/gltf.py: glTF is +Y up) and PlayCanvas draws glTF nodes as
 stored, so the capture seen from c2w is, in the .glb, seen from F @ c2w: render() gives PlayCanvas F @ c2w unless
@@ -62,18 +62,10 @@ Gaussians with strong SH bands 1-3 (.glb or .gltf): 38.3 dB against nerfkit at d
 
 from __future__ import annotations
 
-import base64
-import functools
-import http.server
-import io
-import json
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
-from chromium import Chromium
-from spark_splats import F, _Handler, fov_y
+from splat_pages import F, WebPage, fov_y, html_page
 
 from nerfkit.rays.cameras import Camera
 
@@ -91,15 +83,7 @@ DILATION = 0.3 / 4.0
 KERNEL_END = 4.0  # d^2 / 2 at the quad's edge, d = sqrt(8)
 ALPHA_CLIP = 1.0 / 255.0  # alphaClipForward
 
-PAGE = """<!doctype html>
-<html><head><meta charset="utf-8"><style>html, body { margin: 0; background: #808080; }
-canvas { display: block; }</style>
-<script>window.__errors = [];
-window.addEventListener("error", e => window.__errors.push("error: " + (e.message || e) + " at " + e.filename
-  + ":" + e.lineno));
-window.addEventListener("unhandledrejection", e => window.__errors.push("unhandled rejection: "
-  + ((e.reason && (e.reason.stack || e.reason.message)) || e.reason)));</script>
-<script type="module">
+PAGE = html_page("""<script type="module">
 import * as pc from "MODULE";
 
 const frame = () => new Promise(r => requestAnimationFrame(() => r()));
@@ -176,90 +160,28 @@ window.pcRender = async ({ url, c2w, fov, w, h, options, minFrames, maxFrames })
   return { png: prev, frames: maxFrames, sorts: sorts - s0, settled: false };
 };
 window.pcReady = true;
-</script></head><body></body></html>
-"""
+</script>""").replace("MODULE", MODULE)
 
 
-class _PlayCanvasHandler(_Handler):
-    """spark_splats._Handler (node_modules and /files/NAME) serving this module's page at /."""
-
-    def do_GET(self):
-        if self.path.split("?", 1)[0] in ("/", "/index.html"):
-            body = PAGE.replace("MODULE", MODULE).encode()
-            self.send_response(200)
-            self.send_header("Content-Type", "text/html; charset=utf-8")
-            self.send_header("Content-Length", str(len(body)))
-            self.end_headers()
-            self.wfile.write(body)
-            return
-        super().do_GET()
-
-
-class PlayCanvasPage:
+class PlayCanvasPage(WebPage):
     """One headless Chromium showing the PlayCanvas page, for several renders (files, poses, settings) in a row;
     a context manager (close() ends the browser and the server)."""
+
+    name = "PlayCanvas"
 
     def __init__(self, chromium: str, profile: Path, size: tuple[int, int] = (400, 400)):
         """Start the server and the browser (window `size` (w, h)) and load the page; RuntimeError with the page's
         errors when the engine's module does not load within 60 s."""
-        self.files: dict[str, Path] = {}  # URL name -> file
-        self.server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
-                                                      functools.partial(_PlayCanvasHandler, files=self.files))
-        self.server.daemon_threads = True
-        threading.Thread(target=self.server.serve_forever, daemon=True).start()
-        self.browser = None
-        self.last = {}
-        try:
-            self.browser = Chromium(chromium, profile, max(int(size[0]), 64), max(int(size[1]), 64), webgl=True)
-            self.browser.open_page()
-            self.browser.navigate(f"http://127.0.0.1:{self.server.server_address[1]}/")
-            t0 = time.time()
-            while not self.browser.evaluate("window.pcReady === true"):
-                if time.time() - t0 > 60:
-                    raise RuntimeError(f"the PlayCanvas page did not load its module within 60 s: {self.errors()}")
-                time.sleep(0.1)
-        except BaseException:
-            self.close()
-            raise
-
-    def errors(self) -> list[str]:
-        """The page's errors and console messages so far, for a failure's message."""
-        out = []
-        if self.browser is None:
-            return out
-        for m in self.browser.events:
-            if m.get("method") == "Runtime.consoleAPICalled":
-                p = m["params"]
-                out.append(f"console.{p['type']}: " + " ".join(str(a.get("value", a.get("description", "")))
-                                                                for a in p.get("args", [])))
-            elif m.get("method") == "Runtime.exceptionThrown":
-                d = m["params"]["exceptionDetails"]
-                out.append("exception: " + str(d.get("exception", {}).get("description", d.get("text"))))
-        try:
-            out += self.browser.evaluate("window.__errors || []", timeout=10) or []
-        except Exception as e:  # noqa: BLE001 - a page that cannot answer says so in the message
-            out.append(f"(the page did not answer: {e})")
-        return out
-
-    def _url(self, file: Path) -> str:
-        file = Path(file).resolve()
-        for name, known in self.files.items():
-            if known == file:
-                return f"/files/{name}"
-        name = f"{len(self.files)}{file.suffix.lower()}"  # the container handler tells .glb from .gltf by name
-        self.files[name] = file
-        return f"/files/{name}"
+        super().__init__(chromium, profile, size, PAGE, "window.pcReady === true")
 
     def render(self, file: Path, c2w: np.ndarray, camera: Camera, flip: np.ndarray | None = None,
                options: dict | None = None, min_frames: int = 3, max_frames: int = 60) -> np.ndarray:
         """PlayCanvas's render [H, W, 3] in [0, 1] of a .glb or .gltf `file` seen from c2w [4, 4] (OpenGL
-        camera-to-world in the capture's coordinates) through the pinhole `camera` (spark_splats.fov_y). The
+        camera-to-world in the capture's coordinates) through the pinhole `camera` (splat_pages.fov_y). The
         engine's camera is flip @ c2w, in the file's own coordinates: flip None is F (nerfkit writes glTF turned
         by F); np.eye(4) the pose as given. options: app.scene.gsplat settings (None or {}: the engine's
         defaults; PRECISE). self.last says how many renders it took. RuntimeError, with the page's errors,
         when PlayCanvas fails or its renders do not settle within max_frames."""
-        import imageio.v3 as iio
-
         file = Path(file)
         if file.suffix.lower() not in (".glb", ".gltf"):
             raise ValueError(f"PlayCanvas's loader reads KHR_gaussian_splatting from .glb or .gltf, not {file.name}")
@@ -267,31 +189,7 @@ class PlayCanvasPage:
         w, h = int(camera.width), int(camera.height)
         args = {"url": self._url(file), "c2w": pose.T.reshape(-1).tolist(), "fov": fov_y(camera), "w": w, "h": h,
                 "options": options or {}, "minFrames": int(min_frames), "maxFrames": int(max_frames)}
-        try:
-            got = self.browser.evaluate(f"window.pcRender({json.dumps(args)})", timeout=180)
-        except Exception as e:  # noqa: BLE001 - said again with the page's errors
-            raise RuntimeError(f"PlayCanvas failed to render {file.name}: {e}; page: {self.errors()}") from None
-        if not got or not got.get("settled"):
-            raise RuntimeError(f"PlayCanvas's renders of {file.name} did not settle within {max_frames} frames "
-                               f"({got and {k: v for k, v in got.items() if k != 'png'}}); page: {self.errors()}")
-        self.last = {k: v for k, v in got.items() if k != "png"}
-        img = iio.imread(io.BytesIO(base64.b64decode(got["png"].split(",", 1)[1])))
-        if img.shape[:2] != (h, w):
-            raise RuntimeError(f"PlayCanvas's canvas read back {img.shape[1]} x {img.shape[0]}, not {w} x {h}")
-        return img[..., :3].astype(np.float32) / 255.0
-
-    def close(self) -> None:
-        if self.browser is not None:
-            self.browser.close()
-            self.browser = None
-        self.server.shutdown()
-        self.server.server_close()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
+        return self._draw("pcRender", file, args, timeout=180)
 
 
 def playcanvas_vs_nerfkit(page: PlayCanvasPage, file: Path, c2w: np.ndarray, camera: Camera,

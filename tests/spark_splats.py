@@ -2,15 +2,15 @@
 tests/web) drawing a splat file in headless Chromium, as a web page that embeds it would: shared by
 tests/models/splat/formats/test_spark.py and the benchmarks (spark_vs_nerfkit, training_view).
 
-How: a loopback HTTP server (http.server in a thread on 127.0.0.1, a free port) serves a small page, tests/web's
-node_modules and the file; an import map points "three" (and "three/addons/", which Spark imports) and
-"@sparkjsdev/spark" at their module builds there, so nothing reaches the network. The page makes a
-THREE.WebGLRenderer (no antialiasing, preserveDrawingBuffer, pixel ratio 1, a canvas of exactly W x H), a
-SparkRenderer added to the scene, and a SplatMesh({url}) left at the identity (no turn: nothing a user's page adds
-by itself), awaits the mesh's `initialized`, sets the camera and renders, one frame per requestAnimationFrame,
-until Spark's worker has sorted for that camera (!sorting, !sortDirty, activeSplats > 0) and three readbacks in a
-row (canvas.toDataURL, PNG: lossless) agree: the first frames draw nothing, or an older order. Page errors
-(window.onerror, unhandled rejections, console.*, Runtime.exceptionThrown) go into the RuntimeError of a failure.
+How: a WebPage (tests/splat_pages.py: a loopback server, nothing from the network; headless Chromium; the
+page's errors) serves a small page whose import map points "three" (and "three/addons/", which Spark imports) and
+"@sparkjsdev/spark" at their module builds in tests/web's node_modules. The page makes a THREE.WebGLRenderer (no
+antialiasing, preserveDrawingBuffer, pixel ratio 1, a canvas of exactly W x H), a SparkRenderer added to the
+scene, and a SplatMesh({url}) left at the identity (no turn: nothing a user's page adds by itself), awaits the
+mesh's `initialized`, sets the camera and renders, one frame per requestAnimationFrame, until Spark's worker has
+sorted for that camera (!sorting, !sortDirty, activeSplats > 0) and three readbacks in a row (canvas.toDataURL,
+PNG: lossless) agree: the first frames draw nothing, or an older order. Page errors (window.onerror, unhandled
+rejections, console.*, Runtime.exceptionThrown) go into the RuntimeError of a failure.
 
 Camera: a three.js PerspectiveCamera whose camera-to-world is the pose given (nerfkit's convention and three.js's
 agree: OpenGL, looking down -z, +y up), vertical field of view 2 atan(H / 2 fy), aspect W / H, near 0.01, far
@@ -42,22 +42,17 @@ applies it unless told `flip`. Shared run, 192 px, training views 0, 3, 6: .ply 
 
 from __future__ import annotations
 
-import base64
-import functools
-import http.server
-import io
 import json
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
-from chromium import Chromium
-from web_tools import WEB
+from splat_pages import F, WebPage, fov_y, html_page, training_view
 
 from nerfkit.rays.cameras import Camera
 
-F = np.diag([1.0, -1.0, -1.0, 1.0])  # 180 degrees about x: the capture's axes (RDF) <-> SPZ's and glTF's (RUB)
+# F, fov_y and training_view live in splat_pages; the benchmarks and tests import them from here too.
+__all__ = ["AXIS_RULE", "F", "MODULES", "NERFKIT_MATCH", "PAGE", "SparkPage", "fov_y", "spark_render",
+           "spark_vs_nerfkit", "training_view"]
 
 # The pose Spark must take, in the file's own coordinates, to show the capture as a camera c2w in the capture's
 # coordinates sees it: AXIS_RULE[extension] @ c2w (nerfkit writes .spz and .glb turned by F; Spark draws as stored).
@@ -70,15 +65,7 @@ MODULES = {"three": "/node_modules/three/build/three.module.js",
            "three/addons/": "/node_modules/three/examples/jsm/",  # Spark imports three/addons/postprocessing/
            "@sparkjsdev/spark": "/node_modules/@sparkjsdev/spark/dist/spark.module.js"}
 
-PAGE = """<!doctype html>
-<html><head><meta charset="utf-8"><style>html, body { margin: 0; background: #808080; }
-canvas { display: block; }</style>
-<script>window.__errors = [];
-window.addEventListener("error", e => window.__errors.push("error: " + (e.message || e) + " at " + e.filename
-  + ":" + e.lineno));
-window.addEventListener("unhandledrejection", e => window.__errors.push("unhandled rejection: "
-  + ((e.reason && (e.reason.stack || e.reason.message)) || e.reason)));</script>
-<script type="importmap">{"imports": IMPORTS}</script>
+PAGE = html_page("""<script type="importmap">{"imports": IMPORTS}</script>
 <script type="module">
 import * as THREE from "three";
 import { SparkRenderer, SplatMesh } from "@sparkjsdev/spark";
@@ -134,107 +121,19 @@ window.sparkRender = async ({ url, c2w, fov, w, h, options, minFrames, maxFrames
   return { png: prev, frames: maxFrames, settled: false, splats: spark.activeSplats };
 };
 window.sparkReady = true;
-</script></head><body></body></html>
-"""
+</script>""").replace("IMPORTS", json.dumps(MODULES))
 
 
-class _Handler(http.server.SimpleHTTPRequestHandler):
-    """Serves / (the page), /node_modules/... (tests/web's) and /files/NAME (the files registered); nothing else."""
-
-    extensions_map = {**http.server.SimpleHTTPRequestHandler.extensions_map, ".js": "text/javascript",
-                      ".mjs": "text/javascript", ".wasm": "application/wasm"}
-
-    def __init__(self, *args, files: dict, **kwargs):
-        self.files = files
-        super().__init__(*args, directory=str(WEB), **kwargs)
-
-    def translate_path(self, path):
-        path = path.split("?", 1)[0].split("#", 1)[0]
-        if path.startswith("/files/"):
-            return str(self.files.get(path[len("/files/"):], "/nonexistent"))
-        if path.startswith("/node_modules/"):
-            return super().translate_path(path)
-        return "/nonexistent"
-
-    def do_GET(self):
-        if self.path.split("?", 1)[0] in ("/", "/index.html"):
-            body = PAGE.replace("IMPORTS", json.dumps(MODULES)).encode()
-            self.send_response(200)
-            self.send_header("Content-Type", "text/html; charset=utf-8")
-            self.send_header("Content-Length", str(len(body)))
-            self.end_headers()
-            self.wfile.write(body)
-            return
-        super().do_GET()
-
-    def log_message(self, *args):  # quiet
-        pass
-
-
-def fov_y(camera: Camera) -> float:
-    """three.js's vertical field of view (degrees) of a nerfkit pinhole Camera; ValueError unless fx = fy and the
-    principal point is the image's centre (what a PerspectiveCamera draws)."""
-    w, h = int(camera.width), int(camera.height)
-    if camera.params or abs(camera.fx - camera.fy) > 1e-6 * camera.fy or abs(camera.cx - 0.5 * w) > 1e-6 * w \
-            or abs(camera.cy - 0.5 * h) > 1e-6 * h:
-        raise ValueError(f"a PerspectiveCamera draws a pinhole with fx = fy and a centred principal point, not "
-                         f"{camera}")
-    return float(np.degrees(2 * np.arctan(0.5 * h / camera.fy)))
-
-
-class SparkPage:
+class SparkPage(WebPage):
     """One headless Chromium showing the Spark page, for several renders (files, poses, options) in a row; a
     context manager (close() ends the browser and the server)."""
+
+    name = "Spark"
 
     def __init__(self, chromium: str, profile: Path, size: tuple[int, int] = (400, 400)):
         """Start the server and the browser (window `size` (w, h)) and load the page; RuntimeError with the page's
         errors when its modules do not load within 60 s."""
-        self.files: dict[str, Path] = {}  # URL name -> file
-        self.server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(_Handler, files=self.files))
-        self.server.daemon_threads = True
-        threading.Thread(target=self.server.serve_forever, daemon=True).start()
-        self.browser = None
-        self.last = {}
-        try:
-            self.browser = Chromium(chromium, profile, max(int(size[0]), 64), max(int(size[1]), 64), webgl=True)
-            self.browser.open_page()
-            self.browser.navigate(f"http://127.0.0.1:{self.server.server_address[1]}/")
-            t0 = time.time()
-            while not self.browser.evaluate("window.sparkReady === true"):
-                if time.time() - t0 > 60:
-                    raise RuntimeError(f"the Spark page did not load its modules within 60 s: {self.errors()}")
-                time.sleep(0.1)
-        except BaseException:
-            self.close()
-            raise
-
-    def errors(self) -> list[str]:
-        """The page's errors and console messages so far, for a failure's message."""
-        out = []
-        if self.browser is None:
-            return out
-        for m in self.browser.events:
-            if m.get("method") == "Runtime.consoleAPICalled":
-                p = m["params"]
-                out.append(f"console.{p['type']}: " + " ".join(str(a.get("value", a.get("description", "")))
-                                                                for a in p.get("args", [])))
-            elif m.get("method") == "Runtime.exceptionThrown":
-                d = m["params"]["exceptionDetails"]
-                out.append("exception: " + str(d.get("exception", {}).get("description", d.get("text"))))
-        try:
-            out += self.browser.evaluate("window.__errors || []", timeout=10) or []
-        except Exception as e:  # noqa: BLE001 - a page that cannot answer says so in the message
-            out.append(f"(the page did not answer: {e})")
-        return out
-
-    def _url(self, file: Path) -> str:
-        file = Path(file).resolve()
-        for name, known in self.files.items():
-            if known == file:
-                return f"/files/{name}"
-        name = f"{len(self.files)}{file.suffix.lower()}"  # Spark tells the format by extension and content
-        self.files[name] = file
-        return f"/files/{name}"
+        super().__init__(chromium, profile, size, PAGE, "window.sparkReady === true")
 
     def render(self, file: Path, c2w: np.ndarray, camera: Camera, flip: np.ndarray | None = None,
                options: dict | None = None, min_frames: int = 3, max_frames: int = 100) -> np.ndarray:
@@ -244,8 +143,6 @@ class SparkPage:
         options: SparkRenderer options (None: NERFKIT_MATCH; {}: Spark's defaults). self.last says how many
         renders it took. RuntimeError, with the page's errors, when Spark fails or its renders do not settle
         within max_frames."""
-        import imageio.v3 as iio
-
         file = Path(file)
         if flip is None:
             flip = AXIS_RULE[file.suffix.lower()]
@@ -254,31 +151,7 @@ class SparkPage:
         args = {"url": self._url(file), "c2w": pose.T.reshape(-1).tolist(), "fov": fov_y(camera), "w": w, "h": h,
                 "options": NERFKIT_MATCH if options is None else options, "minFrames": int(min_frames),
                 "maxFrames": int(max_frames)}
-        try:
-            got = self.browser.evaluate(f"window.sparkRender({json.dumps(args)})", timeout=120)
-        except Exception as e:  # noqa: BLE001 - said again with the page's errors
-            raise RuntimeError(f"Spark failed to render {file.name}: {e}; page: {self.errors()}") from None
-        if not got or not got.get("settled"):
-            raise RuntimeError(f"Spark's renders of {file.name} did not settle within {max_frames} frames "
-                               f"({got and {k: v for k, v in got.items() if k != 'png'}}); page: {self.errors()}")
-        self.last = {k: v for k, v in got.items() if k != "png"}
-        img = iio.imread(io.BytesIO(base64.b64decode(got["png"].split(",", 1)[1])))
-        if img.shape[:2] != (h, w):
-            raise RuntimeError(f"Spark's canvas read back {img.shape[1]} x {img.shape[0]}, not {w} x {h}")
-        return img[..., :3].astype(np.float32) / 255.0
-
-    def close(self) -> None:
-        if self.browser is not None:
-            self.browser.close()
-            self.browser = None
-        self.server.shutdown()
-        self.server.server_close()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
+        return self._draw("sparkRender", file, args, timeout=120)
 
 
 def spark_render(chromium: str, profile: Path, file: Path, c2w: np.ndarray, camera: Camera,
@@ -287,23 +160,6 @@ def spark_render(chromium: str, profile: Path, file: Path, c2w: np.ndarray, came
     (SparkPage.render says what the arguments mean)."""
     with SparkPage(chromium, profile, (int(camera.width), int(camera.height))) as page:
         return page.render(file, c2w, camera, flip, options)
-
-
-def training_view(run: Path, index: int = 0, size: int | None = None) -> tuple[np.ndarray, Camera]:
-    """(camera-to-world [4, 4] in the capture's coordinates, pinhole Camera) of training view `index` of a run
-    (its scene.json: train_poses in the run's normalised frame, undone by transform and scale as
-    evaluation/evaluate.capture_poses does; the camera's fy, centred, fx = fy). size: the longer side in pixels,
-    the field of view kept (None: the run's own size)."""
-    sc = json.loads((Path(run) / "scene.json").read_text())
-    base = Camera.from_json(sc["camera"])
-    pose = np.asarray(sc["train_poses"][index], np.float64)
-    c2w = np.linalg.inv(np.asarray(sc["transform"], np.float64)) @ pose @ np.diag([float(sc["scale"])] * 3 + [1.0])
-    rot = c2w[:3, :3]
-    if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-4):
-        raise ValueError(f"{run}: training view {index} is not a rotation in the capture's coordinates")
-    s = 1.0 if size is None else size / max(base.width, base.height)
-    w, h = round(base.width * s), round(base.height * s)
-    return c2w, Camera.pinhole(w, h, base.fy * h / base.height)
 
 
 def spark_vs_nerfkit(page: SparkPage, file: Path, c2w: np.ndarray, camera: Camera, png: Path | None = None,

@@ -37,14 +37,10 @@ use it); the tests themselves ~15 s (the browser's start and first render ~5 s).
 
 from __future__ import annotations
 
-import os
-import shutil
-from pathlib import Path
-
 import numpy as np
 import pytest
 from playcanvas_splats import PlayCanvasPage, playcanvas_vs_nerfkit
-from spark_splats import training_view
+from splat_pages import keep, training_view
 from test_ply import gaussians
 from web_tools import node_module
 
@@ -57,14 +53,7 @@ FLOOR = 34.0  # dB against nerfkit (measured 38.4-38.6)
 MODEL_FLOOR = 46.0  # dB against playcanvas_model (measured 51.4-51.6)
 WRONG_CEILING = 20.0  # dB, the other axis convention (measured 11.3-12.8)
 SH_FLOOR, SH_MODEL_FLOOR, SH_OVER_FLAT = 34.0, 40.0, 8.0  # measured 38.3, 43.7-44.0, 16.4-17.4
-
-
-def keep(png: Path) -> None:
-    """Copy a comparison into $NERFKIT_PLAYCANVAS_SCREENSHOTS (a folder), when set."""
-    folder = os.environ.get("NERFKIT_PLAYCANVAS_SCREENSHOTS")
-    if folder:
-        Path(folder).mkdir(parents=True, exist_ok=True)
-        shutil.copy(png, Path(folder) / png.name)
+SCREENSHOTS = "NERFKIT_PLAYCANVAS_SCREENSHOTS"  # the folder (an environment variable) keep() copies the comparisons to
 
 
 @pytest.fixture(scope="module")
@@ -99,7 +88,7 @@ def test_playcanvas_draws_the_exported_glb_like_nerfkit(chromium, playcanvas_pag
     page = playcanvas_page(chromium)
     png = tmp_path / "playcanvas_glb.png"
     right = playcanvas_vs_nerfkit(page, glb, c2w, cam, png=png, model=True)
-    keep(png)
+    keep(png, SCREENSHOTS)
     wrong = playcanvas_vs_nerfkit(page, glb, c2w, cam, flip=np.eye(4))  # the pose as given: the capture's axes
     assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
     assert right["playcanvas"].std() > 0.05, "PlayCanvas drew nothing"
@@ -127,7 +116,7 @@ def test_playcanvas_draws_the_view_dependent_colour(chromium, playcanvas_page, t
         c2w = look_at(np.asarray(eye), np.zeros(3), up=np.array([0.0, 1.0, 0.0]))
         png = tmp_path / f"playcanvas_sh_{ext[1:]}_{k}.png"
         got = playcanvas_vs_nerfkit(page, path, c2w, cam, png=png, model=True)
-        keep(png)
+        keep(png, SCREENSHOTS)
         flat = float(psnr(got["playcanvas"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
         print(f"PlayCanvas vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB), "
               f"vs PlayCanvas's rules {got['psnr_model']:.2f} dB")

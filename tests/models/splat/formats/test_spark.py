@@ -29,13 +29,10 @@ busy cores, 16 s of it training the shared run (made once per session for all th
 
 from __future__ import annotations
 
-import os
-import shutil
-from pathlib import Path
-
 import numpy as np
 import pytest
-from spark_splats import AXIS_RULE, F, SparkPage, spark_vs_nerfkit, training_view
+from spark_splats import AXIS_RULE, F, SparkPage, spark_vs_nerfkit
+from splat_pages import keep, training_view
 from test_ply import gaussians
 from web_tools import node_module
 
@@ -48,14 +45,7 @@ SIZE = 192  # px: Spark and nerfkit agree to ~50 dB here; at the run's 32 px Spa
 FLOOR = 40.0  # dB, Spark set to nerfkit's kernel (measured 49.4-51.3)
 FLOOR_DEFAULTS = 38.0  # dB, Spark's defaults (measured 45.1-46.3)
 WRONG_CEILING = 20.0  # dB, the other axis convention (measured 11.2-12.7)
-
-
-def keep(png: Path) -> None:
-    """Copy a comparison into $NERFKIT_SPARK_SCREENSHOTS (a folder), when set."""
-    folder = os.environ.get("NERFKIT_SPARK_SCREENSHOTS")
-    if folder:
-        Path(folder).mkdir(parents=True, exist_ok=True)
-        shutil.copy(png, Path(folder) / png.name)
+SCREENSHOTS = "NERFKIT_SPARK_SCREENSHOTS"  # the folder (an environment variable) keep() copies the comparisons to
 
 
 @pytest.fixture(scope="module")
@@ -94,7 +84,7 @@ def test_spark_draws_the_exported_file_like_nerfkit(chromium, spark_page, export
     page = spark_page(chromium)
     png = tmp_path / f"spark_{ext[1:]}.png"
     right = spark_vs_nerfkit(page, files[ext], c2w, cam, png=png)
-    keep(png)
+    keep(png, SCREENSHOTS)
     wrong = spark_vs_nerfkit(page, files[ext], c2w, cam, flip=F @ AXIS_RULE[ext])  # the other convention
     default = spark_vs_nerfkit(page, files[ext], c2w, cam, options={})  # Spark as a page gets it
     assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
@@ -122,7 +112,7 @@ def test_spark_draws_the_view_dependent_colour(chromium, spark_page, tmp_path, e
         c2w = look_at(np.asarray(eye), np.zeros(3), up=np.array([0.0, 1.0, 0.0]))
         png = tmp_path / f"spark_sh_{ext[1:]}_{k}.png"
         got = spark_vs_nerfkit(page, path, c2w, cam, png=png)
-        keep(png)
+        keep(png, SCREENSHOTS)
         flat = float(psnr(got["spark"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
         print(f"Spark vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB)")
         assert got["psnr"] >= 33.0, got["psnr"]
