@@ -41,12 +41,10 @@ import numpy as np
 import pytest
 from playcanvas_splats import PlayCanvasPage, playcanvas_vs_nerfkit
 from splat_pages import keep, training_view
-from test_ply import gaussians
+from sh_scene import degree_zero, sh_scene
 from web_tools import node_module
 
 from nerfkit.cli.main import main
-from nerfkit.models.splat.formats import splat_format
-from nerfkit.rays.cameras import Camera, look_at
 
 SIZE = 192  # px: at the run's 32 px PlayCanvas's 0.075 px^2 dilation leaves 1-px Gaussians far thinner
 FLOOR = 34.0  # dB against nerfkit (measured 38.4-38.6)
@@ -102,22 +100,15 @@ def test_playcanvas_draws_the_exported_glb_like_nerfkit(chromium, playcanvas_pag
 @pytest.mark.parametrize("ext", (".glb", ".gltf"))
 def test_playcanvas_draws_the_view_dependent_colour(chromium, playcanvas_page, tmp_path, ext):
     from nerfkit.core.metrics import psnr
-    from nerfkit.models.splat.formats import read_gaussians
-    from nerfkit.models.splat.gaussians import render
 
     node_module("playcanvas")
-    path = tmp_path / f"sh{ext}"
-    splat_format(path).write(path, gaussians(), 3)  # colour mostly from SH bands 1-3
-    cam = Camera.pinhole(SIZE, SIZE, 220.0)
-    g, degree, _ = read_gaussians(path)
-    assert degree == 3
+    g, cam, poses = sh_scene(tmp_path / f"sh{ext}", SIZE)
     page = playcanvas_page(chromium)
-    for k, eye in enumerate(([1.0, 1.5, 3.0], [-2.5, 0.5, -2.0])):  # in front, and from behind
-        c2w = look_at(np.asarray(eye), np.zeros(3), up=np.array([0.0, 1.0, 0.0]))
+    for k, c2w in enumerate(poses):  # in front, and from behind
         png = tmp_path / f"playcanvas_sh_{ext[1:]}_{k}.png"
-        got = playcanvas_vs_nerfkit(page, path, c2w, cam, png=png, model=True)
+        got = playcanvas_vs_nerfkit(page, tmp_path / f"sh{ext}", c2w, cam, png=png, model=True)
         keep(png, SCREENSHOTS)
-        flat = float(psnr(got["playcanvas"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
+        flat = float(psnr(got["playcanvas"], degree_zero(g, c2w, cam)))
         print(f"PlayCanvas vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB), "
               f"vs PlayCanvas's rules {got['psnr_model']:.2f} dB")
         assert got["psnr"] >= SH_FLOOR, got["psnr"]

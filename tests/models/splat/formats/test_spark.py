@@ -29,16 +29,13 @@ busy cores, 16 s of it training the shared run (made once per session for all th
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 from spark_splats import AXIS_RULE, F, SparkPage, spark_vs_nerfkit
 from splat_pages import keep, training_view
-from test_ply import gaussians
+from sh_scene import degree_zero, sh_scene
 from web_tools import node_module
 
 from nerfkit.cli.main import main
-from nerfkit.models.splat.formats import splat_format
-from nerfkit.rays.cameras import Camera, look_at
 
 FORMATS = (".ply", ".spz", ".splat")
 SIZE = 192  # px: Spark and nerfkit agree to ~50 dB here; at the run's 32 px Spark's defaults dim 1-px Gaussians
@@ -98,22 +95,15 @@ def test_spark_draws_the_exported_file_like_nerfkit(chromium, spark_page, export
 @pytest.mark.parametrize("ext", (".ply", ".spz"))
 def test_spark_draws_the_view_dependent_colour(chromium, spark_page, tmp_path, ext):
     from nerfkit.core.metrics import psnr
-    from nerfkit.models.splat.formats import read_gaussians
-    from nerfkit.models.splat.gaussians import render
 
     node_module("@sparkjsdev/spark")
-    path = tmp_path / f"sh{ext}"
-    splat_format(path).write(path, gaussians(), 3)  # colour mostly from SH bands 1-3
-    cam = Camera.pinhole(SIZE, SIZE, 220.0)
-    g, degree, _ = read_gaussians(path)
-    assert degree == 3
+    g, cam, poses = sh_scene(tmp_path / f"sh{ext}", SIZE)
     page = spark_page(chromium)
-    for k, eye in enumerate(([1.0, 1.5, 3.0], [-2.5, 0.5, -2.0])):  # in front, and from behind
-        c2w = look_at(np.asarray(eye), np.zeros(3), up=np.array([0.0, 1.0, 0.0]))
+    for k, c2w in enumerate(poses):  # in front, and from behind
         png = tmp_path / f"spark_sh_{ext[1:]}_{k}.png"
-        got = spark_vs_nerfkit(page, path, c2w, cam, png=png)
+        got = spark_vs_nerfkit(page, tmp_path / f"sh{ext}", c2w, cam, png=png)
         keep(png, SCREENSHOTS)
-        flat = float(psnr(got["spark"], np.clip(render(g, c2w, cam, sh_degree=0, depth=False)["rgb"], 0, 1)))
+        flat = float(psnr(got["spark"], degree_zero(g, c2w, cam)))
         print(f"Spark vs nerfkit, {ext} with SH, view {k}: {got['psnr']:.2f} dB (degree 0: {flat:.2f} dB)")
         assert got["psnr"] >= 33.0, got["psnr"]
         assert got["psnr"] >= flat + 8.0, (got["psnr"], flat)
