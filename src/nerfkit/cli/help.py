@@ -60,7 +60,7 @@ def setting_doc(name: str) -> str:
 
 # What an unset (None) value means, per setting.
 UNSET = {"data.train_split": "train", "data.val_split": "val|test", "data.downscale": "auto", "data.target_width": "-",
-         "train.max_minutes": "-", "train.devices": "all"}
+         "train.max_minutes": "-", "train.devices": "all", "splat.init": "-"}
 
 
 def _flag(name: str, cfg: Config) -> str:

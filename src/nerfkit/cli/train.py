@@ -36,7 +36,8 @@ def preset_of(argv: list[str]) -> str:
 
 @functools.cache
 def _unset_words() -> dict[str, str]:
-    """{flag: the word help prints for it unset} of every setting whose type is a number or None."""
+    """{flag: the word help prints for it unset} of every setting whose type is a number or None, and of a text
+    setting that help shows unset as "-" (--init -: no file)."""
     import typing
 
     from nerfkit.cli.help import UNSET
@@ -47,7 +48,8 @@ def _unset_words() -> dict[str, str]:
     hints = {name: typing.get_type_hints(cls) for name, cls in Config.sections().items()}
     for name in setting_names():
         section, field = name.split(".")
-        if set(typing.get_args(hints[section][field])) in ({int, type(None)}, {float, type(None)}):
+        kinds = set(typing.get_args(hints[section][field]))
+        if kinds in ({int, type(None)}, {float, type(None)}) or (kinds == {str, type(None)} and UNSET.get(name) == "-"):
             numeric[flag_of(name)] = UNSET.get(name, "auto")
     return numeric
 
