@@ -85,15 +85,15 @@ def import_splat(file: Path, out: Path, data: Path | None = None, overwrite: boo
         raise ConfigError(f"--out {out}: is a file; name a folder for the run")
     if refuse_earlier_run(out, False, overwrite):
         clear_run(out)
-    n = len(g["means"])
-    if data is None:
+    n, own = len(g["means"]), data is None
+    if own:
         shutil.rmtree(out / "capture", ignore_errors=True)
         data = write_orbit_capture(g, degree, out / "capture")
         log(f"import: no capture given; {data} holds {ORBIT_VIEWS} renders of the file on an orbit around it")
     cfg = preset("splat")
     cfg.splat.capacity, cfg.splat.sh_degree, cfg.splat.init = n, degree, str(file.resolve())
     cfg.train.max_steps = 0
-    if (Path(data) / "transforms.json").is_file() and Path(data) == out / "capture":  # renders: one exposure, exact poses
+    if own:  # renders: one exposure, exact poses
         cfg.splat.appearance, cfg.train.pose_refine = "off", "off"
     Trainer(data, out, cfg, progress=False).run()
     log(f"import: {n:,} Gaussians of {file.name} ({fmt.name}, SH degree {degree}), in the frame of {data}")
