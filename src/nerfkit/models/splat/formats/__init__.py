@@ -34,6 +34,18 @@ FORMATS: dict[str, str] = {  # extension -> the module that defines its FORMAT (
 }
 
 N_REST = 15  # SH coefficients of bands 1..3
+SH_C0 = 0.28209479177387814  # project.py's; repeated so that the format modules stay numpy-only
+RDF_TO_RUB = np.diag([1.0, -1.0, -1.0, 1.0])  # capture axes -> SPZ and glTF axes (180 degrees about x); self-inverse
+
+
+def unit_quats(q: np.ndarray) -> np.ndarray:
+    """q / |q| [N, 4], in q's dtype (zero quaternions stay zero: check_gaussians refuses them on reading)."""
+    return q / np.maximum(np.linalg.norm(q, axis=-1, keepdims=True), 1e-12)
+
+
+def base_colour(sh_dc: np.ndarray) -> np.ndarray:
+    """The degree-0 colour clip(SH_C0 sh_dc + 0.5, 0, 1) [N, 3] (float64) of sh_dc [N, 1, 3] or [N, 3]."""
+    return np.clip(SH_C0 * np.asarray(sh_dc, np.float64).reshape(-1, 3) + 0.5, 0.0, 1.0)
 
 
 @dataclass(frozen=True)

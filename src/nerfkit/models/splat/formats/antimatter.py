@@ -19,9 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.models.splat.formats import N_REST, SplatFormat
+from nerfkit.models.splat.formats import N_REST, SH_C0, SplatFormat, base_colour, unit_quats
 
-SH_C0 = 0.28209479177387814  # project.py's; repeated so that this module stays numpy-only
 RECORD = np.dtype([("position", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4), ("rotation", "u1", 4)])
 _ALPHA_EPS = 0.5 / 255  # read: opacity bytes 0 and 255 as sigmoid^-1 of half a step inside
 
@@ -31,9 +30,8 @@ def write_splat(path: str | Path, g: dict, sh_degree: int = 0) -> None:
     means = np.asarray(g["means"], np.float32)
     log_scales = np.asarray(g["log_scales"], np.float64)
     alpha = 1.0 / (1.0 + np.exp(-np.asarray(g["opacity"], np.float64)))
-    colour = np.clip(SH_C0 * np.asarray(g["sh_dc"], np.float64).reshape(-1, 3) + 0.5, 0.0, 1.0)
-    q = np.asarray(g["quats"], np.float64)
-    q = q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-12)
+    colour = base_colour(g["sh_dc"])
+    q = unit_quats(np.asarray(g["quats"], np.float64))
     order = np.argsort(-(np.exp(log_scales.sum(axis=1)) * alpha), kind="stable")
     rec = np.empty(len(means), RECORD)
     rec["position"] = means[order]

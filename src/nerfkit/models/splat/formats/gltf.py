@@ -30,12 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.models.splat.formats import N_REST, SplatFormat
+from nerfkit.models.splat.formats import N_REST, RDF_TO_RUB, SplatFormat, base_colour, unit_quats
 from nerfkit.models.splat.transform import transform_gaussians
 
 EXT = "KHR_gaussian_splatting"
-RDF_TO_RUB = np.diag([1.0, -1.0, -1.0, 1.0])  # its own inverse
-SH_C0 = 0.28209479177387814
 ARRAY_BUFFER = 34962
 FLOAT = 5126
 UNSIGNED_BYTE = 5121
@@ -57,10 +55,9 @@ def write_gltf(path: str | Path, g: dict, sh_degree: int = 3) -> None:
 
     p = transform_gaussians({k: np.asarray(v) for k, v in g.items()}, RDF_TO_RUB)
     n = len(p["means"])
-    q = np.asarray(p["quats"], np.float64)
-    q = q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-12)
+    q = unit_quats(np.asarray(p["quats"], np.float64))
     alpha = 1.0 / (1.0 + np.exp(-np.asarray(p["opacity"], np.float64)))
-    colour = _srgb_to_linear(np.clip(SH_C0 * p["sh_dc"].reshape(n, 3).astype(np.float64) + 0.5, 0, 1))
+    colour = _srgb_to_linear(base_colour(p["sh_dc"]))
     columns = [("POSITION", np.asarray(p["means"], np.float32)),
                (f"{EXT}:ROTATION", q[:, [1, 2, 3, 0]].astype(np.float32)),
                (f"{EXT}:SCALE", np.exp(np.asarray(p["log_scales"], np.float64)).astype(np.float32)),

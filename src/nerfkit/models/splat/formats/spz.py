@@ -23,10 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.models.splat.formats import N_REST, SplatFormat
+from nerfkit.models.splat.formats import N_REST, RDF_TO_RUB, SplatFormat, unit_quats
 from nerfkit.models.splat.transform import transform_gaussians
 
-RDF_TO_RUB = np.diag([1.0, -1.0, -1.0, 1.0])  # its own inverse
 SPZ_VERSION = 3
 FRACTIONAL_BITS = 12
 _REST_OF_DEGREE = (0, 3, 8, 15)
@@ -39,7 +38,7 @@ def write_spz(path: str | Path, g: dict, sh_degree: int = 3) -> None:
     p = transform_gaussians({k: np.asarray(v) for k, v in g.items()}, RDF_TO_RUB)
     k = _REST_OF_DEGREE[sh_degree]
     n = len(p["means"])
-    data = gsply.GSData(means=p["means"], scales=p["log_scales"], quats=_unit(p["quats"]), opacities=p["opacity"],
+    data = gsply.GSData(means=p["means"], scales=p["log_scales"], quats=unit_quats(np.asarray(p["quats"], np.float32)), opacities=p["opacity"],
                         sh0=p["sh_dc"].reshape(n, 3), shN=np.ascontiguousarray(p["sh_rest"][:, :k], np.float32),
                         _format=gsply.create_ply_format(sh_degree))
     gsply.write_spz(path, data, version=SPZ_VERSION, fractional_bits=FRACTIONAL_BITS)
@@ -61,12 +60,6 @@ def read_spz(path: str | Path) -> tuple[dict, int]:
          "quats": np.asarray(d.quats, np.float32), "opacity": np.asarray(d.opacities, np.float32).reshape(n),
          "sh_dc": np.asarray(d.sh0, np.float32).reshape(n, 1, 3), "sh_rest": rest}
     return transform_gaussians(p, RDF_TO_RUB), _REST_OF_DEGREE.index(k)
-
-
-def _unit(q: np.ndarray) -> np.ndarray:
-    """Unit quaternions (SPZ stores only their direction)."""
-    q = np.asarray(q, np.float32)
-    return q / np.maximum(np.linalg.norm(q, axis=-1, keepdims=True), 1e-12)
 
 
 FORMAT = SplatFormat(name="Niantic .spz (version 3)", opens="Spark, GaussianSplats3D, SuperSplat, Scaniverse",
