@@ -80,7 +80,7 @@ class ExportSplatArgs:
     """Export a splat run's Gaussians in the capture's own coordinates, as the --out extension says: .ply (the
     Inria 3DGS layout: SuperSplat, gsplat, nerfstudio, Brush, Spark), .spz (Niantic's, about a tenth of the
     .ply's size: Spark, GaussianSplats3D, SuperSplat), .splat (antimatter15's, no view-dependent colour), .glb or
-    .gltf (glTF 2.0 with KHR_gaussian_splatting: Cesium, Spark). A picture of the file read back goes into
+    .gltf (glTF 2.0 with KHR_gaussian_splatting: the PlayCanvas engine). A picture of the file read back goes into
     RUN_DIR/exports/splat.png."""
 
     run_dir: tyro.conf.Positional[Path]
@@ -107,7 +107,7 @@ def _facts(rec: dict) -> str:
 
 
 EXPORTER = Exporter(
-    name="splat", summary="a splat run's Gaussians as .ply, .spz, .splat or glTF (SuperSplat, Spark, gsplat, Cesium)",
+    name="splat", summary="a splat run's Gaussians as .ply, .spz, .splat or glTF (SuperSplat, Spark, gsplat, PlayCanvas)",
     args=ExportSplatArgs, accepts=lambda supports: supports.gaussians, needs="Gaussians (a run of --preset splat)",
     outputs=("splat.ply", "splat.png"), export=lambda a, given: export_splat(a.run_dir, a.out, overwrite=a.overwrite),
     wrote=_wrote, facts=_facts)

@@ -1,5 +1,5 @@
-"""Gaussians to and from glTF 2.0 with KHR_gaussian_splatting (the Khronos release candidate of 2026; Cesium,
-the glTF sample renderer, Spark read it), as .glb (binary) or .gltf (JSON, buffer embedded), through pygltflib.
+"""Gaussians to and from glTF 2.0 with KHR_gaussian_splatting (the Khronos release candidate of 2026; the PlayCanvas
+engine 2.21+ draws it), as .glb (binary) or .gltf (JSON, buffer embedded), through pygltflib.
 
 One primitive of mode POINTS (0) whose attributes are one float accessor each, in one buffer (each view 4-byte
 aligned, ARRAY_BUFFER):
@@ -132,5 +132,5 @@ def read_gltf(path: str | Path) -> tuple[dict, int]:
 
 
 FORMAT = SplatFormat(name="glTF 2.0 with KHR_gaussian_splatting",
-                     opens="Cesium, the glTF sample renderer, Spark; other glTF viewers draw its points",
+                     opens="the PlayCanvas engine; other glTF viewers draw its points",
                      max_sh=3, write=write_gltf, read=read_gltf)
