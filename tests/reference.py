@@ -66,8 +66,8 @@ def load_blender(root: str | Path, spec: str, *, downscale: int | None = None, t
                       background=background)
 
 
-def surface_distance(p: np.ndarray) -> np.ndarray:
-    """Unsigned distance [N] from points [N, 3] to the surface of the union of the scene's solids
+def surface_sdf(p: np.ndarray) -> np.ndarray:
+    """Signed distance [N] from points [N, 3] to the surface of the union of the scene's solids, negative inside
     (exact outside the solids; inside, the distance to the enclosing solid's own boundary)."""
     def sphere(c, r):
         return np.linalg.norm(p - c, axis=-1) - r
@@ -86,4 +86,17 @@ def surface_distance(p: np.ndarray) -> np.ndarray:
         sphere(proc.SMALL_SPHERE_CENTER, proc.SMALL_SPHERE_RADIUS),
         box(proc.BOX_MIN, proc.BOX_MAX), cylinder(proc.CYLINDER_CENTER_XY, proc.CYLINDER_RADIUS, proc.CYLINDER_Z_RANGE),
         cylinder(np.zeros(2), proc.GROUND_RADIUS, proc.GROUND_Z_RANGE)])
-    return np.abs(sdf)
+    return sdf
+
+
+def surface_distance(p: np.ndarray) -> np.ndarray:
+    """Unsigned distance [N] from points [N, 3] to the surface of the union of the scene's solids
+    (exact outside the solids; inside, the distance to the enclosing solid's own boundary)."""
+    return np.abs(surface_sdf(p))
+
+
+def surface_normal(p: np.ndarray, eps: float = 1e-4) -> np.ndarray:
+    """The outward unit normal [N, 3] of the nearest solid's surface at points [N, 3]: the gradient of
+    surface_sdf by central differences (undefined exactly on an edge; the mean of the two faces' there)."""
+    grad = np.stack([surface_sdf(p + e) - surface_sdf(p - e) for e in np.eye(3) * eps], -1)
+    return grad / np.maximum(np.linalg.norm(grad, axis=-1, keepdims=True), 1e-12)

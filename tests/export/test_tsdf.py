@@ -176,3 +176,29 @@ def test_a_wall_thinner_than_the_truncation_keeps_its_faces():
     top, bottom = middle[middle[:, 2] > 0, 2], middle[middle[:, 2] < 0, 2]
     assert len(top) > 100 and len(bottom) > 100
     assert 0 <= top.mean() - t / 2 < e_star and 0 <= -t / 2 - bottom.mean() < e_star
+
+
+def face_normal_errors(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Angles (degrees) between the sphere's true normals and the mesh's face normals, at points spread over the
+    surface by area."""
+    mesh = trimesh.Trimesh(verts, faces, process=False)
+    pts, fid = trimesh.sample.sample_surface(mesh, 20000, seed=0)
+    true = pts / np.linalg.norm(pts, axis=1, keepdims=True)
+    return np.degrees(np.arccos(np.clip(np.sum(mesh.face_normals[fid] * true, 1), -1, 1)))
+
+
+def test_smoothing_the_fused_volume_by_half_a_pixel_removes_the_pixel_ripples():
+    """Each view's depth is read once per pixel, so F carries ripples of a pixel's footprint p, which a grid finer
+    than p turns into facets: on exact depth at 128^3 (h = 0.44 p) the faces' normals are off by more than 10
+    degrees on most of the sphere (measured: within 10 degrees on 28%). Blurred by SMOOTH_PIXELS p
+    (smooth_volume), within 10 degrees on 100%, and the radius no worse (mean error 0.09 p -> 0.04 p)."""
+    f, known, h, views = fused_volume(cameras([-60, -20, 20, 60], 6), 128, False)
+    p = 2.5 / FOCAL
+    raw = tsdf.zero_surface(f, known, BOUND, False, 0.2)
+    smooth = tsdf.zero_surface(tsdf.smooth_volume(f, known, tsdf.SMOOTH_PIXELS * p / h), known, BOUND, False, 0.2)
+    assert np.mean(face_normal_errors(*raw) < 10) < 0.5
+    assert np.mean(face_normal_errors(*smooth) < 10) > 0.95
+    err_raw = np.abs(np.linalg.norm(raw[0], axis=1) - R).mean()
+    err_smooth = np.abs(np.linalg.norm(smooth[0], axis=1) - R).mean()
+    assert err_smooth < 0.06 * p and err_smooth < err_raw
+    assert len(smooth[1]) > 0.5 * len(raw[1])  # still the whole sphere, not a fragment of it

@@ -267,6 +267,11 @@ class SplatSettings:
     rays of pixels drawn over the photos meet that sphere), so that what lies far away (walls, sky) has Gaussians
     of its own instead of being smeared over the near ones. auto: on for photos without masks (unbounded scenes),
     off for masked objects and Blender scenes."""
+    random_background: Literal["auto", "on", "off"] = "off"
+    """Train on a random background colour per step where the photos have masks or an alpha channel (the photo
+    is composited onto it by its alpha): a surface can then not be left see-through where its colour matches
+    the background (a light floor on white), which the rendered opacity, and so `export mesh`, would show as
+    holes. auto: on for captures with masks or alpha."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
@@ -323,6 +328,7 @@ class Config:
                 sections["splat"].setdefault("pixel_loss", "l1")
                 sections["splat"].setdefault("appearance", "off")  # written before per-photo corrections existed
                 sections["splat"].setdefault("far_points", "off")
+                sections["splat"].setdefault("random_background", "off")
             sections["train"].setdefault("pose_refine", "off")
             cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
         except (KeyError, TypeError, AttributeError) as e:

@@ -27,6 +27,7 @@ import tyro
 
 from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.core.outputs import check_new_file
+from nerfkit.export.carve import pixel_footprint
 from nerfkit.export.files import check_out, to_capture
 from nerfkit.export.grid import chunked, field_functions
 from nerfkit.export.levelset import levelset_surface
@@ -42,7 +43,8 @@ from nerfkit.export.surface import (
     write_mesh,
 )
 from nerfkit.export.texture import bake, textured_files, write_textured
-from nerfkit.export.tsdf import tsdf_surface
+from nerfkit.export.tsdf import truncation, tsdf_surface
+from nerfkit.export.viewcolor import view_color_fn
 from nerfkit.run.folder import RunFolder
 
 METHODS = ("tsdf", "levelset")
@@ -93,8 +95,12 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     check_accepts(EXPORTER, run_dir, run.model.supports, run.model.title)
     bound = run.bound if box is None else float(box)
     h = 2.0 * bound / (resolution - 1)
+    if method == "levelset" and not run.model.supports.mesh:
+        raise ConfigError(f"--method levelset marches a density field; a {run.model.title} run has none: use "
+                          f"--method tsdf (the default), which fuses its rendered depth")
+    views = None
     if method == "tsdf":
-        verts, faces, info = tsdf_surface(run, bound, resolution, every, data, watertight, progress, log)
+        verts, faces, info, views = tsdf_surface(run, bound, resolution, every, data, watertight, progress, log)
     else:
         verts, faces, info = levelset_surface(run, bound, resolution, threshold, visible_only, snap, every, data,
                                               carve, progress, log)
@@ -102,7 +108,7 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     record = {"kind": "mesh", "file": str(out.resolve()), "method": method, "step": run.step,
               "resolution": resolution, "bound": bound, "box_rule": "--box" if box is not None else "the field's box",
               "watertight_requested": watertight, **cleaned, **info}
-    colors = write_coloured(run, out, verts, faces, h, texture, texture_size, record, log)
+    colors = write_coloured(run, out, verts, faces, h, texture, texture_size, record, log, views)
     picture = mesh_picture(run.run_dir / "exports" / "mesh.png", verts, faces, colors,
                            f"{out.name}: {len(verts)} vertices, {len(faces)} faces ({method}, step {run.step})")
     record.update({"vertices": len(verts), "faces": len(faces), "seconds": round(time.perf_counter() - t0, 2),
@@ -153,13 +159,28 @@ def clean_up(verts, faces, method: str, h: float, max_faces: int | None, texture
                           "faces_before_simplification": n_faces, "closed_manifold": closed}
 
 
+def colour_function(run, h: float, views):
+    """(x [M, 3], n [M, 3]) -> rgb [M, 3]: the field seen straight at the surface (surface.py) where the model has
+    a density field, else the rendered views' colour there (viewcolor.py; views: the fused ones)."""
+    if run.model.supports.mesh:
+        density_fn, color_fn, _, _ = field_functions(run)
+        return surface_color_fn(density_fn, color_fn, COLOR_CELLS * h)
+    tol = float(views_tolerance(views, h))
+    return view_color_fn(views.c2w, views.intrinsics, views.rgb, views.opacity, views.median,
+                         np.asarray(run.model.background, np.float32), tol)
+
+
+def views_tolerance(views, h: float) -> float:
+    """The depth tolerance of the view colours: the fusion's truncation (a few grid cells)."""
+    return truncation(h, pixel_footprint(views.c2w, views.cameras))
+
+
 def write_coloured(run, out: Path, verts, faces, h: float, texture: bool, texture_size: int, record: dict,
-                   log) -> np.ndarray:
-    """Colour the mesh with the field seen straight at its surface (surface.py) and write it in the capture's
-    coordinates: vertex colours, or with `texture` a UV atlas (texture.py; its files go into the record).
-    Returns the vertex colours (uint8 [V, 4], for the picture)."""
-    density_fn, color_fn, _, _ = field_functions(run)
-    colors_of = surface_color_fn(density_fn, color_fn, COLOR_CELLS * h)
+                   log, views=None) -> np.ndarray:
+    """Colour the mesh (colour_function) and write it in the capture's coordinates: vertex colours, or with
+    `texture` a UV atlas (texture.py; its files go into the record). Returns the vertex colours (uint8 [V, 4],
+    for the picture)."""
+    colors_of = colour_function(run, h, views)
     normals = vertex_normals(verts, faces)
     colors = rgba8(chunked(colors_of, verts.astype(np.float32), normals, chunk=16384))
     if texture:
@@ -261,5 +282,6 @@ def _facts(rec: dict) -> str:
 
 EXPORTER = Exporter(
     name="mesh", summary="a coloured triangle mesh (.ply, .obj, .glb; TSDF or level set, optionally textured)",
-    args=ExportMeshArgs, accepts=lambda supports: supports.mesh, needs="a density field to mesh",
+    args=ExportMeshArgs, accepts=lambda supports: supports.mesh or supports.depth,
+    needs="a density field or rendered depth to mesh",
     outputs=("mesh.ply", "mesh.png"), export=_export, wrote=_wrote, facts=_facts)

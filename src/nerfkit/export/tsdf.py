@@ -52,7 +52,7 @@ from nerfkit.core.errors import NerfkitError
 from nerfkit.export.carve import pixel_footprint
 from nerfkit.export.grid import grid_axis
 from nerfkit.export.raster import rasterize
-from nerfkit.export.visibility import render_views
+from nerfkit.export.visibility import Views, render_views
 
 A_FREE = 0.5  # a pixel less opaque than this shows free space all along its ray
 TRUNC_CELLS = 3.0  # tau: this many grid cells, or TRUNC_PIXELS pixel footprints at the centre, the larger
@@ -139,6 +139,28 @@ def tsdf_volume(fsum: np.ndarray, weight: np.ndarray, seen: np.ndarray, watertig
     return f, weight > 0
 
 
+SMOOTH_PIXELS = 0.5  # F is blurred by a Gaussian of this many pixel footprints (at the scene centre)
+
+
+def smooth_volume(f: np.ndarray, known: np.ndarray, sigma: float) -> np.ndarray:
+    """F [N, N, N] blurred by a Gaussian of std `sigma` grid cells over its known points (normalised
+    convolution: (G * [known] F) / (G * [known]); unknown points keep their value).
+
+    Each view's depth is sampled once per pixel, so the fused F carries ripples of a pixel's footprint
+    whatever the grid: on exact depth maps of a sphere (24 views, tests/export/test_tsdf.py) the faces'
+    normals are within 10 degrees of the true ones on 54% / 28% / 16% of the surface at 64 / 128 / 256
+    grid points, and on 100% at all three after a blur of SMOOTH_PIXELS footprints, with the radius error
+    halved (0.09 -> 0.04 px). A blur of a signed distance keeps a plane's zero in place."""
+    from scipy.ndimage import gaussian_filter
+
+    if sigma <= 0:
+        return f
+    k = known.astype(np.float32)
+    blurred = gaussian_filter(np.where(known, f, 0.0).astype(np.float32), sigma) / np.maximum(gaussian_filter(k, sigma),
+                                                                                              1e-6)
+    return np.where(known, blurred, f).astype(np.float32)
+
+
 def cube_mask(known: np.ndarray) -> np.ndarray:
     """bool [N, N, N]: the cubes whose 8 corners are all known, each named by its highest corner (as
     scikit-image's marching_cubes reads its mask: mask[i, j, k] lets the cube [i-1, i] x [j-1, j] x [k-1, k]
@@ -217,8 +239,9 @@ PIXELS_PER_CELL = 1  # ... this many pixels across per grid cell (the depth maps
 
 
 def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, watertight: bool, progress: bool,
-                 log) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The fused surface in the normalised frame: (verts [V, 3], faces [F, 3], record fields). Renders
+                 log) -> tuple[np.ndarray, np.ndarray, dict, Views]:
+    """The fused surface in the normalised frame: (verts [V, 3], faces [F, 3], record fields, the rendered
+    views). Renders
     every `every`-th training view (default: about FUSION_VIEWS; PIXELS_PER_CELL x resolution pixels
     wide), fuses their median depth on the grid of [-bound, bound]^3 and takes the surface F = c at the level c
     best_level picks."""
@@ -228,12 +251,14 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     t_render = time.perf_counter() - t0
     axis = grid_axis(bound, resolution)
     h = float(axis[1] - axis[0])
-    tau = truncation(h, pixel_footprint(views.c2w, views.cameras))
+    pixel = pixel_footprint(views.c2w, views.cameras)
+    tau = truncation(h, pixel)
     log(f"mesh: TSDF fusion of {len(views.c2w)} rendered training views (every {views.every}) on a {resolution}^3 "
         f"grid over the box [-{bound:g}, {bound:g}]^3 (h = {h:.4g}), truncation {tau:.4g}")
     bar = (lambda it: tqdm(it, desc="fuse", unit="slab", leave=False)) if progress else None
     fsum, weight, seen = fuse_grid(axis, views.c2w, views.intrinsics, views.median, views.opacity, tau, bar)
     f, known = tsdf_volume(fsum, weight, seen, watertight)
+    f = smooth_volume(f, known, SMOOTH_PIXELS * pixel / h)
     if not ((f[known] < 0).any() and (f[known] > 0).any()):
         raise NerfkitError("no surface: no rendered training view is opaque inside the box (is the run trained? "
                            "for an unbounded scene, try a larger --box)")
@@ -244,6 +269,7 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
         f"{len(views.c2w[calib])} fused views (score {scores[level]:.4f}; at F = 0: {scores[0.0]:.4f})")
     verts, faces = zero_surface(f, known, bound, watertight, level)
     return verts, faces, {"views": len(views.c2w), "every": views.every, "view_size": list(views.depth.shape[2:0:-1]),
-                          "truncation": tau, "level": level,
+                          "truncation": tau,
+                          "smoothing_cells": round(SMOOTH_PIXELS * pixel / h, 3), "level": level,
                           "level_scores": {f"{c:g}": round(v, 5) for c, v in sorted(scores.items())},
-                          "known_fraction": float(known.mean()), "render_seconds": round(t_render, 2)}
+                          "known_fraction": float(known.mean()), "render_seconds": round(t_render, 2)}, views

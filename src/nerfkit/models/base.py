@@ -42,7 +42,10 @@ class Supports:
     step_metrics: the ray step reports extra per-step metrics (model.step_metrics(out) -> dict)
     bake:       `nerfkit bake` can turn a bounded run into a WebGL page of a baked density grid
                 (model.field, model.occ: a MarchingModel's field and occupancy grid)
-    mesh:       a density field that `export mesh|pointcloud` and grids sample (model.surface_field)
+    mesh:       a density field that `export mesh|pointcloud` and grids sample (model.surface_field); its colour
+                colours an exported mesh, and `export mesh --method levelset` marches it
+    depth:      its renderer gives a view's median depth with its opacity (render_cameras(..., median=True)):
+                `export mesh` (TSDF) fuses them; without a density field the mesh's colour comes from the views
     lens:       renders through any COLMAP lens model (rays/cameras.py); without, photos of distorted
                 cameras are undistorted for it (data/undistort.py, DataConfig.undistort)
     unbounded:  renders unbounded scenes (--scene-type unbounded, contracted space): the scene type and
@@ -61,6 +64,7 @@ class Supports:
     step_metrics: bool = False
     bake: bool = False
     mesh: bool = True
+    depth: bool = True
     lens: bool = True
     unbounded: bool = False
     sampling: bool = False

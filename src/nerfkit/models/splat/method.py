@@ -33,6 +33,7 @@ from nerfkit.data.points import far_points_through_photos, far_sphere_points, tr
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
+from nerfkit.models.splat.depth import median_depth
 from nerfkit.models.splat.gaussians import (
     PARAM_NAMES,
     held_out_gaussians,
@@ -92,7 +93,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
-                       n_views=cfg.field.appearance_count)
+                       n_views=cfg.field.appearance_count, random_background=g.random_background == "on")
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -124,27 +125,28 @@ class SplatRenderer:
     def __init__(self, model: SplatModel):
         self.model = model
 
-    def render_camera(self, params, aux, c2w: np.ndarray, camera) -> dict:
-        """rgb [H, W, 3], depth (sum_k w_k z_k), opacity and depth_normalized (depth / opacity) [H, W]."""
+    def render_camera(self, params, aux, c2w: np.ndarray, camera, median: bool = False) -> dict:
+        """rgb [H, W, 3], depth (sum_k w_k z_k), opacity and depth_normalized (depth / opacity) [H, W]; median: also
+        depth_median, each pixel's depth on the Gaussian where its ray turns half opaque (depth.py)."""
         p = held_out_gaussians(params, aux)  # a colour transform learned per photo: their mean
         try:
-            intrinsics_of(camera)
+            intr = intrinsics_of(camera)
         except ValueError as e:
             raise DataError(str(e)) from None
         r = render(p, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree, self.model.cfg.splat.backend)
         opacity = r["alpha"]
-        return {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
-                "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
+        out = {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
+               "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
+        if median:
+            out["depth_median"] = median_depth(p, c2w, intr, camera.width, camera.height, opacity)
+        return out
 
     def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
         return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
 
     def render_cameras(self, params, aux, poses, cameras, median: bool = False) -> list[dict]:
-        """render_camera of each (c2w, camera) pair (the rasteriser takes one view at a time); splats have no
-        median depth."""
-        if median:
-            raise ValueError("a splat render has no median depth")
-        return [self.render_camera(params, aux, c2w, cam) for c2w, cam in zip(poses, cameras)]
+        """render_camera of each (c2w, camera) pair (the rasteriser takes one view at a time)."""
+        return [self.render_camera(params, aux, c2w, cam, median) for c2w, cam in zip(poses, cameras)]
 
 
 class SplatModel:
@@ -155,7 +157,7 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "init", "backend", "appearance", "far_points")) | {"train.pose_refine"}
+        "init", "backend", "appearance", "far_points", "random_background")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -167,6 +169,7 @@ class SplatModel:
                 f"{f'init from {Path(g.init).name}' if g.init else f'{g.init_points} init'}, one view per step"
                 f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
                 f"{'; far points' if g.far_points == 'on' else ''}"
+                f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
@@ -351,10 +354,17 @@ class SplatModel:
         jitted view step (train.make_step) and then the host's density control."""
         view_step = ViewStep(self.sc, optimizer.opts, data.width, data.height, self.background, self.extent)
         intrinsics = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
+        with_alpha = self.sc.random_background and data.alphas is not None
+        alphas = jnp.asarray(data.alphas, jnp.float32)[..., None] / 255.0 if with_alpha else None
+        kept: dict = {}
 
         def step_fn(state, step, images, poses):
             t0 = time.perf_counter()
             clock = float(state["aux"]["clock"])
+            if with_alpha:  # RGBA views (train.py: a random background per step), made once per images array
+                if kept.get("of") is not images:
+                    kept.update({"of": images, "rgba": jnp.concatenate([jnp.asarray(images, jnp.float32), alphas], -1)})
+                images = kept["rgba"]
             state, metrics = view_step(state, int(step), progress_of(int(step), clock, cfg), images, poses, intrinsics)
             state["aux"]["clock"] = np.float32(clock + time.perf_counter() - t0)
             return state, metrics

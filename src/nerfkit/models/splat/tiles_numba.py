@@ -55,6 +55,7 @@ from nerfkit.models.splat.tiles_kernels import (
     backward_tiles,
     bin_tiles,
     forward_tiles,
+    median_tiles,
     tile_rects,
 )
 
@@ -235,3 +236,17 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
         return tuple(g.astype(dt) for g, dt in zip(grads, dtypes))  # copies: the buffer goes back
     finally:
         _SUMS.give(out)
+
+
+def median_depth(means2d, conics, opacities, depths, radii, planes, width: int, height: int, t_final,
+                 threads: int | None = None) -> np.ndarray:
+    """The median depth [H, W] (float64) of a render whose final transmittance is t_final [H, W]: per pixel,
+    the depth on its plane (planes [N, 15], gaussians.depth_planes) of the Gaussian at which the running
+    opacity reaches half the pixel's; 0 where t_final = 1. Forward only (the exports read it)."""
+    means2d, conics, opacities, planes, t_final = _f64(means2d, conics, opacities, planes, t_final)
+    radii = np.ascontiguousarray(radii, np.int32)
+    offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
+    out = np.empty((height, width))
+    _run(median_tiles, threads, lambda w: (means2d, conics, opacities, planes, offsets, ids, width, height, t_final,
+                                           out))
+    return out

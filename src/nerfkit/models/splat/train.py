@@ -87,6 +87,7 @@ class SplatConfig:
     backend: str = _USER.backend
     appearance: bool = False  # a colour transform per training photo (rays/correction.py)
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
+    random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
 
@@ -133,10 +134,17 @@ def correction_params(cfg: SplatConfig) -> dict:
     return {k: np.zeros(shapes[k], np.float32) for k in cfg.corrections}
 
 
-def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, *, cfg, width, height, dilation, extent):
+def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *, cfg, width, height, dilation,
+             extent):
     """Loss of one view (training photo idx) and aux (photometric loss, radii); offset [N, 2] zeros: d/d offset =
     dL/dmeans2d. With per-photo corrections the view is rendered from its corrected pose and its colours are
-    transformed by its colour transform (rays/correction.py) before the loss."""
+    transformed by its colour transform (rays/correction.py) before the loss. An RGBA image [H, W, 4] (the photo
+    composited on bg, and its alpha a) is trained on a random background b' ~ U[0, 1]^3 drawn from key: the target
+    is rgb + (1 - a) (b' - bg), the render is on b'."""
+    if image.shape[-1] == 4:
+        new_bg = jax.random.uniform(key, (3,), jnp.float32)
+        image = image[..., :3] + (1.0 - image[..., 3:]) * (new_bg - bg)
+        bg = new_bg
     if "cam_pose" in params:
         c2w = corrected_pose(c2w, params["cam_pose"][idx], extent)
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
@@ -151,6 +159,9 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, *, cfg,
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
 
 
+BACKGROUND_KEY = 0x6B67  # folded into a step's key for its random background (the strategy uses the key itself)
+
+
 def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health: bool = False, scale: float = 1.0,
               extent: float = 1.0):
     """The jitted training step
@@ -158,7 +169,8 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
         step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree,
              lr_pose=0) -> params, opt_state, stats, photometric loss [, mse, finite]
 
-    images [V, H, W, 3], poses [V, 4, 4], intrinsics [V, 4] stay on the device; idx picks the view.
+    images [V, H, W, 3] (or RGBA [V, H, W, 4]: a random background, _loss_fn), poses [V, 4, 4], intrinsics [V, 4]
+    stay on the device; idx picks the view.
     A step whose loss or gradients are not finite changes nothing (finite: False). with_health also
     returns the view's MSE and that flag (what nerfkit's run loop logs). scale: the views' resolution as a
     fraction of the photos' (1/2 in the coarse phase); the screen dilation is LOWPASS_DILATION scale^2, the
@@ -172,7 +184,7 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
         offset = jnp.zeros((params["means"].shape[0], 2), jnp.float32)
         (loss, (photo, radii, mse)), (grads, g_m2d) = loss_grad(params, offset, images[idx], poses[idx],
                                                                 intrinsics[idx], background, band_mask(sh_degree),
-                                                                active, idx)
+                                                                active, idx, jax.random.fold_in(key, BACKGROUND_KEY))
         finite = jnp.isfinite(loss)
         for g in jax.tree_util.tree_leaves(grads):
             finite = finite & jnp.all(jnp.isfinite(g))
