@@ -66,37 +66,8 @@ def load_blender(root: str | Path, spec: str, *, downscale: int | None = None, t
                       background=background)
 
 
-def surface_sdf(p: np.ndarray) -> np.ndarray:
-    """Signed distance [N] from points [N, 3] to the surface of the union of the scene's solids, negative inside
-    (exact outside the solids; inside, the distance to the enclosing solid's own boundary)."""
-    def sphere(c, r):
-        return np.linalg.norm(p - c, axis=-1) - r
-
-    def box(lo, hi):
-        q = np.abs(p - (lo + hi) / 2) - (hi - lo) / 2
-        return np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(-1), 0)
-
-    def cylinder(cxy, r, z):
-        q = np.stack([np.linalg.norm(p[:, :2] - cxy, axis=-1) - r, np.abs(p[:, 2] - (z[0] + z[1]) / 2)
-                      - (z[1] - z[0]) / 2], -1)
-        return np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(-1), 0)
-
-    sdf = np.minimum.reduce([
-        sphere(proc.BIG_SPHERE_CENTER, proc.BIG_SPHERE_RADIUS),
-        sphere(proc.SMALL_SPHERE_CENTER, proc.SMALL_SPHERE_RADIUS),
-        box(proc.BOX_MIN, proc.BOX_MAX), cylinder(proc.CYLINDER_CENTER_XY, proc.CYLINDER_RADIUS, proc.CYLINDER_Z_RANGE),
-        cylinder(np.zeros(2), proc.GROUND_RADIUS, proc.GROUND_Z_RANGE)])
-    return sdf
-
-
 def surface_distance(p: np.ndarray) -> np.ndarray:
     """Unsigned distance [N] from points [N, 3] to the surface of the union of the scene's solids
     (exact outside the solids; inside, the distance to the enclosing solid's own boundary)."""
-    return np.abs(surface_sdf(p))
+    return np.abs(proc.signed_distance(p))
 
-
-def surface_normal(p: np.ndarray, eps: float = 1e-4) -> np.ndarray:
-    """The outward unit normal [N, 3] of the nearest solid's surface at points [N, 3]: the gradient of
-    surface_sdf by central differences (undefined exactly on an edge; the mean of the two faces' there)."""
-    grad = np.stack([surface_sdf(p + e) - surface_sdf(p - e) for e in np.eye(3) * eps], -1)
-    return grad / np.maximum(np.linalg.norm(grad, axis=-1, keepdims=True), 1e-12)

@@ -43,7 +43,7 @@ from nerfkit.export.surface import (
     write_mesh,
 )
 from nerfkit.export.texture import bake, textured_files, write_textured
-from nerfkit.export.tsdf import truncation, tsdf_surface
+from nerfkit.export.tsdf import SMOOTH_PIXELS, truncation, tsdf_surface
 from nerfkit.export.viewcolor import view_color_fn
 from nerfkit.run.folder import RunFolder
 
@@ -80,14 +80,17 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
                 max_faces: int | None = None, visible_only: bool = True, snap: bool = True, every: int | None = None,
                 data: Path | None = None, progress: bool = True, log=print, carve: bool = True,
                 overwrite: bool = False, method: str = "tsdf", box: float | None = None, watertight: bool = False,
-                texture: bool = False, texture_size: int = 1024) -> dict:
+                texture: bool = False, texture_size: int = 1024, smooth: float = SMOOTH_PIXELS) -> dict:
     """Write the run's mesh to `out` (default RUN/exports/mesh.ply, or mesh.glb with `texture`) in the
     capture's coordinates, with a record and a picture in RUN/exports/; returns the record.
 
     method: "tsdf" or "levelset" (module docstring); threshold, visible_only, snap and carve belong to
     the level set (levelset.levelset_surface). box: half-size of the exported box in normalised units
     (default: the field's box, or the inner ball of an unbounded scene). watertight: a closed manifold
-    (tsdf only). texture: a UV atlas of texture_size^2 texels instead of vertex colours."""
+    (tsdf only). texture: a UV atlas of texture_size^2 texels instead of vertex colours. smooth: the blur of the
+    fused distance, in pixel footprints (tsdf only; tsdf.smooth_volume)."""
+    if not 0 <= smooth <= 8:
+        raise ConfigError(f"--smooth must be between 0 and 8 pixel footprints (got {smooth})")
     out = checked_out(run_dir, out, resolution, method, box, max_faces, texture, texture_size, threshold, watertight,
                       overwrite)
     t0 = time.perf_counter()
@@ -100,7 +103,8 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
                           f"--method tsdf (the default), which fuses its rendered depth")
     views = None
     if method == "tsdf":
-        verts, faces, info, views = tsdf_surface(run, bound, resolution, every, data, watertight, progress, log)
+        verts, faces, info, views = tsdf_surface(run, bound, resolution, every, data, watertight, progress, log,
+                                                 smooth)
     else:
         verts, faces, info = levelset_surface(run, bound, resolution, threshold, visible_only, snap, every, data,
                                               carve, progress, log)
@@ -223,6 +227,10 @@ class ExportMeshArgs:
     texture_size: int = 1024
     """Texels per side of the texture atlas, roughly: xatlas scales the charts to it, and the padding between
     many small charts can make the atlas up to about twice as wide (the record gives the size)."""
+    smooth: float = SMOOTH_PIXELS
+    """tsdf: blur the fused distance by a Gaussian of this many pixel footprints before the surface is taken (0:
+    none). Each view's depth is read once per pixel, which leaves ripples of a pixel's size on the surface; half a
+    pixel removes them; more smooths away the run's own noise, and fine detail with it."""
     max_faces: int | None = None
     """Simplify the mesh to at most this many faces (quadric decimation)."""
     every: int | None = None
@@ -256,6 +264,8 @@ def _export(a: ExportMeshArgs, given: set[str]) -> dict:
         if moot:
             raise ConfigError(f"{moot[0]} belongs to --method levelset (this export uses --method {a.method}); "
                               f"drop it or pass --method levelset")
+    if a.method == "levelset" and "--smooth" in given:
+        raise ConfigError("--smooth blurs the fused distance of --method tsdf; drop it or use --method tsdf")
     if a.method == "levelset" and not a.visible_only and "--every" in given:
         raise ConfigError("--every thins the training views of the visibility pass, which --no-visible-only "
                           "turns off; drop one of them")
@@ -263,7 +273,7 @@ def _export(a: ExportMeshArgs, given: set[str]) -> dict:
         raise ConfigError("--texture-size sets the texture of --texture; pass --texture too, or drop it")
     return export_mesh(a.run_dir, a.out, a.resolution, a.threshold, a.max_faces, a.visible_only, a.snap, a.every,
                        a.data, progress=a.progress, carve=a.carve, overwrite=a.overwrite, method=a.method, box=a.box,
-                       watertight=a.watertight, texture=a.texture, texture_size=a.texture_size)
+                       watertight=a.watertight, texture=a.texture, texture_size=a.texture_size, smooth=a.smooth)
 
 
 def _wrote(rec: dict) -> str:

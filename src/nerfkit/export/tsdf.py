@@ -239,7 +239,7 @@ PIXELS_PER_CELL = 1  # ... this many pixels across per grid cell (the depth maps
 
 
 def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, watertight: bool, progress: bool,
-                 log) -> tuple[np.ndarray, np.ndarray, dict, Views]:
+                 log, smooth: float = SMOOTH_PIXELS) -> tuple[np.ndarray, np.ndarray, dict, Views]:
     """The fused surface in the normalised frame: (verts [V, 3], faces [F, 3], record fields, the rendered
     views). Renders
     every `every`-th training view (default: about FUSION_VIEWS; PIXELS_PER_CELL x resolution pixels
@@ -258,7 +258,7 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     bar = (lambda it: tqdm(it, desc="fuse", unit="slab", leave=False)) if progress else None
     fsum, weight, seen = fuse_grid(axis, views.c2w, views.intrinsics, views.median, views.opacity, tau, bar)
     f, known = tsdf_volume(fsum, weight, seen, watertight)
-    f = smooth_volume(f, known, SMOOTH_PIXELS * pixel / h)
+    f = smooth_volume(f, known, smooth * pixel / h)
     if not ((f[known] < 0).any() and (f[known] > 0).any()):
         raise NerfkitError("no surface: no rendered training view is opaque inside the box (is the run trained? "
                            "for an unbounded scene, try a larger --box)")
@@ -270,6 +270,7 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     verts, faces = zero_surface(f, known, bound, watertight, level)
     return verts, faces, {"views": len(views.c2w), "every": views.every, "view_size": list(views.depth.shape[2:0:-1]),
                           "truncation": tau,
-                          "smoothing_cells": round(SMOOTH_PIXELS * pixel / h, 3), "level": level,
+                          "smooth_pixels": smooth, "smoothing_cells": round(smooth * pixel / h, 3),
+                          "level": level,
                           "level_scores": {f"{c:g}": round(v, 5) for c, v in sorted(scores.items())},
                           "known_fraction": float(known.mean()), "render_seconds": round(t_render, 2)}, views

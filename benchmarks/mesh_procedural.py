@@ -1,0 +1,133 @@
+"""Meshes against exact surfaces: the procedural scene, trained and exported through the CLI, measured both
+ways against its analytic solids, and for roughness by the normals.
+
+    python benchmarks/mesh_procedural.py [--size 128] [--views 48] [--minutes 5] [--presets splat ngp]
+                                         [--resolution 128] [--out runs/mesh_procedural] [--train-args "..."]
+
+Makes the procedural capture (SIZE px, VIEWS training views around it), then per preset what a user types:
+
+    nerfkit train SCENE --preset P --max-minutes M --out OUT/P
+    nerfkit export mesh OUT/P --resolution R
+
+and measures the mesh (data/procedural/scene.py's signed distance and normals; h = the grid cell, 2B / (R - 1)):
+
+    accuracy       mean |sdf| of 200,000 points spread over the mesh by area                    (in cells h)
+    completeness   mean distance from the true surface the training cameras see (traced at
+                   their pixel centres) to the mesh's points                                   (in cells h)
+    normals        over the mesh's points within 2 h of a true surface: the share whose face normal is within
+                   10 degrees of the true normal there, and the median angle
+
+Writes benchmarks/results/mesh_procedural.json (with the commit) and mesh_procedural_<preset>.png (the
+export's picture of its mesh from two sides).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from provenance import provenance
+
+ROOT = Path(__file__).resolve().parents[1]
+POINTS = 200_000
+NORMAL_DEG = 10.0
+
+
+def nerfkit(*args: str) -> float:
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, text=True, check=False)
+    print(r.stdout[-2000:], end="")
+    if r.returncode:
+        sys.exit(f"nerfkit {args[0]} failed")
+    return time.perf_counter() - t0
+
+
+def seen_surface(scene: Path, size: int) -> np.ndarray:
+    """The true surface points [N, 3] the training cameras see (exact ray tracing at their pixel centres)."""
+    from nerfkit.data.procedural import scene as proc
+
+    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
+    focal = 0.5 * size / np.tan(0.5 * proc.CAMERA_ANGLE_X)
+    pts = []
+    for f in frames:
+        o, d = proc.camera_rays(np.array(f["transform_matrix"]), size, size, focal)
+        _, alpha, t = proc.trace(o, d)
+        hit = alpha > 0.5
+        pts.append(o[hit] + t[hit][:, None] * d[hit])
+    return np.concatenate(pts)
+
+
+def measure(mesh_file: Path, seen: np.ndarray, h: float) -> dict:
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    from nerfkit.data.procedural import scene as proc
+
+    mesh = trimesh.load(mesh_file, process=False)
+    pts, fid = trimesh.sample.sample_surface(mesh, POINTS, seed=0)
+    sdf = np.abs(proc.signed_distance(pts))
+    near = sdf < 2 * h
+    cos = np.sum(mesh.face_normals[fid[near]] * proc.surface_normal(pts[near]), axis=1)
+    ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    gap = cKDTree(pts).query(seen)[0]
+    return {"faces": len(mesh.faces), "accuracy_cells": float(sdf.mean() / h),
+            "accuracy_median_cells": float(np.median(sdf) / h), "completeness_cells": float(gap.mean() / h),
+            "completeness_median_cells": float(np.median(gap) / h), "near_share": float(near.mean()),
+            "normals_within_10deg": float(np.mean(ang <= NORMAL_DEG)), "normal_median_deg": float(np.median(ang))}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--views", type=int, default=48)
+    ap.add_argument("--minutes", type=float, default=5.0)
+    ap.add_argument("--presets", nargs="+", default=["splat", "ngp"])
+    ap.add_argument("--resolution", type=int, default=128)
+    ap.add_argument("--out", type=Path, default=ROOT / "runs" / "mesh_procedural")
+    ap.add_argument("--train-args", default="")
+    ap.add_argument("--name", default="mesh_procedural")
+    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
+    a = ap.parse_args()
+
+    from nerfkit.data.procedural import scene as proc
+    from nerfkit.data.procedural.scene import make_scene
+
+    scene = a.out / "scene"
+    if not (scene / "transforms_train.json").is_file():
+        make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
+    seen = seen_surface(scene, a.size)
+    result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
+              "resolution": a.resolution, "train_args": a.train_args, "presets": {}}
+    a.results.mkdir(parents=True, exist_ok=True)
+    for preset in a.presets:
+        run = a.out / preset
+        train_s = nerfkit("train", str(scene), "--out", str(run), "--preset", preset, "--max-minutes", f"{a.minutes:g}",
+                          "--no-progress", "--overwrite", *shlex.split(a.train_args))
+        mesh = run / "exports" / "mesh.ply"
+        export_s = nerfkit("export", "mesh", str(run), "--resolution", str(a.resolution), "--out", str(mesh),
+                           "--no-progress", "--overwrite")
+        rec = json.loads((run / "exports" / "export_mesh.json").read_text())
+        h = 2 * rec["bound"] / (a.resolution - 1)
+        val = [json.loads(line) for line in (run / "val_metrics.jsonl").read_text().splitlines() if line.strip()]
+        scores = measure(mesh, seen, h)
+        result["presets"][preset] = {"train_wall_s": round(train_s, 1), "export_wall_s": round(export_s, 1),
+                                     "cell": h, "pixel_cells": float(4.0 / (0.5 * a.size / np.tan(
+                                         0.5 * proc.CAMERA_ANGLE_X)) / h),
+                                     "val_psnr": val[-1]["psnr"], "step": val[-1]["step"], **scores}
+        shutil.copyfile(run / "exports" / rec["picture"], a.results / f"{a.name}_{preset}.png")
+        print(f"{preset}: accuracy {scores['accuracy_cells']:.2f} h, completeness {scores['completeness_cells']:.2f} h, "
+              f"normals within {NORMAL_DEG:g} deg on {scores['normals_within_10deg']:.3f} (median "
+              f"{scores['normal_median_deg']:.1f} deg); val PSNR {val[-1]['psnr']:.2f} dB; export {export_s:.0f} s")
+    (a.results / f"{a.name}.json").write_text(json.dumps(result, indent=1))
+    print(f"wrote {a.results / f'{a.name}.json'}")
+
+
+if __name__ == "__main__":
+    main()
