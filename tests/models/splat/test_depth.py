@@ -94,3 +94,13 @@ def test_median_depth_matches_a_brute_force_blend_of_random_gaussians():
     covered = t_final < 0.5
     assert covered.sum() > 200  # the comparison sees many opaque pixels
     np.testing.assert_allclose(got.ravel(), want, atol=2e-4)
+
+
+def test_float64_rotations_are_the_projections_rotations():
+    from nerfkit.models.splat.depth import rotations
+    from nerfkit.models.splat.project import quaternion_to_rotation
+
+    q = np.random.default_rng(0).normal(size=(50, 4)).astype(np.float32)
+    r = rotations(q)
+    np.testing.assert_allclose(r, np.asarray(quaternion_to_rotation(jnp.asarray(q))), atol=1e-6)
+    np.testing.assert_allclose(r @ np.swapaxes(r, 1, 2), np.broadcast_to(np.eye(3), r.shape), atol=1e-12)

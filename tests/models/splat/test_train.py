@@ -128,3 +128,33 @@ def test_coarse_to_fine_trains_at_half_then_full_resolution(scene):
     assert len(loss) == 6 and np.mean(loss[-2:]) < np.mean(loss[:2])
     assert evaluate(params, val.images, val.poses, val.cameras)["psnr_mean"] > evaluate(
         initial_params(cfg)[0], val.images, val.poses, val.cameras)["psnr_mean"]
+
+
+def test_rgba_views_train_on_a_random_background_their_alpha_composites_them_onto():
+    """_loss_fn of an RGBA view (--random-background): the target is the photo re-composited by its alpha onto a
+    background b' drawn from the step's key, the render is on b'. With no Gaussians the render is b' itself: a
+    view that is all background (alpha 0) then costs nothing whatever b', an opaque one (alpha 1) costs |b' - c|,
+    which changes with the key."""
+    import jax
+
+    from nerfkit.models.splat.gaussians import band_mask
+    from nerfkit.models.splat.train import _loss_fn
+
+    cfg = SplatConfig(capacity=50, backend="reference")
+    params = {k: jnp.asarray(v) for k, v in initial_params(cfg)[0].items()}
+    inactive = jnp.zeros(50, bool)
+    c2w = jnp.asarray(np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 4], [0, 0, 0, 1]], np.float32))
+    intr = jnp.asarray([20.0, 20.0, 8.0, 8.0])
+    white = jnp.ones(3)
+
+    def loss(image, seed):
+        out = _loss_fn(params, jnp.zeros((50, 2)), image, c2w, intr, white, band_mask(0), inactive, 0,
+                       jax.random.PRNGKey(seed), cfg=cfg, width=16, height=16, dilation=0.3, extent=1.0)
+        return float(out[1][0])
+
+    empty = jnp.concatenate([jnp.ones((16, 16, 3)), jnp.zeros((16, 16, 1))], -1)  # the white background, alpha 0
+    opaque = jnp.concatenate([jnp.full((16, 16, 3), 0.3), jnp.ones((16, 16, 1))], -1)
+    assert max(loss(empty, s) for s in range(3)) < 1e-6
+    costs = [loss(opaque, s) for s in range(3)]
+    assert min(costs) > 1e-3 and max(costs) - min(costs) > 1e-3
+    assert loss(opaque[..., :3], 0) == pytest.approx(0.7, abs=1e-4)  # RGB views: the white background as before

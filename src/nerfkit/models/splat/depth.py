@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.models.splat import tiles_numba
-from nerfkit.models.splat.project import LOWPASS_DILATION, project_gaussians, quaternion_to_rotation
+from nerfkit.models.splat.project import LOWPASS_DILATION, project_gaussians
 
 SPAN = 3.0  # t* stays within z_k +- SPAN x the largest scale of Gaussian k
 MIN_LOG_SCALE = -12.0  # scales are floored at e^-12 before P = Sigma^{-1} is formed (float64)
@@ -42,8 +42,7 @@ def depth_planes(params: dict, c2w: np.ndarray, intrinsics) -> np.ndarray:
     view = np.array([1.0, -1.0, -1.0])[:, None] * c2w[:3, :3].T
     mu = (np.asarray(params["means"], np.float64) - c2w[:3, 3]) @ view.T
     log_s = np.maximum(np.asarray(params["log_scales"], np.float64), MIN_LOG_SCALE)
-    rot = view @ np.asarray(quaternion_to_rotation(jnp.asarray(params["quats"], jnp.float32)), np.float64)  # [N, 3, 3]
-    rot = _orthonormal(rot)
+    rot = view @ rotations(params["quats"])  # [N, 3, 3], camera axes
     prec = (rot * np.exp(-2.0 * log_s)[:, None, :]) @ np.swapaxes(rot, 1, 2)  # R diag(e^-2s) R^T
     pmu = np.einsum("nij,nj->ni", prec, mu)
     reach = SPAN * np.exp(log_s.max(axis=1))
@@ -53,11 +52,15 @@ def depth_planes(params: dict, c2w: np.ndarray, intrinsics) -> np.ndarray:
                            (mu[:, 2] - reach)[:, None], (mu[:, 2] + reach)[:, None]], axis=1)
 
 
-def _orthonormal(rot: np.ndarray) -> np.ndarray:
-    """The nearest rotations [N, 3, 3] (float32 quaternion rotations re-orthonormalised in float64, so that P
-    of a flat Gaussian is not polluted by its huge eigenvalue leaking into the other axes)."""
-    u, _, vt = np.linalg.svd(rot)
-    return u @ vt
+def rotations(quats: np.ndarray) -> np.ndarray:
+    """Rotation matrices [N, 3, 3] (float64) of quaternions [N, 4] = (w, x, y, z), normalised in float64 (project.py's
+    formula): orthonormal to float64 precision, so that P of a flat Gaussian does not leak its huge eigenvalue into
+    the other axes, as a float32 rotation would."""
+    q = np.asarray(quats, np.float64)
+    w, x, y, z = (q / np.linalg.norm(q, axis=-1, keepdims=True)).T
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
 
 
 @lru_cache(maxsize=16)

@@ -93,7 +93,8 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
-                       n_views=cfg.field.appearance_count, random_background=g.random_background == "on")
+                       n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
+                       flatten=g.flatten)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -157,7 +158,7 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "init", "backend", "appearance", "far_points", "random_background")) | {"train.pose_refine"}
+        "init", "backend", "appearance", "far_points", "random_background", "flatten")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -170,18 +171,22 @@ class SplatModel:
                 f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
+                f"{f'; flatten {g.flatten:g}' if g.flatten else ''}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
     @staticmethod
     def resolve_settings(cfg, photos: bool, n_train: int, log=print) -> None:
-        """--appearance and --far-points auto: on for photos without masks (registry.resolve_settings); the per-photo
+        """--appearance and --far-points auto: on for photos without masks, --random-background auto: on for the others
+        (masked captures and Blender scenes; registry.resolve_settings); the per-photo
         corrections' count (field.appearance_count) is the training photos' where any is on."""
         g = cfg.splat
         if g.appearance == "auto":
             g.appearance = "on" if photos else "off"
         if g.far_points == "auto":
             g.far_points = "on" if photos else "off"
+        if g.random_background == "auto":
+            g.random_background = "off" if photos else "on"
         if g.appearance == "on":
             log(f"appearance: a colour transform per training photo ({n_train}); held-out photos use their mean "
                 f"(--appearance off: none)")
