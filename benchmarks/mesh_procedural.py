@@ -1,13 +1,15 @@
 """Meshes against exact surfaces: the procedural scene, trained and exported through the CLI, measured both
 ways against its analytic solids, and for roughness by the normals.
 
-    python benchmarks/mesh_procedural.py [--size 128] [--views 48] [--minutes 5] [--presets splat ngp]
-                                         [--resolution 128] [--out runs/mesh_procedural] [--train-args "..."]
+    python benchmarks/mesh_procedural.py [--size 128] [--views 48] [--minutes 5] [--resolution 128]
+                                         [--runs "splat=--preset splat --random-background on" ngp]
+                                         [--out runs/mesh_procedural]
 
-Makes the procedural capture (SIZE px, VIEWS training views around it), then per preset what a user types:
+Makes the procedural capture (SIZE px, VIEWS training views around it), then per run LABEL[=ARGS] (ARGS default:
+--preset LABEL) what a user types:
 
-    nerfkit train SCENE --preset P --max-minutes M --out OUT/P
-    nerfkit export mesh OUT/P --resolution R
+    nerfkit train SCENE ARGS --max-minutes M --out OUT/LABEL
+    nerfkit export mesh OUT/LABEL --resolution R
 
 and measures the mesh (data/procedural/scene.py's signed distance and normals; h = the grid cell, 2B / (R - 1)):
 
@@ -17,7 +19,7 @@ and measures the mesh (data/procedural/scene.py's signed distance and normals; h
     normals        over the mesh's points within 2 h of a true surface: the share whose face normal is within
                    10 degrees of the true normal there, and the median angle
 
-Writes benchmarks/results/mesh_procedural.json (with the commit) and mesh_procedural_<preset>.png (the
+Writes benchmarks/results/mesh_procedural.json (with the commit) and mesh_procedural_<label>.png (the
 export's picture of its mesh from two sides).
 """
 
@@ -88,10 +90,9 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--views", type=int, default=48)
     ap.add_argument("--minutes", type=float, default=5.0)
-    ap.add_argument("--presets", nargs="+", default=["splat", "ngp"])
+    ap.add_argument("--runs", nargs="+", default=["splat=--preset splat --random-background on", "ngp"])
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--out", type=Path, default=ROOT / "runs" / "mesh_procedural")
-    ap.add_argument("--train-args", default="")
     ap.add_argument("--name", default="mesh_procedural")
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
     a = ap.parse_args()
@@ -104,12 +105,14 @@ def main() -> None:
         make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
     seen = seen_surface(scene, a.size)
     result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
-              "resolution": a.resolution, "train_args": a.train_args, "presets": {}}
+              "resolution": a.resolution, "runs": {}}
     a.results.mkdir(parents=True, exist_ok=True)
-    for preset in a.presets:
+    for entry in a.runs:
+        preset, _, args = entry.partition("=")
+        args = args or f"--preset {preset}"
         run = a.out / preset
-        train_s = nerfkit("train", str(scene), "--out", str(run), "--preset", preset, "--max-minutes", f"{a.minutes:g}",
-                          "--no-progress", "--overwrite", *shlex.split(a.train_args))
+        train_s = nerfkit("train", str(scene), "--out", str(run), *shlex.split(args), "--max-minutes", f"{a.minutes:g}",
+                          "--no-progress", "--overwrite")
         mesh = run / "exports" / "mesh.ply"
         export_s = nerfkit("export", "mesh", str(run), "--resolution", str(a.resolution), "--out", str(mesh),
                            "--no-progress", "--overwrite")
@@ -117,7 +120,7 @@ def main() -> None:
         h = 2 * rec["bound"] / (a.resolution - 1)
         val = [json.loads(line) for line in (run / "val_metrics.jsonl").read_text().splitlines() if line.strip()]
         scores = measure(mesh, seen, h)
-        result["presets"][preset] = {"train_wall_s": round(train_s, 1), "export_wall_s": round(export_s, 1),
+        result["runs"][preset] = {"args": args, "train_wall_s": round(train_s, 1), "export_wall_s": round(export_s, 1),
                                      "cell": h, "pixel_cells": float(4.0 / (0.5 * a.size / np.tan(
                                          0.5 * proc.CAMERA_ANGLE_X)) / h),
                                      "val_psnr": val[-1]["psnr"], "step": val[-1]["step"], **scores}
