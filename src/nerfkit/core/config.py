@@ -272,9 +272,6 @@ class SplatSettings:
     is composited onto it by its alpha): a surface can then not be left see-through where its colour matches
     the background (a light floor on white), which the rendered opacity, and so `export mesh`, would show as
     holes. auto: on for captures with masks or alpha."""
-    flatten: float = 0.0
-    """Weight of a loss on each Gaussian's smallest scale (mean over the Gaussians, in units of the cameras'
-    extent): flattened into discs, the Gaussians' depth lies on their planes, which `export mesh` fuses (0: off)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:

@@ -88,7 +88,6 @@ class SplatConfig:
     appearance: bool = False  # a colour transform per training photo (rays/correction.py)
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
-    flatten: float = 0.0  # weight of flatness_loss (0: off)
     n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
 
@@ -157,18 +156,7 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
         rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx])
     photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
     loss = photo + cfg.strategy.regularizer(params, active)
-    if cfg.flatten:
-        loss = loss + cfg.flatten * flatness_loss(params["log_scales"], active, extent)
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
-
-
-def flatness_loss(log_scales, active, extent: float):
-    """The mean over the active Gaussians of their smallest scale, in units of the camera extent:
-    mean_k min_i exp(s_ki) / extent (the flattening of PGSR and Gaussian surfels): pressed towards discs, a
-    Gaussian's density maximum along a ray lies on its plane (depth.py), so the depth the exports fuse follows
-    the surface rather than the Gaussians' centres."""
-    smallest = jnp.exp(jnp.min(log_scales, axis=-1))
-    return jnp.sum(jnp.where(active, smallest, 0.0)) / jnp.maximum(jnp.sum(active), 1) / extent
 
 
 BACKGROUND_KEY = 0x6B67  # folded into a step's key for its random background (the strategy uses the key itself)
