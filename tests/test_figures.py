@@ -92,6 +92,17 @@ ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.j
 SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
 
 
+RB, MLS, MMS = "splat_random_background_cli.json", "mesh_lego_splat.json", "mesh_maryrose_splat_watertight.json"
+
+
+def splat_mesh_cells(name):
+    m = (name, "methods", "tsdf")
+    return [((*m, "iou_mean"), f3), ((*m, "iou_min"), f3), ((*m, "precision_mean"), f3), ((*m, "recall_mean"), f3),
+            ((*m, "depth_within_tol_median_mean"), f3), ((*m, "depth_within_tol_mean"), f3),
+            ((*m, "normal_median_deg_mean"), f1), ((*m, "dihedral_median_deg"), f1), ((*m, "faces"), kilo),
+            ((*m, "cli_seconds"), f0)]
+
+
 def mesh_cells(name, method):
     m = ("methods", method)
     return [((name, *m, "iou_mean"), f3), ((name, *m, "iou_min"), f3), ((name, *m, "precision_mean"), f3),
@@ -497,6 +508,17 @@ CHECKS = [
     ("docs/verbs/export.md", "| maryrose, 10-min run", "| **tsdf** | **{}** ({}) | {} / {} | {} / {} | {}k | {} s |", mesh_cells(MM, "tsdf")),
     ("docs/verbs/export.md", "| | tsdf `--watertight` |",
      "| {} ({}) | {} / {}, closed 2-manifold (trimesh) | {} / {} | {}k | {} s |", mesh_cells(MW, "tsdf")),
+    ("docs/verbs/export.md", "| lego (2180 steps", "| lego ({} steps, {} dB on `val[50:100]`), {} views of `val[50:100]` | "
+     "**{}** ({}) | {} / {} | {} / {} | {} deg | {} deg | {}k | {} s |",
+     [((RB, "runs", "lego_random_background", "step"), d), ((RB, "runs", "lego_random_background", "psnr"), f1),
+      ((MLS, "views"), d)] + splat_mesh_cells(MLS)),
+    ("docs/verbs/export.md", "| maryrose `--watertight` (1523", "| maryrose `--watertight` ({} steps, {} dB), the {} "
+     "held-out photos | {} ({}) | {} / {}, closed 2-manifold | {} / {} | {} deg | {} deg | {}k | {} s |",
+     [((RB, "runs", "maryrose_random_background", "step"), d), ((RB, "runs", "maryrose_random_background", "psnr"), f1),
+      ((MMS, "views"), d)] + splat_mesh_cells(MMS)),
+    ("docs/splats.md", "- **A random background**", "lego {} against {} dB, maryrose {} against {}",
+     [((RB, "runs", k, "psnr"), f2) for k in ("lego_random_background", "lego", "maryrose_random_background",
+                                               "maryrose")]),
     ("docs/verbs/export.md", ("| | levelset |", 1), "| | levelset | {} ({}) | {} / {} | {} / {} | {}k | {} s |", mesh_cells(MM, "levelset")),
     ("docs/verbs/export.md", "The textured GLBs",
      "lego's keeps IoU {} and took {} s to export, maryrose's {} in {} s",

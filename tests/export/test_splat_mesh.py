@@ -101,3 +101,13 @@ def test_the_level_set_of_a_splat_run_is_refused_in_one_line(run, tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--method tsdf" in err[0] and "density field" in err[0]
     assert not out.exists() and not (run / "exports" / "export_mesh.json").exists()
+
+
+def test_bad_smoothing_is_refused_in_one_line(run, tmp_path, capsys):
+    out = tmp_path / "mesh.ply"
+    assert main(["export", "mesh", str(run), "--out", str(out), "--smooth", "-1", "--no-progress"]) == 1
+    assert main(["export", "mesh", str(run), "--out", str(out), "--method", "levelset", "--smooth", "1",
+                 "--no-progress"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "--smooth must be between 0 and 8" in err[0] and "--method tsdf" in err[1]
+    assert not out.exists()
