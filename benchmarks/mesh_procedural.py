@@ -11,7 +11,7 @@ Makes the procedural capture (SIZE px, VIEWS training views around it), then per
     nerfkit train SCENE ARGS --max-minutes M --out OUT/LABEL
     nerfkit export mesh OUT/LABEL --resolution R
 
-and measures the mesh (data/procedural/scene.py's signed distance and normals; h = the grid cell, 2B / (R - 1)):
+and measures the mesh (data/procedural/surfaces.py's signed distance and normals; h = the grid cell, 2B / (R - 1)):
 
     accuracy       mean |sdf| of 200,000 points spread over the mesh by area                    (in cells h)
     completeness   mean distance from the true surface the training cameras see (traced at
@@ -70,13 +70,13 @@ def measure(mesh_file: Path, seen: np.ndarray, h: float) -> dict:
     import trimesh
     from scipy.spatial import cKDTree
 
-    from nerfkit.data.procedural import scene as proc
+    from nerfkit.data.procedural.surfaces import signed_distance, surface_normal
 
     mesh = trimesh.load(mesh_file, process=False)
     pts, fid = trimesh.sample.sample_surface(mesh, POINTS, seed=0)
-    sdf = np.abs(proc.signed_distance(pts))
+    sdf = np.abs(signed_distance(pts))
     near = sdf < 2 * h
-    cos = np.sum(mesh.face_normals[fid[near]] * proc.surface_normal(pts[near]), axis=1)
+    cos = np.sum(mesh.face_normals[fid[near]] * surface_normal(pts[near]), axis=1)
     ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     gap = cKDTree(pts).query(seen)[0]
     return {"faces": len(mesh.faces), "accuracy_cells": float(sdf.mean() / h),

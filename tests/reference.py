@@ -11,7 +11,7 @@ import numpy as np
 from nerfkit.core.errors import DataError
 from nerfkit.data.formats.blender import iter_frames
 from nerfkit.data.loader import load_scene
-from nerfkit.data.procedural import scene as proc
+from nerfkit.data.procedural.surfaces import signed_distance
 from nerfkit.rays.cameras import (
     Camera,
     camera_rays,
@@ -69,5 +69,5 @@ def load_blender(root: str | Path, spec: str, *, downscale: int | None = None, t
 def surface_distance(p: np.ndarray) -> np.ndarray:
     """Unsigned distance [N] from points [N, 3] to the surface of the union of the scene's solids
     (exact outside the solids; inside, the distance to the enclosing solid's own boundary)."""
-    return np.abs(proc.signed_distance(p))
+    return np.abs(signed_distance(p))
 

@@ -115,3 +115,12 @@ def photometric_loss(pred: jax.Array, target: jax.Array, ssim_lambda: float = SS
     """(1 - lambda) D + lambda (1 - SSIM) of [H, W, 3] images (scalar), D the pixel loss: "l1" (3DGS) or
     "rmse"."""
     return (1.0 - ssim_lambda) * PIXEL_LOSSES[pixel](pred, target) + ssim_lambda * (1.0 - ssim(pred, target))
+
+
+def on_random_background(rgba: jax.Array, background: jax.Array, key) -> tuple[jax.Array, jax.Array]:
+    """(target [H, W, 3], b'): a view rgba [H, W, 4] (the photo composited on `background` [3], and its alpha a)
+    composited instead on a random colour b' ~ U[0, 1]^3 drawn from key: rgb + (1 - a) (b' - background), exact
+    because rgb = a c + (1 - a) background. Rendered on b', Gaussians cannot match the background by being
+    see-through (SplatSettings.random_background)."""
+    new_bg = jax.random.uniform(key, (3,), jnp.float32)
+    return rgba[..., :3] + (1.0 - rgba[..., 3:]) * (new_bg - background), new_bg

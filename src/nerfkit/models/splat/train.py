@@ -37,7 +37,7 @@ import numpy as np
 
 from nerfkit.core.config import SplatSettings
 from nerfkit.models.splat import densify as classic
-from nerfkit.models.splat.losses import PIXEL_LOSSES, photometric_loss
+from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
 from nerfkit.models.splat.gaussians import (
     PARAM_NAMES,
     all_sh,
@@ -134,17 +134,13 @@ def correction_params(cfg: SplatConfig) -> dict:
     return {k: np.zeros(shapes[k], np.float32) for k in cfg.corrections}
 
 
-def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *, cfg, width, height, dilation,
-             extent):
+def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *, cfg, width, height, dilation, extent):
     """Loss of one view (training photo idx) and aux (photometric loss, radii); offset [N, 2] zeros: d/d offset =
     dL/dmeans2d. With per-photo corrections the view is rendered from its corrected pose and its colours are
     transformed by its colour transform (rays/correction.py) before the loss. An RGBA image [H, W, 4] (the photo
-    composited on bg, and its alpha a) is trained on a random background b' ~ U[0, 1]^3 drawn from key: the target
-    is rgb + (1 - a) (b' - bg), the render is on b'."""
+    composited on bg, and its alpha) is trained on a random background drawn from key (losses.on_random_background)."""
     if image.shape[-1] == 4:
-        new_bg = jax.random.uniform(key, (3,), jnp.float32)
-        image = image[..., :3] + (1.0 - image[..., 3:]) * (new_bg - bg)
-        bg = new_bg
+        image, bg = on_random_background(image, bg, key)
     if "cam_pose" in params:
         c2w = corrected_pose(c2w, params["cam_pose"][idx], extent)
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
