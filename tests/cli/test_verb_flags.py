@@ -61,6 +61,8 @@ PROOFS = {
         "watertight": ["export/test_export.py::test_watertight_tsdf_mesh_is_closed_and_still_on_the_surfaces"],
         "texture": [f"{T}::test_mesh_texture_box_and_every"],
         "texture_size": [f"{T}::test_mesh_texture_box_and_every"],
+        "smooth": ["export/test_splat_mesh.py::test_smoothing_changes_the_mesh_and_is_recorded",
+                   "export/test_splat_mesh.py::test_bad_smoothing_is_refused_in_one_line"],
         "data": ["reliability/test_bad_runs.py::test_damaged_run_folders"],
         "progress": [f"{T}::test_no_progress_hides_the_bars"],
         "overwrite": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"]},

@@ -74,7 +74,7 @@ def alternative(name: str, cfg) -> list[str]:
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
         "splat.strategy": "mcmc" if v == "classic" else "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
         "splat.backend": "reference", "splat.appearance": "on", "train.pose_refine": "on",
-        "splat.far_points": "on", "splat.init": str(INIT_FILE.get("path")),
+        "splat.far_points": "on", "splat.random_background": "on", "splat.init": str(INIT_FILE.get("path")),
         "splat.coarse": "0.25", "splat.ssim_lambda": "0.2", "splat.pixel_loss": "rmse" if v == "l1" else "l1",
         "sampler.sampling": "proposal" if v != "proposal" else "occupancy",
     }
@@ -134,7 +134,7 @@ def observe_splat(trainer):
         params, aux = model.init()
         args = ({k: jnp.asarray(v) for k, v in params.items()}, trainer.optimizer.init(params),
                 {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}, jnp.asarray(aux["active"]),
-                jnp.asarray(td.images), jnp.asarray(td.poses), jnp.zeros((len(td), 4)), jnp.ones(3), 0,
+                jnp.asarray(model.training_views(td.images, td.alphas)), jnp.asarray(td.poses), jnp.zeros((len(td), 4)), jnp.ones(3), 0,
                 jax.random.PRNGKey(0), 1e-3, 1)
         return _traced(fn, *args)
 

@@ -357,22 +357,27 @@ class SplatModel:
         jitted view step (train.make_step) and then the host's density control."""
         view_step = ViewStep(self.sc, optimizer.opts, data.width, data.height, self.background, self.extent)
         intrinsics = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
-        with_alpha = self.sc.random_background and data.alphas is not None
-        alphas = jnp.asarray(data.alphas, jnp.float32)[..., None] / 255.0 if with_alpha else None
         kept: dict = {}
 
         def step_fn(state, step, images, poses):
             t0 = time.perf_counter()
             clock = float(state["aux"]["clock"])
-            if with_alpha:  # RGBA views (train.py: a random background per step), made once per images array
-                if kept.get("of") is not images:
-                    kept.update({"of": images, "rgba": jnp.concatenate([jnp.asarray(images, jnp.float32), alphas], -1)})
-                images = kept["rgba"]
+            if kept.get("of") is not images:  # made once per images array
+                kept.update({"of": images, "views": self.training_views(images, data.alphas)})
+            images = kept["views"]
             state, metrics = view_step(state, int(step), progress_of(int(step), clock, cfg), images, poses, intrinsics)
             state["aux"]["clock"] = np.float32(clock + time.perf_counter() - t0)
             return state, metrics
 
         return step_fn
+
+    def training_views(self, images, alphas):
+        """The views the step trains on: images [V, H, W, 3], or with --random-background on and masks or alpha
+        (alphas [V, H, W] uint8) RGBA views [V, H, W, 4], which train on a random background (train._loss_fn)."""
+        if not (self.sc.random_background and alphas is not None):
+            return images
+        return jnp.concatenate([jnp.asarray(images, jnp.float32), jnp.asarray(alphas, jnp.float32)[..., None] / 255.0],
+                               -1)
 
     def renderer(self, chunk: int = 0) -> SplatRenderer:
         return SplatRenderer(self)
