@@ -1,19 +1,22 @@
-"""`nerfkit export mesh`: a trained field as a coloured triangle mesh in the capture's coordinates.
+"""`nerfkit export mesh`: a trained run (a field, or Gaussian splats) as a coloured triangle mesh in the capture's
+coordinates.
 
 Two ways to find the surface (`--method`):
 
-    tsdf      (default) fuse the field's rendered depth and opacity from about 64 training views into a
-              truncated signed distance on a grid over the box, marching cubes of its zero (tsdf.py). Every
-              surface some view renders opaque is there, whatever the field's density level there.
-    levelset  marching cubes of the density at one level, the faces the views see, moved onto the
+    tsdf      (default) fuse the run's rendered median depth and opacity from about 64 training views into a
+              truncated signed distance on a grid over the box, blurred by --smooth pixels, marching cubes of
+              its zero (tsdf.py). Every surface some view renders opaque is there, whatever the field's density
+              level there; any run whose renderer gives a median depth (Supports.depth) meshes so.
+    levelset  (a density field only) marching cubes of the density at one level, the faces the views see, moved onto the
               half-opaque surface and into the training silhouettes (levelset.py; the exports of the last
               round): exact where the field's density is high, holes where it is soft.
 
 Then: connected pieces of the fused surface under SPECK_CELLS grid cells across are dropped (specks),
 `--watertight` closes the surface (points every view sees hidden behind a surface are inside; the box
 closes what it cuts) and checks it is a closed manifold, `--max-faces` decimates, and the colour is the
-field's, seen straight at the surface (surface.py): per vertex, or with `--texture` in a UV atlas image
-(texture.py: a .glb, or .obj + .mtl + .png).
+field's, seen straight at the surface (surface.py), or for a run without a density field (splats) what its fused
+views render there (viewcolor.py): per vertex, or with `--texture` in a UV atlas image (texture.py: a .glb, or
+.obj + .mtl + .png).
 """
 
 from __future__ import annotations
@@ -169,14 +172,9 @@ def colour_function(run, h: float, views):
     if run.model.supports.mesh:
         density_fn, color_fn, _, _ = field_functions(run)
         return surface_color_fn(density_fn, color_fn, COLOR_CELLS * h)
-    tol = float(views_tolerance(views, h))
+    tol = truncation(h, pixel_footprint(views.c2w, views.cameras))  # the fusion's: a few grid cells
     return view_color_fn(views.c2w, views.intrinsics, views.rgb, views.opacity, views.median,
                          np.asarray(run.model.background, np.float32), tol)
-
-
-def views_tolerance(views, h: float) -> float:
-    """The depth tolerance of the view colours: the fusion's truncation (a few grid cells)."""
-    return truncation(h, pixel_footprint(views.c2w, views.cameras))
 
 
 def write_coloured(run, out: Path, verts, faces, h: float, texture: bool, texture_size: int, record: dict,
