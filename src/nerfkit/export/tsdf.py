@@ -71,14 +71,20 @@ def project(x: jnp.ndarray, c2w: jnp.ndarray, intr: jnp.ndarray):
     return intr[0] * p[:, 0] / zs + intr[2], -intr[1] * p[:, 1] / zs + intr[3], z
 
 
-def view_terms(x, c2w, intr, depth, opacity, tau):
-    """One view's (w f [M], w [M], in_image [M]) for points x [M, 3] (module docstring); depth and
-    opacity [H, W] are read at the pixel each point falls in (nearest: no blending across edges)."""
-    h, w = depth.shape
+def pixel_of(x, c2w, intr, h: int, w: int):
+    """(u, v, z, in_image, iv, iu) [M] of points x [M, 3] in an H x W pinhole view (project): in_image where the
+    point lies in front of the camera and inside the image, (iv, iu) the pixel it falls in (clamped to the image)."""
     u, v, z = project(x, c2w, intr)
     in_image = (z > 1e-6) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
     iu = jnp.clip(jnp.floor(u).astype(jnp.int32), 0, w - 1)
     iv = jnp.clip(jnp.floor(v).astype(jnp.int32), 0, h - 1)
+    return u, v, z, in_image, iv, iu
+
+
+def view_terms(x, c2w, intr, depth, opacity, tau):
+    """One view's (w f [M], w [M], in_image [M]) for points x [M, 3] (module docstring); depth and
+    opacity [H, W] are read at the pixel each point falls in (nearest: no blending across edges)."""
+    _, _, z, in_image, iv, iu = pixel_of(x, c2w, intr, *depth.shape)
     d, a = depth[iv, iu], opacity[iv, iu]
     free = a < A_FREE
     s = d - z

@@ -1,7 +1,7 @@
 """The colour of surface points as the rendered views show it: for runs without a density field to look
 into (Gaussian splats), the mesh's vertex colours and texture come from the model's own renders.
 
-View k (pinhole, c2w_k, intrinsics, rendered rgb_k, opacity A_k and median depth D_k [H, W], tsdf.project)
+View k (pinhole, c2w_k, intrinsics, rendered rgb_k, opacity A_k and median depth D_k [H, W], tsdf.pixel_of)
 sees a surface point x with outward normal n at pixel (u, v) and z-depth z when
 
     A_k(u, v) >= 1/2,   |D_k(u, v) - z| <= tol + z / f_k   (the first surface there)   and   cos_k > 0,
@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from nerfkit.export.tsdf import A_FREE, project
+from nerfkit.export.tsdf import A_FREE, pixel_of
 
 UNSEEN_GREY = 0.5
 
@@ -53,12 +53,9 @@ def view_color_fn(c2w: np.ndarray, intrinsics: np.ndarray, rgb: np.ndarray, opac
     def colors(x, n):
         def body(acc, view):
             c2w_k, k, rgb_k, a_k, d_k = view
-            u, v, z = project(x, c2w_k, k)
-            inside = (z > 1e-6) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+            u, v, z, inside, iv, iu = pixel_of(x, c2w_k, k, h, w)
             to_cam = c2w_k[:3, 3] - x
             cos = jnp.sum(n * to_cam, -1) / jnp.maximum(jnp.linalg.norm(to_cam, axis=-1), 1e-9)
-            iu = jnp.clip(jnp.floor(u).astype(jnp.int32), 0, w - 1)
-            iv = jnp.clip(jnp.floor(v).astype(jnp.int32), 0, h - 1)
             first = (a_k[iv, iu] >= A_FREE) & (jnp.abs(d_k[iv, iu] - z) <= tol + z / k[0])
             sample = _bilinear(jnp.concatenate([rgb_k, a_k[..., None]], -1), u, v)
             a = jnp.maximum(sample[:, 3:], 1e-3)
