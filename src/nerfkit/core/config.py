@@ -272,6 +272,10 @@ class SplatSettings:
     is composited onto it by its alpha): a surface can then not be left see-through where its colour matches
     the background (a light floor on white), which the rendered opacity, and so `export mesh`, would show as
     holes. auto: on for captures with masks or alpha."""
+    normal_consistency: float = 0.0
+    """Weight of a training term that lays each Gaussian flat along the surface its neighbours' depth describes
+    (2DGS's normal consistency: the blended normals of the Gaussians against the normals of the rendered
+    depth), for runs meant for `export mesh`; 0: off. Costs steps per second and some PSNR (docs: Export)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
@@ -329,6 +333,7 @@ class Config:
                 sections["splat"].setdefault("appearance", "off")  # written before per-photo corrections existed
                 sections["splat"].setdefault("far_points", "off")
                 sections["splat"].setdefault("random_background", "off")
+                sections["splat"].setdefault("normal_consistency", 0.0)
             sections["train"].setdefault("pose_refine", "off")
             cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
         except (KeyError, TypeError, AttributeError) as e:

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
-from nerfkit.models.splat.depth import depth_planes, median_depth
+from nerfkit.models.splat.depth import BAND, depth_planes, median_depth
 from nerfkit.models.splat.gaussians import render
 from nerfkit.models.splat.project import project_gaussians
 from nerfkit.models.splat.reference import T_MIN, gaussian_alpha, pixel_centres
@@ -55,7 +56,8 @@ def test_a_flat_gaussian_gives_the_depth_of_its_plane_where_the_expected_depth_i
     assert (med[alpha == 0] == 0).all()
 
 
-def test_median_depth_matches_a_brute_force_blend_of_random_gaussians():
+@pytest.mark.parametrize("band", [0.0, BAND])
+def test_median_depth_matches_a_brute_force_blend_of_random_gaussians(band):
     rng = np.random.default_rng(0)
     n = 60
     p = gaussians(rng.uniform(-0.8, 0.8, (n, 3)), rng.uniform(np.log(0.05), np.log(0.4), (n, 3)),
@@ -72,27 +74,42 @@ def test_median_depth_matches_a_brute_force_blend_of_random_gaussians():
     o, d = pixel_rays(c2w)
     want = np.zeros(SIZE * SIZE)
     t_final = np.ones(SIZE * SIZE)
+    spread = []  # pixels whose band spans more than one Gaussian: where the band mean is not the median
     for pix in range(SIZE * SIZE):
-        t, crossed = 1.0, []
+        t, steps = 1.0, []
         for g in order:
             a = alpha[pix, g]
             if a == 0:
                 continue
             if t * (1 - a) < T_MIN:
                 break
+            steps.append((g, 1 - t, 1 - t * (1 - a)))  # the running opacity before and after g
             t *= 1 - a
-            crossed.append((g, t))
         t_final[pix] = t
-        for g, t_after in crossed:
-            if 1 - t_after >= 0.5 * (1 - t):
-                r = (c2w[:3, :3].T @ d.reshape(-1, 3)[pix]) * [1, -1, -1]  # OpenCV camera axes: (x, y, 1)
-                pm = np.array([[planes[g, 0], planes[g, 1], planes[g, 2]], [planes[g, 1], planes[g, 3], planes[g, 4]],
-                               [planes[g, 2], planes[g, 4], planes[g, 5]]])
-                want[pix] = np.clip(r @ planes[g, 6:9] / (r @ pm @ r), planes[g, 13], planes[g, 14])
+        lo, hi = (0.5 - band) * (1 - t), (0.5 + band) * (1 - t)
+        r = (c2w[:3, :3].T @ d.reshape(-1, 3)[pix]) * [1, -1, -1]  # OpenCV camera axes: (x, y, 1)
+        num = den = 0.0
+        used = 0
+        for g, before, after in steps:
+            if after < lo:
+                continue
+            pm = np.array([[planes[g, 0], planes[g, 1], planes[g, 2]], [planes[g, 1], planes[g, 3], planes[g, 4]],
+                           [planes[g, 2], planes[g, 4], planes[g, 5]]])
+            tz = np.clip(r @ planes[g, 6:9] / (r @ pm @ r), planes[g, 13], planes[g, 14])
+            w = min(after, hi) - max(before, lo)
+            if w > 0:
+                num, den, used = num + w * tz, den + w, used + 1
+            if after >= hi:
+                want[pix] = num / den if den > 0 else tz
                 break
-    got = median_depth(p, c2w, intr, SIZE, SIZE, (1 - t_final).reshape(SIZE, SIZE))
+        spread.append(used > 1)
+    got = median_depth(p, c2w, intr, SIZE, SIZE, (1 - t_final).reshape(SIZE, SIZE), band=band)
     covered = t_final < 0.5
     assert covered.sum() > 200  # the comparison sees many opaque pixels
+    if band > 0:
+        assert np.mean(spread) > 0.2  # and many pixels where the band mean differs from the median
+        assert np.abs(got.ravel() - median_depth(p, c2w, intr, SIZE, SIZE, (1 - t_final).reshape(SIZE, SIZE),
+                                                 band=0.0).ravel()).max() > 0.05
     np.testing.assert_allclose(got.ravel(), want, atol=2e-4)
 
 

@@ -15,8 +15,17 @@ its surfels, and a smooth function of the pixel for any Gaussian (RaDe-GS, Zhang
 within z_k +- SPAN x the Gaussian's largest scale (a ray grazing a flat Gaussian meets its plane far away).
 
 The median depth of pixel p is t*_m(p) of the first Gaussian m (front to back, the rasteriser's order
-and alpha test) after which the running opacity 1 - T reaches half the pixel's final opacity: the
-ray models' median (render/volume.py), which a soft edge does not pull towards the background.
+and alpha test) after which the running opacity 1 - T reaches half the pixel's final opacity A: the
+ray models' median (render/volume.py), which a soft edge does not pull towards the background. What the
+exports read is a robust version of it, the mean of the ray's depth quantile function over the central
+band of opacity [(1/2 - BAND) A, (1/2 + BAND) A] (BAND = 1/4: the interquartile mean):
+
+    d(p) = sum_k |[c_k, c_k + w_k] n band| t*_k(p) / (2 BAND A),     c_k = 1 - T_k (the opacity before k)
+
+Where neighbouring pixels' medians fall on different Gaussians the median jumps between their planes;
+the band mean blends them. On the procedural scene's exact depth (a 4-minute splat run, 128 px), the
+normals of the band mean's depth maps were within 10 degrees of the truth on 63% of pixels against 56%
+for the median, with the same share within 1% of the box side.
 """
 
 from __future__ import annotations
@@ -31,6 +40,7 @@ from nerfkit.models.splat import tiles_numba
 from nerfkit.models.splat.project import LOWPASS_DILATION, project_gaussians
 
 SPAN = 3.0  # t* stays within z_k +- SPAN x the largest scale of Gaussian k
+BAND = 0.25  # the exported depth: the mean depth over running opacities [(1/2 - BAND) A, (1/2 + BAND) A]
 MIN_LOG_SCALE = -12.0  # scales are floored at e^-12 before P = Sigma^{-1} is formed (float64)
 
 
@@ -73,10 +83,11 @@ def _project_jit(width: int, height: int):
 
 
 def median_depth(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int, alpha: np.ndarray,
-                 threads: int | None = None) -> np.ndarray:
+                 threads: int | None = None, band: float = BAND) -> np.ndarray:
     """The median depth [H, W] (float32; 0 where alpha = 0) of the Gaussians params (numpy, PARAM_NAMES) seen
     by the pinhole camera (c2w [4, 4] OpenGL, intrinsics (fx, fy, cx, cy), width x height) whose render has
-    opacity alpha [H, W] (module docstring). Runs the CPU tile kernel whatever backend rendered alpha."""
+    opacity alpha [H, W]: the mean over the opacity band of half-width `band` around A / 2 (0: the median
+    itself; module docstring). Runs the CPU tile kernel whatever backend rendered alpha."""
     means2d, conics, depths, radii = (np.asarray(a) for a in _project_jit(int(width), int(height))(
         *(jnp.asarray(params[k], jnp.float32) for k in ("means", "log_scales", "quats")),
         jnp.asarray(c2w, jnp.float32), jnp.asarray(intrinsics, jnp.float32)))
@@ -84,5 +95,5 @@ def median_depth(params: dict, c2w: np.ndarray, intrinsics, width: int, height: 
     planes = depth_planes(params, c2w, intrinsics)
     t_final = 1.0 - np.asarray(alpha, np.float64)
     return tiles_numba.median_depth(means2d, conics, opac, depths, radii, planes, width, height, t_final,
-                                    threads).astype(np.float32)
+                                    threads, band).astype(np.float32)
 

@@ -93,7 +93,8 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
-                       n_views=cfg.field.appearance_count, random_background=g.random_background == "on")
+                       n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
+                       normal_consistency=g.normal_consistency)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -157,7 +158,7 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "init", "backend", "appearance", "far_points", "random_background")) | {"train.pose_refine"}
+        "init", "backend", "appearance", "far_points", "random_background", "normal_consistency")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -170,6 +171,7 @@ class SplatModel:
                 f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
+                f"{f'; normal consistency {g.normal_consistency:g}' if g.normal_consistency else ''}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 

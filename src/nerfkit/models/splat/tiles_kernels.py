@@ -348,14 +348,18 @@ def _plane_depth(planes, g, px, py):
 
 
 @njit(cache=True, nogil=True)
-def median_tiles(means2d, conics, opacities, planes, offsets, ids, width, height, t_final, out, first, stride):
-    """Tiles first, first + stride, ...: at each pixel, blended front to back as _blend_tile does, the depth
-    of the first Gaussian after which the running opacity 1 - T reaches half the pixel's final opacity
-    (1 - t_final) / 2, read on that Gaussian's plane (_plane_depth); 0 where the pixel has no opacity."""
+def median_tiles(means2d, conics, opacities, planes, offsets, ids, width, height, t_final, band, out, first, stride):
+    """Tiles first, first + stride, ...: at each pixel, blended front to back as _blend_tile does, the mean of
+    its depth quantile function over the running opacities [(1/2 - band) A, (1/2 + band) A], A = 1 - t_final
+    the pixel's final opacity: each Gaussian g weighs the share of that band its blend step [1 - T_before,
+    1 - T_after] covers, and is read on its plane (_plane_depth). band = 0: the depth of the first Gaussian
+    after which 1 - T reaches A / 2 (the median). 0 where the pixel has no opacity."""
     tiles_x = (width + TILE - 1) // TILE
     for t in range(first, offsets.size - 1, stride):
         x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
         trans = np.ones((TILE, TILE))
+        acc = np.zeros((TILE, TILE))
+        wsum = np.zeros((TILE, TILE))
         done = np.zeros((TILE, TILE), np.bool_)
         n_live = 0
         for y in range(ny):
@@ -391,9 +395,27 @@ def median_tiles(means2d, conics, opacities, planes, offsets, ids, width, height
                     if next_t < T_MIN:
                         done[y, x] = True
                         n_live -= 1
+                        if wsum[y, x] > 0.0:
+                            out[y0 + y, x0 + x] = acc[y, x] / wsum[y, x]
                         continue
+                    c0 = 1.0 - trans[y, x]
                     trans[y, x] = next_t
-                    if 1.0 - next_t >= 0.5 * (1.0 - t_final[y0 + y, x0 + x]):
-                        out[y0 + y, x0 + x] = _plane_depth(planes, g, x0 + x + 0.5, y0 + y + 0.5)
+                    c1 = 1.0 - next_t
+                    final = 1.0 - t_final[y0 + y, x0 + x]
+                    lo = (0.5 - band) * final
+                    if c1 < lo:
+                        continue
+                    hi = (0.5 + band) * final
+                    tz = _plane_depth(planes, g, x0 + x + 0.5, y0 + y + 0.5)
+                    w = min(c1, hi) - max(c0, lo)
+                    if w > 0.0:
+                        acc[y, x] += w * tz
+                        wsum[y, x] += w
+                    if c1 >= hi:
+                        out[y0 + y, x0 + x] = acc[y, x] / wsum[y, x] if wsum[y, x] > 0.0 else tz
                         done[y, x] = True
                         n_live -= 1
+        for y in range(ny):
+            for x in range(nx):
+                if not done[y, x] and wsum[y, x] > 0.0:
+                    out[y0 + y, x0 + x] = acc[y, x] / wsum[y, x]

@@ -239,14 +239,15 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
 
 
 def median_depth(means2d, conics, opacities, depths, radii, planes, width: int, height: int, t_final,
-                 threads: int | None = None) -> np.ndarray:
+                 threads: int | None = None, band: float = 0.0) -> np.ndarray:
     """The median depth [H, W] (float64) of a render whose final transmittance is t_final [H, W]: per pixel,
-    the depth on its plane (planes [N, 15], gaussians.depth_planes) of the Gaussian at which the running
-    opacity reaches half the pixel's; 0 where t_final = 1. Forward only (the exports read it)."""
+    the mean depth on their planes (planes [N, 15], depth.depth_planes) of the Gaussians over which the running
+    opacity crosses the band (1/2 -+ band) of the pixel's (band 0: the one at which it reaches half; kernel
+    median_tiles); 0 where t_final = 1. Forward only (the exports read it)."""
     means2d, conics, opacities, planes, t_final = _f64(means2d, conics, opacities, planes, t_final)
     radii = np.ascontiguousarray(radii, np.int32)
     offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
     out = np.empty((height, width))
     _run(median_tiles, threads, lambda w: (means2d, conics, opacities, planes, offsets, ids, width, height, t_final,
-                                           out))
+                                           float(band), out))
     return out

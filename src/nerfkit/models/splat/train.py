@@ -38,6 +38,7 @@ import numpy as np
 from nerfkit.core.config import SplatSettings
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
+from nerfkit.models.splat.surface import SURFACE_CHANNELS, normal_consistency, surface_channels
 from nerfkit.models.splat.gaussians import (
     PARAM_NAMES,
     all_sh,
@@ -88,6 +89,7 @@ class SplatConfig:
     appearance: bool = False  # a colour transform per training photo (rays/correction.py)
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
+    normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
     n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
 
@@ -146,12 +148,20 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
                                       all_sh(params) * sh_mask, dilation)
     radii = jnp.where(active, proj["radii"], 0)
-    rgb, alpha = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii, bg, width,
-                           height, backend=cfg.backend)
+    surface = cfg.normal_consistency > 0
+    if surface:  # the Gaussians' normals and planes as channels after the colour (surface.py)
+        colors = jnp.concatenate([colors, surface_channels(params["means"], params["log_scales"], params["quats"],
+                                                           c2w)], axis=-1)
+        bg_in = jnp.concatenate([bg, jnp.zeros(SURFACE_CHANNELS, bg.dtype)])
+    rendered, alpha = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii,
+                                bg_in if surface else bg, width, height, backend=cfg.backend)
+    rgb = rendered[..., :3]
     if "cam_color" in params:
         rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx])
     photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
     loss = photo + cfg.strategy.regularizer(params, active)
+    if surface:
+        loss = loss + cfg.normal_consistency * normal_consistency(rendered[..., 3:], alpha, intr)
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
 
 
