@@ -519,9 +519,10 @@ CHECKS = [
     ("docs/verbs/export.md", "Against exact surfaces (the procedural scene",
      "`--random-background on`, {} dB on the held-out views) lies a mean {} grid cells from the true surfaces and "
      "covers what the cameras see to {} cells; its face normals are within 10 degrees of the true ones on {}% of "
-     "the surface (median {} degrees). The ngp run's ({} dB): {} and {} cells, {}% (median {} degrees). "
+     "the surface (median {} degrees). With `--normal-consistency 0.05` as well ({} dB): {} and {} cells, "
+     "{}% (median {} degrees). The ngp run's ({} dB): {} and {} cells, {}% (median {} degrees). "
      "A grid cell is {} of a training pixel's footprint here.",
-     [(("mesh_procedural.json", "runs", r, k), f) for r in ("splat", "ngp") for k, f in
+     [(("mesh_procedural.json", "runs", r, k), f) for r in ("splat", "splat_nc", "ngp") for k, f in
       (("val_psnr", f2), ("accuracy_cells", f2), ("completeness_cells", f2), ("normals_within_10deg", pct1),
        ("normal_median_deg", f1))] + [(("mesh_procedural.json", "runs", "splat", "pixel_cells"), f2)]),
     ("docs/splats.md", "- **A random background**", "lego {} against {} dB, maryrose {} against {}",
