@@ -45,7 +45,7 @@ MIN_LOG_SCALE = -12.0  # scales are floored at e^-12 before P = Sigma^{-1} is fo
 
 
 def depth_planes(params: dict, c2w: np.ndarray, intrinsics) -> np.ndarray:
-    """planes [N, 15] float64 for tiles_kernels.median_tiles: (P00, P01, P02, P11, P12, P22, (P mu)_0..2,
+    """planes [N, 15] float64 for depth_kernels.median_tiles: (P00, P01, P02, P11, P12, P22, (P mu)_0..2,
     fx, fy, cx, cy, z_lo, z_hi) of each Gaussian in the OpenCV axes of the camera c2w [4, 4] (OpenGL)
     with intrinsics (fx, fy, cx, cy): P = Sigma^{-1} and mu in camera axes, [z_lo, z_hi] = z +- SPAN max scale."""
     c2w = np.asarray(c2w, np.float64)

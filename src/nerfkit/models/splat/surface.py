@@ -45,6 +45,13 @@ def surface_channels(means: jax.Array, log_scales: jax.Array, quats: jax.Array, 
     return jnp.concatenate([n, n / delta[:, None]], axis=-1)
 
 
+def with_surface_channels(colors: jax.Array, background: jax.Array, params: dict, c2w: jax.Array):
+    """(colors [N, C + 6], background [C + 6]): the colour channels followed by surface_channels, on zero."""
+    extra = surface_channels(params["means"], params["log_scales"], params["quats"], c2w)
+    return (jnp.concatenate([colors, extra], axis=-1),
+            jnp.concatenate([background, jnp.zeros(SURFACE_CHANNELS, background.dtype)]))
+
+
 def pixel_directions(intrinsics, width: int, height: int) -> jax.Array:
     """r_p [H, W, 3] = ((u - cx) / fx, (v - cy) / fy, 1) at the pixel centres (u, v) = (j + 1/2, i + 1/2)."""
     fx, fy, cx, cy = (intrinsics[i] for i in range(4))

@@ -6,8 +6,8 @@ binning, the blend and the gradients they compute).
     _row_exp                e^{-sigma} advanced along a scanline by two products per pixel
     forward_tiles           per tile: _blend_tile (front to back), _store_tile
     backward_tiles          per tile: _load_tile, _unblend_tile (back to front)
-    median_tiles            per tile: the surface depth where the running opacity reaches half the pixel's
-                            (the exports' median depth; forward only)
+
+depth_kernels.py holds the exports' depth kernel (median_tiles), built on the helpers here.
 
 The per-tile helpers are inlined (inline="always") and take a whole tile: a helper called once per
 Gaussian with the scanline loop inside cost the backward pass 2-4 % (measured); these cost nothing.
@@ -330,92 +330,3 @@ def backward_tiles(means2d, conics, colors, opacities, background, offsets, ids,
                                                        x0, y0, nx, ny)
         _unblend_tile(ids, offsets[t], means2d, conics, colors, opacities, n_ch, x0, y0, nx, ny, trans, g_end,
                       g_img, n_blend, rec, out)
-
-
-@njit(cache=True, inline="always")
-def _plane_depth(planes, g, px, py):
-    """z-depth where pixel (px, py)'s ray meets Gaussian g's density maximum (gaussians.depth_planes:
-    planes[g] = (P00, P01, P02, P11, P12, P22, (P mu)_0, (P mu)_1, (P mu)_2, fx, fy, cx, cy, z_lo, z_hi) in
-    OpenCV camera axes): with r = ((px - cx) / fx, (py - cy) / fy, 1), t* = r^T P mu / r^T P r, kept within
-    [z_lo, z_hi]."""
-    x = (px - planes[g, 11]) / planes[g, 9]
-    y = (py - planes[g, 12]) / planes[g, 10]
-    num = x * planes[g, 6] + y * planes[g, 7] + planes[g, 8]
-    den = (planes[g, 0] * x * x + 2.0 * planes[g, 1] * x * y + 2.0 * planes[g, 2] * x + planes[g, 3] * y * y
-           + 2.0 * planes[g, 4] * y + planes[g, 5])
-    t = num / den if den > 0.0 else planes[g, 13]
-    return min(planes[g, 14], max(planes[g, 13], t))
-
-
-@njit(cache=True, nogil=True)
-def median_tiles(means2d, conics, opacities, planes, offsets, ids, width, height, t_final, band, out, first, stride):
-    """Tiles first, first + stride, ...: at each pixel, blended front to back as _blend_tile does, the mean of
-    its depth quantile function over the running opacities [(1/2 - band) A, (1/2 + band) A], A = 1 - t_final
-    the pixel's final opacity: each Gaussian g weighs the share of that band its blend step [1 - T_before,
-    1 - T_after] covers, and is read on its plane (_plane_depth). band = 0: the depth of the first Gaussian
-    after which 1 - T reaches A / 2 (the median). 0 where the pixel has no opacity."""
-    tiles_x = (width + TILE - 1) // TILE
-    for t in range(first, offsets.size - 1, stride):
-        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
-        trans = np.ones((TILE, TILE))
-        acc = np.zeros((TILE, TILE))
-        wsum = np.zeros((TILE, TILE))
-        done = np.zeros((TILE, TILE), np.bool_)
-        n_live = 0
-        for y in range(ny):
-            for x in range(nx):
-                out[y0 + y, x0 + x] = 0.0
-                if t_final[y0 + y, x0 + x] >= 1.0:
-                    done[y, x] = True
-                else:
-                    n_live += 1
-        start = offsets[t]
-        for k in range(offsets[t + 1] - start):
-            if n_live == 0:
-                break
-            g = ids[start + k]
-            mx, my, a, b, c, o, det, span, ok = _gaussian(g, means2d, conics, opacities)
-            if not ok:
-                continue
-            ys, ye = _rows(my, a, det, span, y0, ny)
-            for y in range(ys, ye + 1):
-                dy = my - (y0 + y + 0.5)
-                xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
-                for x in range(xs, xe + 1):
-                    if done[y, x]:
-                        continue
-                    dx = mx - (x0 + x + 0.5)
-                    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-                    if sigma < 0.0 or sigma > SIGMA_MAX:
-                        continue
-                    alpha = min(ALPHA_MAX, o * math.exp(-sigma))
-                    if alpha < ALPHA_MIN:
-                        continue
-                    next_t = trans[y, x] * (1.0 - alpha)
-                    if next_t < T_MIN:
-                        done[y, x] = True
-                        n_live -= 1
-                        if wsum[y, x] > 0.0:
-                            out[y0 + y, x0 + x] = acc[y, x] / wsum[y, x]
-                        continue
-                    c0 = 1.0 - trans[y, x]
-                    trans[y, x] = next_t
-                    c1 = 1.0 - next_t
-                    final = 1.0 - t_final[y0 + y, x0 + x]
-                    lo = (0.5 - band) * final
-                    if c1 < lo:
-                        continue
-                    hi = (0.5 + band) * final
-                    tz = _plane_depth(planes, g, x0 + x + 0.5, y0 + y + 0.5)
-                    w = min(c1, hi) - max(c0, lo)
-                    if w > 0.0:
-                        acc[y, x] += w * tz
-                        wsum[y, x] += w
-                    if c1 >= hi:
-                        out[y0 + y, x0 + x] = acc[y, x] / wsum[y, x] if wsum[y, x] > 0.0 else tz
-                        done[y, x] = True
-                        n_live -= 1
-        for y in range(ny):
-            for x in range(nx):
-                if not done[y, x] and wsum[y, x] > 0.0:
-                    out[y0 + y, x0 + x] = acc[y, x] / wsum[y, x]

@@ -55,9 +55,9 @@ from nerfkit.models.splat.tiles_kernels import (
     backward_tiles,
     bin_tiles,
     forward_tiles,
-    median_tiles,
     tile_rects,
 )
+from nerfkit.models.splat.depth_kernels import median_tiles
 
 THREADS: int | None = None  # worker threads; None: every CPU in os.sched_getaffinity
 CHUNKS_PER_WORKER = 8

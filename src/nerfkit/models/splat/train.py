@@ -6,7 +6,7 @@ One step (compiled once for the run; the SH degree is a traced band mask, the me
 rate a traced scalar, so nothing recompiles when they change):
 
     render training view k (project.py + SH + the numba tile rasteriser), with inactive slots culled
-    L = (1 - 0.2) L1 + 0.2 (1 - SSIM)  [+ MCMC's opacity and scale regularisers]
+    L = (1 - 0.2) L1 + 0.2 (1 - SSIM)  [+ MCMC's opacity and scale regularisers] [+ W L_n, surface.py]
     Adam per parameter group (optim.py)  [+ MCMC position noise | classic gradient statistics]
 
 Coarse to fine: while progress t < coarse_until, a step renders and scores the view at half
@@ -38,24 +38,10 @@ import numpy as np
 from nerfkit.core.config import SplatSettings
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
-from nerfkit.models.splat.surface import SURFACE_CHANNELS, normal_consistency, surface_channels
-from nerfkit.models.splat.gaussians import (
-    PARAM_NAMES,
-    all_sh,
-    band_mask,
-    init_random,
-    intrinsics_of,
-    splat_inputs,
-)
-from nerfkit.models.splat.optim import (
-    LearningRates,
-    adam_step,
-    init_state,
-    make_optimizers,
-    means_lr,
-    pose_lr,
-    reset_rows,
-)
+from nerfkit.models.splat.surface import normal_consistency, with_surface_channels
+from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, init_random, intrinsics_of, splat_inputs
+from nerfkit.models.splat.optim import (LearningRates, adam_step, init_state, make_optimizers, means_lr, pose_lr,
+                                        reset_rows)
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
@@ -150,9 +136,7 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
     radii = jnp.where(active, proj["radii"], 0)
     surface = cfg.normal_consistency > 0
     if surface:  # the Gaussians' normals and planes as channels after the colour (surface.py)
-        colors = jnp.concatenate([colors, surface_channels(params["means"], params["log_scales"], params["quats"],
-                                                           c2w)], axis=-1)
-        bg_in = jnp.concatenate([bg, jnp.zeros(SURFACE_CHANNELS, bg.dtype)])
+        colors, bg_in = with_surface_channels(colors, bg, params, c2w)
     rendered, alpha = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii,
                                 bg_in if surface else bg, width, height, backend=cfg.backend)
     rgb = rendered[..., :3]
