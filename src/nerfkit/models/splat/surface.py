@@ -77,7 +77,7 @@ def normal_consistency(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax
     opacity alpha [H, W]; 0 where no interior pixel is more than half opaque."""
     height, width = alpha.shape
     rays = pixel_directions(intrinsics, width, height)
-    inv = jnp.sum(channels[..., 3:] * rays, -1)  # A (Q . r_p) / A
+    inv = jnp.sum(channels[..., 3:] * rays, -1)  # Q . r_p = A / D
     ok = (alpha > 0.5) & (inv > INV_DEPTH_MIN * alpha)
     depth = jnp.where(ok, alpha / jnp.where(ok, inv, 1.0), 0.0)
     nd = depth_normals(depth, rays)

@@ -38,13 +38,13 @@ import numpy as np
 from nerfkit.core.config import SplatSettings
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
-from nerfkit.models.splat.surface import normal_consistency, with_surface_channels
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, init_random, intrinsics_of, splat_inputs
 from nerfkit.models.splat.optim import (LearningRates, adam_step, init_state, make_optimizers, means_lr, pose_lr,
                                         reset_rows)
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
+from nerfkit.models.splat.surface import normal_consistency, with_surface_channels
 from nerfkit.rays.correction import camera_extent, corrected_composite, corrected_pose
 
 
@@ -134,11 +134,10 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
                                       all_sh(params) * sh_mask, dilation)
     radii = jnp.where(active, proj["radii"], 0)
-    surface = cfg.normal_consistency > 0
-    if surface:  # the Gaussians' normals and planes as channels after the colour (surface.py)
-        colors, bg_in = with_surface_channels(colors, bg, params, c2w)
-    rendered, alpha = rasterize(proj["means2d"] + offset, proj["conics"], colors, opac, proj["depths"], radii,
-                                bg_in if surface else bg, width, height, backend=cfg.backend)
+    surface = cfg.normal_consistency > 0  # then the Gaussians' normals and planes follow the colour (surface.py)
+    channels, bg_in = with_surface_channels(colors, bg, params, c2w) if surface else (colors, bg)
+    rendered, alpha = rasterize(proj["means2d"] + offset, proj["conics"], channels, opac, proj["depths"], radii,
+                                bg_in, width, height, backend=cfg.backend)
     rgb = rendered[..., :3]
     if "cam_color" in params:
         rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx])
