@@ -2,7 +2,7 @@
 and depth agreement with the field, for each export method, with the export's wall-clock time.
 
     python benchmarks/mesh_quality.py RUN --split "val[50:100]" [--methods tsdf levelset] [--name lego]
-                                      [--watertight] [--texture] [--data DATA]
+                                      [--watertight] [--texture] [--data DATA] [--export-args "--smooth 1"]
 
 For each method M it runs what a user types, `nerfkit export mesh RUN --method M --out OUT/mesh_M.ply`
 (timed: the whole process), reads the mesh back, moves it into the run's normalised frame and
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import shutil
 import subprocess
 import sys
@@ -51,6 +52,7 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=None)
     ap.add_argument("--watertight", action="store_true")
     ap.add_argument("--texture", action="store_true")
+    ap.add_argument("--export-args", default="", help="more flags for nerfkit export mesh, e.g. \"--smooth 1\"")
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
     a = ap.parse_args()
 
@@ -75,8 +77,10 @@ def main() -> None:
     tol = 0.01 * 2 * run.bound
     results = {"provenance": provenance(), "run": str(a.run), "split": a.split, "views": len(poses),
                "depth_tolerance": tol, "depth_tolerance_rule": "1% of the box side 2B (normalised units)",
+               "export_args": a.export_args,
                "methods": {}}
     extra = (["--watertight"] if a.watertight else []) + (["--texture"] if a.texture else [])
+    extra += shlex.split(a.export_args)
     fig, axes = plt.subplots(len(a.methods), 4, figsize=(12, 3 * len(a.methods)), squeeze=False)
     show = np.linspace(0, len(poses) - 1, 4).astype(int)
     for row, method in enumerate(a.methods):
