@@ -276,10 +276,6 @@ class SplatSettings:
     """Weight of a training term that lays each Gaussian flat along the surface its neighbours' depth describes
     (2DGS's normal consistency: the blended normals of the Gaussians against the normals of the rendered
     depth), for runs meant for `export mesh`; 0: off. Costs steps per second and some PSNR (docs: Export)."""
-    depth_distortion: float = 0.0
-    """Weight of a training term that gathers the Gaussians each ray passes into one thin layer (2DGS's depth
-    distortion, on the depths where the ray meets the Gaussians' planes), for runs meant for `export mesh`;
-    0: off. Costs steps per second (docs: Export)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
@@ -338,7 +334,6 @@ class Config:
                 sections["splat"].setdefault("far_points", "off")
                 sections["splat"].setdefault("random_background", "off")
                 sections["splat"].setdefault("normal_consistency", 0.0)
-                sections["splat"].setdefault("depth_distortion", 0.0)
             sections["train"].setdefault("pose_refine", "off")
             cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
         except (KeyError, TypeError, AttributeError) as e:

@@ -121,6 +121,5 @@ def _check_splat_and_images(g, d) -> None:
                                                      f"resolution (got {g.coarse})")
     _need(0 <= g.ssim_lambda <= 1, f"--ssim-lambda must be in [0, 1] (got {g.ssim_lambda})")
     _need(g.normal_consistency >= 0, f"--normal-consistency must be >= 0 (got {g.normal_consistency})")
-    _need(g.depth_distortion >= 0, f"--depth-distortion must be >= 0 (got {g.depth_distortion})")
     _need(d.downscale is None or d.downscale >= 1, f"--downscale must be a positive integer (got {d.downscale})")
     _need(d.target_width is None or d.target_width >= 1, f"--target-width must be positive (got {d.target_width})")

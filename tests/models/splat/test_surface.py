@@ -1,7 +1,6 @@
 """Normal consistency (models/splat/surface.py): zero for flat Gaussians tangent to the plane they tile, the
 2DGS value 1 - cos(tilt) for tilted ones, and a gradient that turns them back; the depth map's normals exact
-on a plane. Depth distortion: the pairwise sum over each pixel's blend weights, zero on one layer, and a
-gradient that brings two layers together."""
+on a plane."""
 
 from __future__ import annotations
 
@@ -11,9 +10,8 @@ import numpy as np
 
 from nerfkit.models.splat.gaussians import all_sh, splat_inputs
 from nerfkit.models.splat.rasterize import rasterize
-from nerfkit.models.splat.reference import blend, gaussian_alpha, pixel_centres
-from nerfkit.models.splat.surface import (SURFACE_CHANNELS, depth_distortion, depth_normals, normal_consistency,
-                                          pixel_directions, surface_channels, with_surface_channels)
+from nerfkit.models.splat.surface import (SURFACE_CHANNELS, depth_normals, normal_consistency, pixel_directions,
+                                          surface_channels)
 
 SIZE, FOCAL, SLOPE = 64, 60.0, 0.2  # the plane z = SLOPE x, seen from (0, 0, 3) looking down -z
 C2W = np.eye(4, dtype=np.float32)
@@ -66,51 +64,3 @@ def test_depth_normals_of_a_plane_are_its_normal():
     got = np.asarray(depth_normals(depth, rays))
     assert got.shape == (SIZE - 2, SIZE - 2, 3)
     np.testing.assert_allclose(got.reshape(-1, 3), np.broadcast_to(normal, ((SIZE - 2) ** 2, 3)), atol=1e-4)
-
-
-def two_layers(gap: float) -> dict:
-    """tiled_plane(0) and a copy `gap` further from the camera, both half opaque (sigmoid(0))."""
-    a, b = tiled_plane(0.0), tiled_plane(0.0)
-    b["means"] = b["means"] - jnp.array([0.0, 0.0, gap])
-    return {k: jnp.concatenate([a[k], b[k]]) if k != "opacity" else jnp.zeros(2 * len(a[k])) for k in a}
-
-
-def distortion_of(params: dict) -> jax.Array:
-    proj, colors, opac = splat_inputs(params, jnp.asarray(C2W), INTR, SIZE, SIZE, all_sh(params))
-    channels, bg = with_surface_channels(colors, jnp.zeros(3), params, jnp.asarray(C2W), spread=True)
-    image, alpha = rasterize(proj["means2d"], proj["conics"], channels, opac, proj["depths"], proj["radii"], bg,
-                             SIZE, SIZE, backend="numba")
-    return depth_distortion(image[..., 3 + SURFACE_CHANNELS:], alpha, jnp.asarray(INTR))
-
-
-def brute_distortion(params: dict) -> float:
-    """The module docstring's sum_{i<j} w_i w_j (s_i - s_j)^2 (A / S1)^2, from each pixel's blend weights (the
-    reference blend of one-hot colours) and each Gaussian's disparity s_k = q_k . r_p at the pixel."""
-    proj, _, opac = splat_inputs(params, jnp.asarray(C2W), INTR, SIZE, SIZE, all_sh(params))
-    order = np.argsort(np.asarray(proj["depths"]))
-    pix = pixel_centres(SIZE, SIZE)
-    n = len(order)
-    w = np.asarray(blend(gaussian_alpha(pix, proj["means2d"][order], proj["conics"][order], opac[order]),
-                         jnp.eye(n), jnp.zeros(n))[0])
-    q = np.asarray(surface_channels(params["means"], params["log_scales"], params["quats"], jnp.asarray(C2W)))[order, 3:]
-    s = np.asarray(pixel_directions(jnp.asarray(INTR), SIZE, SIZE)).reshape(-1, 3) @ q.T  # [P, N]
-    pair = 0.5 * np.einsum("pi,pj,pij->p", w, w, (s[:, :, None] - s[:, None, :]) ** 2)
-    a, s1 = w.sum(1), (w * s).sum(1)
-    ok = s1 > 1e-3 * np.maximum(a, 1e-6)
-    return float(np.mean(np.where(ok, pair * (a / np.where(ok, s1, 1.0)) ** 2, 0.0)))
-
-
-def test_depth_distortion_is_the_pairwise_spread_of_the_blend():
-    assert abs(float(distortion_of(tiled_plane(0.0)))) < 1e-6  # one layer, seen obliquely where Gaussians overlap
-    one, two = float(distortion_of(two_layers(0.05))), float(distortion_of(two_layers(0.1)))
-    np.testing.assert_allclose(one, brute_distortion(two_layers(0.05)), rtol=2e-3)
-    np.testing.assert_allclose(two, brute_distortion(two_layers(0.1)), rtol=2e-3)
-    assert 3.0 < two / one < 5.0  # (gap / t)^2: twice the gap, about four times the cost
-
-
-def test_a_gradient_step_brings_two_layers_together():
-    p = two_layers(0.1)
-    loss, grads = jax.value_and_grad(distortion_of)(p)
-    gz = np.asarray(grads["means"][:, 2])
-    front, back = gz[: len(gz) // 2], gz[len(gz) // 2:]
-    assert float(loss) > 0 and np.mean(front > 0) > 0.9 and np.mean(back < 0) > 0.9  # descent: front back, back forward

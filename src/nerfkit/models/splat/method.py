@@ -94,7 +94,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
-                       normal_consistency=g.normal_consistency, depth_distortion=g.depth_distortion)
+                       normal_consistency=g.normal_consistency)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -158,8 +158,7 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "init", "backend", "appearance", "far_points", "random_background", "normal_consistency",
-        "depth_distortion")) | {"train.pose_refine"}
+        "init", "backend", "appearance", "far_points", "random_background", "normal_consistency")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -173,7 +172,6 @@ class SplatModel:
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{f'; normal consistency {g.normal_consistency:g}' if g.normal_consistency else ''}"
-                f"{f'; depth distortion {g.depth_distortion:g}' if g.depth_distortion else ''}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 

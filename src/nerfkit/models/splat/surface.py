@@ -19,18 +19,6 @@ agrees with the Gaussians' own normals where neighbouring planes meet along one 
     L_n = mean over pixels with A > 1/2 of  A - N . N_D  =  sum_k w_k (1 - n_k . N_D)
 
 is the 2DGS term (0 when every blended Gaussian is tangent to the depth map's surface).
-
-Depth distortion (2DGS eq. 13, Mip-NeRF 360's L_dist for splats) gathers the Gaussians a ray passes into one
-thin layer. With s_k(p) = q_k . r_p = 1 / t_k(p) the disparity at which the ray meets Gaussian k's plane,
-
-    sum_{i,j} w_i w_j (s_i - s_j)^2 = 2 (A S2 - S1^2),   S1 = sum_k w_k s_k = Q . r_p,
-                                                         S2 = sum_k w_k s_k^2 = r_p^T (sum_k w_k q_k q_k^T) r_p,
-
-so nine more channels (q_k again, and the upper triangle of q_k q_k^T) make it exact per pixel. Their q_k
-are computed with the Gaussians' orientation held constant: the term moves the Gaussians along the ray, it
-does not turn their planes to agree at one pixel (which undoes normal consistency). Scaled by the pixel's depth
-squared, t^2 = (A / S1)^2 (held constant), it is a relative spread: L_d = mean over pixels of
-(A S2 - S1^2) (A / S1)^2 ~ sum_{i<j} w_i w_j ((t_i - t_j) / t)^2.
 """
 
 from __future__ import annotations
@@ -41,7 +29,6 @@ import jax.numpy as jnp
 from nerfkit.models.splat.project import quaternion_to_rotation, world_to_camera
 
 SURFACE_CHANNELS = 6  # N (3) and Q (3), after the colour channels
-SPREAD_CHANNELS = 9  # q (orientation held) and q q^T (xx, yy, zz, xy, xz, yz), after those, for depth distortion
 DELTA_MIN = 0.05  # |delta_k| >= this x z_k: a plane seen edge-on does not send 1 / t towards 0
 INV_DEPTH_MIN = 1e-3  # pixels where Q . r_p falls below this (no plane in front) are left out
 
@@ -58,25 +45,11 @@ def surface_channels(means: jax.Array, log_scales: jax.Array, quats: jax.Array, 
     return jnp.concatenate([n, n / delta[:, None]], axis=-1)
 
 
-def spread_channels(means: jax.Array, log_scales: jax.Array, quats: jax.Array, c2w: jax.Array) -> jax.Array:
-    """[N, 9]: the planes q_k (surface_channels, with the orientation held constant) and the upper triangle of
-    q_k q_k^T, (xx, yy, zz, xy, xz, yz)."""
-    held = jax.lax.stop_gradient
-    q = surface_channels(means, held(log_scales), held(quats), c2w)[:, 3:]
-    x, y, z = q[:, 0], q[:, 1], q[:, 2]
-    return jnp.concatenate([q, jnp.stack([x * x, y * y, z * z, x * y, x * z, y * z], axis=-1)], axis=-1)
-
-
-def with_surface_channels(colors: jax.Array, background: jax.Array, params: dict, c2w: jax.Array,
-                          spread: bool = False):
-    """(colors [N, C + 6 (+ 9)], background): the colour channels followed by surface_channels (and with spread,
-    spread_channels), all on a zero background."""
-    gaussians = (params["means"], params["log_scales"], params["quats"], c2w)
-    extra = surface_channels(*gaussians)
-    if spread:
-        extra = jnp.concatenate([extra, spread_channels(*gaussians)], axis=-1)
+def with_surface_channels(colors: jax.Array, background: jax.Array, params: dict, c2w: jax.Array):
+    """(colors [N, C + 6], background [C + 6]): the colour channels followed by surface_channels, on zero."""
+    extra = surface_channels(params["means"], params["log_scales"], params["quats"], c2w)
     return (jnp.concatenate([colors, extra], axis=-1),
-            jnp.concatenate([background, jnp.zeros(extra.shape[-1], background.dtype)]))
+            jnp.concatenate([background, jnp.zeros(SURFACE_CHANNELS, background.dtype)]))
 
 
 def pixel_directions(intrinsics, width: int, height: int) -> jax.Array:
@@ -111,17 +84,3 @@ def normal_consistency(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax
     inner = jax.lax.stop_gradient(ok[1:-1, 1:-1] & ok[2:, 1:-1] & ok[:-2, 1:-1] & ok[1:-1, 2:] & ok[1:-1, :-2])
     term = alpha[1:-1, 1:-1] - jnp.sum(channels[1:-1, 1:-1, :3] * nd, -1)
     return jnp.sum(jnp.where(inner, term, 0.0)) / jnp.maximum(jnp.sum(inner), 1)
-
-
-def depth_distortion(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax.Array:
-    """L_d (module docstring) of a render's spread channels [H, W, 9] (q and q q^T blended on a zero background)
-    and opacity alpha [H, W]: the mean over pixels with a plane in front of (A S2 - S1^2) t^2."""
-    height, width = alpha.shape
-    r = pixel_directions(intrinsics, width, height)
-    s1 = jnp.sum(channels[..., :3] * r, -1)
-    m = channels[..., 3:9]
-    s2 = (m[..., 0] * r[..., 0] ** 2 + m[..., 1] * r[..., 1] ** 2 + m[..., 2]
-          + 2.0 * (m[..., 3] * r[..., 0] * r[..., 1] + m[..., 4] * r[..., 0] + m[..., 5] * r[..., 1]))
-    ok = jax.lax.stop_gradient(s1 > INV_DEPTH_MIN * jnp.maximum(alpha, 1e-6))
-    depth2 = jax.lax.stop_gradient(jnp.where(ok, (alpha / jnp.where(ok, s1, 1.0)) ** 2, 0.0))
-    return jnp.mean(jnp.where(ok, (alpha * s2 - s1 * s1) * depth2, 0.0))

@@ -44,7 +44,7 @@ from nerfkit.models.splat.optim import (LearningRates, adam_step, init_state, ma
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
-from nerfkit.models.splat.surface import depth_distortion, normal_consistency, with_surface_channels
+from nerfkit.models.splat.surface import normal_consistency, with_surface_channels
 from nerfkit.rays.correction import camera_extent, corrected_composite, corrected_pose
 
 
@@ -76,7 +76,6 @@ class SplatConfig:
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
-    depth_distortion: float = 0.0  # weight of surface.depth_distortion in the loss (0: off)
     n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
 
@@ -135,9 +134,8 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
                                       all_sh(params) * sh_mask, dilation)
     radii = jnp.where(active, proj["radii"], 0)
-    surface = cfg.normal_consistency > 0 or cfg.depth_distortion > 0  # the Gaussians' normals and planes follow
-    spread = cfg.depth_distortion > 0  # the colour, and for distortion their planes' q q^T (surface.py)
-    channels, bg_in = with_surface_channels(colors, bg, params, c2w, spread) if surface else (colors, bg)
+    surface = cfg.normal_consistency > 0  # then the Gaussians' normals and planes follow the colour (surface.py)
+    channels, bg_in = with_surface_channels(colors, bg, params, c2w) if surface else (colors, bg)
     rendered, alpha = rasterize(proj["means2d"] + offset, proj["conics"], channels, opac, proj["depths"], radii,
                                 bg_in, width, height, backend=cfg.backend)
     rgb = rendered[..., :3]
@@ -145,10 +143,8 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
         rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx])
     photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
     loss = photo + cfg.strategy.regularizer(params, active)
-    if cfg.normal_consistency > 0:
-        loss = loss + cfg.normal_consistency * normal_consistency(rendered[..., 3:9], alpha, intr)
-    if spread:
-        loss = loss + cfg.depth_distortion * depth_distortion(rendered[..., 9:18], alpha, intr)
+    if surface:
+        loss = loss + cfg.normal_consistency * normal_consistency(rendered[..., 3:], alpha, intr)
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
 
 
