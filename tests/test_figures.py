@@ -567,6 +567,11 @@ CHECKS = [
      + [(("mesh_procedural.json", "runs", "exact", k), f) for k, f in (
          ("accuracy_cells", f2), ("completeness_cells", f2), ("normals_within_10deg", pct1),
          ("normals_off_creases_within_10deg", pct1))]),
+    ("docs/verbs/export.md", "For comparison, today's ngp mesh of maryrose",
+     "`mesh_maryrose_ngp_watertight.json`): IoU {}, its normals a median {} degrees from its depth's, its "
+     "faces meeting at {} degrees.",
+     [(("mesh_maryrose_ngp_watertight.json", "methods", "tsdf", k), f) for k, f in (
+         ("iou_mean", f3), ("normal_median_deg_mean", f1), ("dihedral_median_deg", f1))]),
     ("docs/splats.md", "- **A random background**", "lego {} against {} dB, maryrose {} against {}",
      [((RB, "runs", k, "psnr"), f2) for k in ("lego_random_background", "lego", "maryrose_random_background",
                                                "maryrose")]),
