@@ -97,13 +97,14 @@ def measure(mesh_file: Path, seen: np.ndarray, h: float) -> dict:
 
 
 def exact_mesh(scene: Path, resolution: int, out: Path) -> float:
-    """Fuses the training views' exact depth maps (PIXELS_PER_CELL x resolution px) as export/tsdf.py's
-    tsdf_surface does its renders (truncation, smoothing, level chosen on every other view), writes the surface
-    to `out`; returns the seconds taken."""
+    """Fuses the training views' exact depth maps (PIXELS_PER_CELL x resolution px) with export/tsdf.py's
+    fused_surface, as tsdf_surface does its renders (the same truncation and smoothing), writes the surface to
+    `out`; returns the seconds taken."""
     import trimesh
 
     from nerfkit.data.procedural import scene as proc
     from nerfkit.export import tsdf
+    from nerfkit.export.grid import grid_axis
 
     t0 = time.perf_counter()
     frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
@@ -117,15 +118,12 @@ def exact_mesh(scene: Path, resolution: int, out: Path) -> float:
         alpha.append(a)
     depth, alpha = np.array(depth, np.float32), np.array(alpha, np.float32)
     intr = np.tile(np.array([focal, focal, size / 2, size / 2], np.float32), (len(c2w), 1))
-    axis = np.linspace(-EXACT_BOUND, EXACT_BOUND, resolution).astype(np.float32)
+    axis = grid_axis(EXACT_BOUND, resolution)
     h = float(axis[1] - axis[0])
     pixel = float(np.linalg.norm(c2w[0, :3, 3])) / focal  # a pixel's footprint at the scene centre
-    fsum, weight, seen = tsdf.fuse_grid(axis, c2w, intr, depth, alpha, tsdf.truncation(h, pixel))
-    f, known = tsdf.tsdf_volume(fsum, weight, seen, False)
-    f = tsdf.smooth_volume(f, known, tsdf.SMOOTH_PIXELS * pixel / h)
-    every = slice(None, None, tsdf.CALIBRATION_EVERY)
-    level, _ = tsdf.best_level(f, known, EXACT_BOUND, c2w[every], intr[every], depth[every], alpha[every])
-    trimesh.Trimesh(*tsdf.zero_surface(f, known, EXACT_BOUND, False, level), process=False).export(out)
+    verts, faces, *_ = tsdf.fused_surface(EXACT_BOUND, axis, c2w, intr, depth, alpha, tsdf.truncation(h, pixel),
+                                          tsdf.SMOOTH_PIXELS * pixel / h, False)
+    trimesh.Trimesh(verts, faces, process=False).export(out)
     return time.perf_counter() - t0
 
 
@@ -154,8 +152,8 @@ def main() -> None:
     a.results.mkdir(parents=True, exist_ok=True)
     for entry in a.runs:
         preset, _, args = entry.partition("=")
-        h = 2 * EXACT_BOUND / (a.resolution - 1)
         if preset == "exact":
+            h = 2 * EXACT_BOUND / (a.resolution - 1)
             mesh = a.out / "exact.ply"
             export_s = exact_mesh(scene, a.resolution, mesh)
             scores = measure(mesh, seen, h)

@@ -244,6 +244,22 @@ CALIBRATION_EVERY = 2  # the level is chosen on every other fused view
 PIXELS_PER_CELL = 1  # ... this many pixels across per grid cell (the depth maps resolve what the grid does)
 
 
+def fused_surface(bound: float, axis: np.ndarray, c2w: np.ndarray, intr: np.ndarray, depth: np.ndarray,
+                  opacity: np.ndarray, tau: float, smooth_cells: float, watertight: bool, progress=None):
+    """(verts [V, 3], faces [F, 3], level c, {c: score}, known bool [N, N, N]): the views' z-depth and opacity
+    [V, H, W] (pinhole c2w [V, 4, 4], intr [V, 4]) fused on the grid axis^3 of [-bound, bound]^3 (grid_axis;
+    fuse_grid, tsdf_volume), blurred by smooth_cells grid cells (smooth_volume), cut at the level best_level
+    picks on every CALIBRATION_EVERY-th view (zero_surface)."""
+    f, known = tsdf_volume(*fuse_grid(axis, c2w, intr, depth, opacity, tau, progress), watertight)
+    f = smooth_volume(f, known, smooth_cells)
+    if not ((f[known] < 0).any() and (f[known] > 0).any()):
+        raise NerfkitError("no surface: no rendered training view is opaque inside the box (is the run trained? "
+                           "for an unbounded scene, try a larger --box)")
+    calib = slice(None, None, CALIBRATION_EVERY)
+    level, scores = best_level(f, known, bound, c2w[calib], intr[calib], depth[calib], opacity[calib])
+    return (*zero_surface(f, known, bound, watertight, level), level, scores, known)
+
+
 def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, watertight: bool, progress: bool,
                  log, smooth: float = SMOOTH_PIXELS) -> tuple[np.ndarray, np.ndarray, dict, Views]:
     """The fused surface in the normalised frame: (verts [V, 3], faces [F, 3], record fields, the rendered
@@ -262,18 +278,11 @@ def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, wa
     log(f"mesh: TSDF fusion of {len(views.c2w)} rendered training views (every {views.every}) on a {resolution}^3 "
         f"grid over the box [-{bound:g}, {bound:g}]^3 (h = {h:.4g}), truncation {tau:.4g}")
     bar = (lambda it: tqdm(it, desc="fuse", unit="slab", leave=False)) if progress else None
-    fsum, weight, seen = fuse_grid(axis, views.c2w, views.intrinsics, views.median, views.opacity, tau, bar)
-    f, known = tsdf_volume(fsum, weight, seen, watertight)
-    f = smooth_volume(f, known, smooth * pixel / h)
-    if not ((f[known] < 0).any() and (f[known] > 0).any()):
-        raise NerfkitError("no surface: no rendered training view is opaque inside the box (is the run trained? "
-                           "for an unbounded scene, try a larger --box)")
-    calib = slice(None, None, CALIBRATION_EVERY)
-    level, scores = best_level(f, known, bound, views.c2w[calib], views.intrinsics[calib], views.median[calib],
-                               views.opacity[calib])
+    verts, faces, level, scores, known = fused_surface(bound, axis, views.c2w, views.intrinsics,
+                                                       views.median, views.opacity, tau, smooth * pixel / h,
+                                                       watertight, bar)
     log(f"mesh: surface at F = {level:g}, the level whose surface agrees best with the depth of "
-        f"{len(views.c2w[calib])} fused views (score {scores[level]:.4f}; at F = 0: {scores[0.0]:.4f})")
-    verts, faces = zero_surface(f, known, bound, watertight, level)
+        f"{len(views.c2w[::CALIBRATION_EVERY])} fused views (score {scores[level]:.4f}; at F = 0: {scores[0.0]:.4f})")
     return verts, faces, {"views": len(views.c2w), "every": views.every, "view_size": list(views.depth.shape[2:0:-1]),
                           "truncation": tau,
                           "smooth_pixels": smooth, "smoothing_cells": round(smooth * pixel / h, 3),
