@@ -9,6 +9,7 @@ step: 10 log10(1 / (1/255^2 / 12)) = 58.9 dB), 55 is the floor.
 """
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -97,13 +98,22 @@ def test_another_tools_ply_imports_renders_and_fine_tunes(exported, tmp_path):
 
 def test_train_init_starts_from_the_file_and_fine_tunes_it(exported, tmp_path, capsys):
     scene, run, files = exported
-    out = tmp_path / "init"
+    out, init = tmp_path / "init", tmp_path / "start.spz"
+    shutil.copy(files["spz"], init)
     assert main(["train", str(scene), "--out", str(out), "--preset", "splat", "--capacity", "2000", "--init",
-                 str(files["spz"]), "--max-steps", "40", "--no-progress", "--val-every", "20"]) == 0
-    assert RunFolder(out).config().splat.init == str(files["spz"])
+                 str(init), "--max-steps", "40", "--no-progress", "--val-every", "20", "--ckpt-every", "20"]) == 0
+    cfg = RunFolder(out).config().splat
+    assert cfg.init == str(init) and cfg.init_sh_degree == read_gaussians(init)[1]
     vals = [json.loads(x)["psnr"] for x in (out / "val_metrics.jsonl").read_text().splitlines()]
     first = [json.loads(x)["psnr"] for x in (run / "val_metrics.jsonl").read_text().splitlines()][-1]
     assert vals[0] >= first - 1.0  # starts where the run that wrote the file ended, not from scratch (~10 dB)
+    # --resume needs the run folder only: the file's Gaussians are in the checkpoint, its SH degree in config.json
+    init.unlink()
+    assert main(["train", str(scene), "--out", str(out), "--resume", "--max-steps", "60", "--no-progress",
+                 "--val-every", "20"]) == 0
+    assert RunFolder(out).load().step == 60
+    vals = [json.loads(x)["psnr"] for x in (out / "val_metrics.jsonl").read_text().splitlines()]
+    assert vals[-1] >= vals[0] - 0.5, vals  # it went on from the checkpoint, not from a fresh start
     assert main(["train", str(scene), "--out", str(tmp_path / "small"), "--preset", "splat", "--capacity", "100",
                  "--init", str(files["spz"]), "--no-progress"]) == 1
     assert "pass --capacity" in capsys.readouterr().err

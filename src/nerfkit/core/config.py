@@ -261,6 +261,9 @@ class SplatSettings:
     """A splat file to start from instead of --init-points: .ply (Inria layout, from nerfkit, gsplat, 3DGS, Brush,
     SuperSplat), .spz, .splat, .glb or .gltf, in the capture's own coordinates (as nerfkit export splat writes
     them); training fine-tunes it on this capture. --capacity must hold its Gaussians."""
+    init_sh_degree: int | None = None
+    """The SH degree of the --init file, filled in when the run starts (never from the command line): --resume
+    takes the Gaussians from the run's checkpoint and this degree from its config, so the file may be gone."""
     far_points: Literal["auto", "on", "off"] = "auto"
     """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre
     as the farthest camera, each coloured by a training photo that sees it (on a forward-facing capture, where the

@@ -44,8 +44,10 @@ def by_kind() -> dict[str, frozenset[str]]:
     return {n: frozenset(k for k, m in METHODS.items() if n in m.reads) for n in sorted(listed)}
 
 
-# Settings filled in from the data (resolve.py), never from the command line.
-FROM_DATA = frozenset({"field.appearance_count", "data.undistort"})
+# Settings filled in from the data (resolve.py; the --init file's SH degree: models/splat/method.py), never from
+# the command line.
+FROM_DATA = frozenset({"field.appearance_count", "data.undistort", "splat.init_sh_degree"})
+
 
 def kind_name(kind: str) -> str:
     """The method's name in messages: "hash-grid (ngp)"."""

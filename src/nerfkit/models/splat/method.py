@@ -158,7 +158,7 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "init", "backend", "appearance", "far_points", "random_background", "normal_consistency")) | {"train.pose_refine"}
+        "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -279,18 +279,26 @@ class SplatModel:
         log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}; {self._coarse_note(data)}")
 
     def _init_from_file(self, data) -> None:
-        """The Gaussians of --init FILE (capture coordinates), moved into the normalised frame (data.transform)."""
+        """The Gaussians of --init FILE (capture coordinates), moved into the normalised frame (data.transform), and
+        the file's SH degree into cfg.splat.init_sh_degree (the run's config.json). A run whose config already
+        holds that degree is being resumed: where the file is gone, its Gaussians come from the run's checkpoint
+        and the degree from the config."""
         from dataclasses import replace
 
         from nerfkit.models.splat.formats import read_gaussians
 
-        path = Path(self.cfg.splat.init)
+        path, known = Path(self.cfg.splat.init), self.cfg.splat.init_sh_degree
+        if known is not None and not path.is_file():
+            self.sc = replace(self.sc, sh_start=known)
+            self.init_note = f"resumed from a run that started from {path.name} (SH degree {known})"
+            return
         g, degree, fmt = read_gaussians(path, "--init")
         if len(g["means"]) > self.sc.capacity:
             raise ConfigError(f"--init {path}: {len(g['means']):,} Gaussians, more than --capacity "
                               f"{self.sc.capacity:,}; pass --capacity {len(g['means'])} or more")
         self.init_gaussians = transform_gaussians(g, np.asarray(data.transform, np.float64))
         self.sc = replace(self.sc, sh_start=degree)  # the file's bands are in use from the first step
+        self.cfg.splat.init_sh_degree = degree
         self.init_note = f"{len(g['means']):,} Gaussians of {path.name} ({fmt.name}, SH degree {degree})"
 
     def _coarse_note(self, data) -> str:
