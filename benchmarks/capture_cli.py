@@ -13,8 +13,8 @@ A preset may be a variant LABEL=ARGS (e.g. "splat-random=--preset splat --init-p
 OUT/LABEL, trained with ARGS in place of --preset LABEL. `--data-for LABEL=PATH` trains that variant on another
 capture of the same photos and poses (e.g. with other points; benchmarks/splat_start.py).
 
-(the wall clock is the whole `nerfkit train` process; PSNR and SSIM are `nerfkit eval`'s over every held-out
-photo). Writes benchmarks/results/<name>_cli.json (with the commit it ran on) and <name>_cli.jpg: three
+(the wall clock and peak resident memory are the whole `nerfkit train` process's; the splat runs' Gaussians in
+use at the end are from its metrics.jsonl; PSNR and SSIM are `nerfkit eval`'s over every held-out photo). Writes benchmarks/results/<name>_cli.json (with the commit it ran on) and <name>_cli.jpg: three
 held-out photos (first, middle, last), each as the runs see it and every preset's render.
 """
 
@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import shlex
 import subprocess
@@ -38,11 +39,20 @@ DEFAULT_DATA = ROOT.parent / "shared" / "data" / "real" / "maryrose"
 
 def nerfkit(*args: str) -> tuple[float, str]:
     """Run the CLI in its own process (as a user would); (wall seconds, stdout)."""
+    wall, out, _ = nerfkit_peak(*args)
+    return wall, out
+
+
+def nerfkit_peak(*args: str) -> tuple[float, str, float]:
+    """nerfkit(*args) and the process's peak resident memory in GiB (its own rusage, os.wait4)."""
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, text=True, check=False)
-    if r.returncode != 0:
-        raise SystemExit(f"nerfkit {' '.join(args)} failed (exit {r.returncode})")
-    return time.perf_counter() - t0, r.stdout
+    with subprocess.Popen([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, text=True) as p:
+        out = p.stdout.read()
+        _, status, usage = os.wait4(p.pid, 0)
+        p.returncode = os.waitstatus_to_exitcode(status)
+    if p.returncode != 0:
+        raise SystemExit(f"nerfkit {' '.join(args)} failed (exit {p.returncode})")
+    return time.perf_counter() - t0, out, usage.ru_maxrss / 2**20  # ru_maxrss: KiB on Linux
 
 
 def side_by_side(runs: dict[str, Path], views: list[int], out: Path) -> None:
@@ -89,15 +99,18 @@ def main(argv: list[str] | None = None) -> None:
         preset, _, args = entry.partition("=")
         run = a.out / preset
         data = data_for.get(preset, str(a.data))
-        train_s, out = nerfkit("train", data, "--out", str(run), *(shlex.split(args) or ["--preset", preset]),
+        train_s, out, peak = nerfkit_peak("train", data, "--out", str(run), *(shlex.split(args) or ["--preset", preset]),
                                "--max-minutes", f"{a.minutes:g}", "--downscale", str(a.downscale), "--no-progress",
                                "--overwrite", *shlex.split(a.common))
         eval_s, _ = nerfkit("eval", str(run), "--split", "test", "--overwrite")
         ev = json.loads((run / "eval_test.json").read_text())
         m = re.search(r"step (\d+), ([\d.]+) steps/s", out)
+        last = json.loads((run / "metrics.jsonl").read_text().splitlines()[-1])
         result["presets"][preset] = {"run": str(run), "data": data, "args": args or f"--preset {preset}",
                                      "train_wall_s": round(train_s, 1),
-                                     "steps": int(m.group(1)) if m else None, "psnr": round(ev["psnr"], 3),
+                                     "steps": int(m.group(1)) if m else None, "train_peak_gib": round(peak, 2),
+                                     **({"gaussians": int(last["gaussians"])} if "gaussians" in last else {}),
+                                     "psnr": round(ev["psnr"], 3),
                                      "ssim": round(ev["ssim"], 4), "views": ev["n_views"],
                                      "per_view_psnr": [round(v["psnr"], 3) for v in ev["per_view"]],
                                      "eval_wall_s": round(eval_s, 1)}
