@@ -84,6 +84,7 @@ FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats
 START = "procedural_splat_start_cli.json"  # where a splat run starts
 BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
+CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 ROOF = "splat_roofline.json"  # the CPU rasteriser against the machine's peaks
@@ -359,6 +360,14 @@ CHECKS = [
       ((lambda: R(BUDDHA, "presets", "ngp", "orbit60_wall_s") / 60), f1)]),
     ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "maryrose: `own_photos_maryrose.json` at {h}", [commit(MARY)]),
     # ---- docs/splats.md
+    ("docs/splats.md", "What the slots cost, and when more of them help",
+     "25k slots gave **{} dB** on the {} held-out photos ({} steps, {} Gaussians in use at the end, {} GiB peak "
+     "memory), 50k {} ({} steps, {}, {} GiB), 100k {} ({} steps, {}, {} GiB)",
+     [((CAP, "presets", "splat-25k", "psnr"), f2), ((CAP, "presets", "splat-25k", "views"), d)]
+     + [((CAP, "presets", f"splat-{c}", k), fmt) for c in ("25k",) for k, fmt in
+        (("steps", d), ("gaussians", thousands), ("train_peak_gib", f2))]
+     + [((CAP, "presets", f"splat-{c}", k), fmt) for c in ("50k", "100k") for k, fmt in
+        (("psnr", f2), ("steps", d), ("gaussians", thousands), ("train_peak_gib", f2))]),
     ("docs/splats.md", "A background of its own: on photos without masks",
      "room, {}-minute runs, one sitting; "
      "`procedural_unbounded_far_cli.json` and `.jpg`): **{} dB / SSIM {}** on the {} held-out photos from "
