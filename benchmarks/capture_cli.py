@@ -14,8 +14,9 @@ OUT/LABEL, trained with ARGS in place of --preset LABEL. `--data-for LABEL=PATH`
 capture of the same photos and poses (e.g. with other points; benchmarks/splat_start.py).
 
 (the wall clock and peak resident memory are the whole `nerfkit train` process's; the splat runs' Gaussians in
-use at the end are from its metrics.jsonl; PSNR and SSIM are `nerfkit eval`'s over every held-out photo). Writes benchmarks/results/<name>_cli.json (with the commit it ran on) and <name>_cli.jpg: three
-held-out photos (first, middle, last), each as the runs see it and every preset's render.
+use at the end are from its metrics.jsonl; PSNR and SSIM are `nerfkit eval`'s over every held-out photo).
+Writes benchmarks/results/<name>_cli.json (with the commit it ran on) and <name>_cli.jpg: three held-out
+photos (first, middle, last), each as the runs see it and every preset's render.
 """
 
 from __future__ import annotations
@@ -99,9 +100,10 @@ def main(argv: list[str] | None = None) -> None:
         preset, _, args = entry.partition("=")
         run = a.out / preset
         data = data_for.get(preset, str(a.data))
-        train_s, out, peak = nerfkit_peak("train", data, "--out", str(run), *(shlex.split(args) or ["--preset", preset]),
-                               "--max-minutes", f"{a.minutes:g}", "--downscale", str(a.downscale), "--no-progress",
-                               "--overwrite", *shlex.split(a.common))
+        train_s, out, peak = nerfkit_peak("train", data, "--out", str(run),
+                                          *(shlex.split(args) or ["--preset", preset]), "--max-minutes",
+                                          f"{a.minutes:g}", "--downscale", str(a.downscale), "--no-progress",
+                                          "--overwrite", *shlex.split(a.common))
         eval_s, _ = nerfkit("eval", str(run), "--split", "test", "--overwrite")
         ev = json.loads((run / "eval_test.json").read_text())
         m = re.search(r"step (\d+), ([\d.]+) steps/s", out)
