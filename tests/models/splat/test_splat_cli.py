@@ -49,6 +49,38 @@ def test_run_folder_like_the_other_presets(run):
     assert 0 < float(aux["clock"]) < 600
 
 
+def test_the_renderer_keeps_a_models_gaussians_and_sees_a_changed_model(run):
+    """SplatRenderer selects, transforms and copies the Gaussians once per model (a viewer's frames), and again
+    whenever the arrays it is handed are others (a live run's new step, or one parameter or the active set
+    replaced): each image equals that of a fresh renderer."""
+    from nerfkit.render.images import make_renderer
+    from nerfkit.rays.cameras import Camera
+
+    _, out = run
+    run_ = RunFolder(out).load()
+    params, aux = dict(run_.params), dict(run_.aux)
+    c2w, cam = np.asarray(run_.scene["train_poses"][0]), Camera.pinhole(32, 32, 40.0)
+    renderer = make_renderer(run_.model)
+
+    def fresh(p, a):
+        return make_renderer(run_.model).render_camera(p, a, c2w, cam)["rgb"]
+
+    first = renderer.render_camera(params, aux, c2w, cam)["rgb"]
+    kept = renderer._held_out[2]
+    np.testing.assert_array_equal(renderer.render_camera(params, aux, c2w, cam)["rgb"], first)
+    assert renderer._held_out[2] is kept  # the same model: nothing selected or copied again
+    params["sh_dc"] = np.asarray(params["sh_dc"]) * 0.5  # one array replaced
+    darker = renderer.render_camera(params, aux, c2w, cam)["rgb"]
+    np.testing.assert_array_equal(darker, fresh(params, aux))
+    assert not np.array_equal(darker, first)
+    active = np.asarray(aux["active"]).copy()
+    active[np.flatnonzero(active)[::2]] = False  # the active set replaced
+    aux["active"] = active
+    fewer = renderer.render_camera(params, aux, c2w, cam)["rgb"]
+    np.testing.assert_array_equal(fewer, fresh(params, aux))
+    assert not np.array_equal(fewer, darker)
+
+
 def test_resume_continues_to_the_total_steps(run, tmp_path):
     scene, copy = run
     assert main(["train", str(scene), "--out", str(copy), "--resume", "--no-progress", "--max-steps", "250",

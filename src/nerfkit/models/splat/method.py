@@ -41,6 +41,7 @@ from nerfkit.models.splat.gaussians import (
     init_random,
     intrinsics_of,
     render,
+    to_device,
 )
 from nerfkit.models.splat.optim import (
     LearningRates,
@@ -125,16 +126,29 @@ class SplatRenderer:
 
     def __init__(self, model: SplatModel):
         self.model = model
+        self._held_out: tuple | None = None  # (the arrays they came from, numpy Gaussians, the same on the device)
+
+    def gaussians(self, params, aux) -> tuple[dict, dict]:
+        """(numpy, device) held_out_gaussians of (params, aux), the active Gaussians with the photos' mean colour
+        transform folded in; kept while the same arrays come back, so a viewer's or an orbit's frames of one
+        model do not select, transform and copy them again each frame (about 10 ms at 50k Gaussians)."""
+        source = (aux["active"], *(params[k] for k in (*PARAM_NAMES, "cam_color") if k in params))
+        kept = self._held_out
+        if kept is None or len(kept[0]) != len(source) or any(a is not b for a, b in zip(kept[0], source)):
+            p = held_out_gaussians(params, aux)  # a colour transform learned per photo: their mean
+            kept = self._held_out = (source, p, to_device(p))
+        return kept[1], kept[2]
 
     def render_camera(self, params, aux, c2w: np.ndarray, camera, median: bool = False) -> dict:
         """rgb [H, W, 3], depth (sum_k w_k z_k), opacity and depth_normalized (depth / opacity) [H, W]; median: also
         depth_median, each pixel's depth on the Gaussian where its ray turns half opaque (depth.py)."""
-        p = held_out_gaussians(params, aux)  # a colour transform learned per photo: their mean
+        p, on_device = self.gaussians(params, aux)
         try:
             intr = intrinsics_of(camera)
         except ValueError as e:
             raise DataError(str(e)) from None
-        r = render(p, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree, self.model.cfg.splat.backend)
+        r = render(on_device, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree,
+                   self.model.cfg.splat.backend)
         opacity = r["alpha"]
         out = {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
                "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
