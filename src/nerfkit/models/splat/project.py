@@ -43,16 +43,20 @@ SIGMA_CUTOFF = 3.0  # radius = ceil(3 sqrt(lambda_max)); the rasteriser cuts at 
 SH_C0 = 0.28209479177387814  # Y_0 = 1 / (2 sqrt(pi)): colour = SH_C0 * dc + 0.5 at degree 0
 
 
-def quaternion_to_rotation(q: jax.Array) -> jax.Array:
-    """Rotation matrices [..., 3, 3] of quaternions q [..., 4] = (w, x, y, z), normalised first."""
+def rotation_entries(q: jax.Array) -> list[list[jax.Array]]:
+    """R(q) entry by entry: R[i][j] [...] of quaternions q [..., 4] = (w, x, y, z), normalised first."""
     q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    rows = [
+    return [
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
     ]
-    return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def quaternion_to_rotation(q: jax.Array) -> jax.Array:
+    """Rotation matrices [..., 3, 3] of quaternions q [..., 4] = (w, x, y, z), normalised first."""
+    return jnp.stack([jnp.stack(r, axis=-1) for r in rotation_entries(q)], axis=-2)
 
 
 def covariance_3d(log_scales: jax.Array, quats: jax.Array) -> jax.Array:
@@ -65,21 +69,6 @@ def world_to_camera(c2w: jax.Array) -> tuple[jax.Array, jax.Array]:
     """(V [3, 3], o [3]) with p_c = V (p - o) in OpenCV axes for an OpenGL camera-to-world c2w [4, 4]."""
     flip = jnp.array([1.0, -1.0, -1.0], c2w.dtype)
     return flip[:, None] * c2w[:3, :3].T, c2w[:3, 3]
-
-
-def ewa_covariance_2d(p_cam: jax.Array, cov_cam: jax.Array, intrinsics, width: int, height: int,
-                      dilation: float = LOWPASS_DILATION) -> jax.Array:
-    """Sigma' = J Sigma_c J^T + dilation I [N, 2, 2] of camera-space means [N, 3] (OpenCV axes, z > 0)
-    and covariances Sigma_c = V Sigma V^T [N, 3, 3]; intrinsics = (fx, fy, cx, cy); dilation in px^2."""
-    fx, fy, cx, cy = intrinsics
-    z = p_cam[:, 2]
-    tx = jnp.clip(p_cam[:, 0] / z, -FOV_CLAMP * cx / fx, FOV_CLAMP * (width - cx) / fx) * z
-    ty = jnp.clip(p_cam[:, 1] / z, -FOV_CLAMP * cy / fy, FOV_CLAMP * (height - cy) / fy) * z
-    zero = jnp.zeros_like(z)
-    jac = jnp.stack([jnp.stack([fx / z, zero, -fx * tx / (z * z)], -1),
-                     jnp.stack([zero, fy / z, -fy * ty / (z * z)], -1)], axis=-2)  # [N, 2, 3]
-    cov2d = jac @ cov_cam @ jnp.swapaxes(jac, -1, -2)
-    return cov2d + dilation * jnp.eye(2, dtype=cov2d.dtype)
 
 
 def conic_and_radius(cov2d: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -107,17 +96,30 @@ def project_gaussians(means, log_scales, quats, c2w, intrinsics, width: int, hei
     Returns dict: means2d [N, 2] (u, v) pixel coordinates, conics [N, 3], depths [N] (z-depth),
     radii [N] int32 (0: culled, i.e. z <= NEAR_PLANE or the radius square misses the image),
     cov2d [N, 2, 2]. Culled Gaussians keep finite (meaningless) values in the other outputs.
+
+    Computed entry by entry on [N] arrays, with Sigma' = P P^T + delta I, P = J V R S [N, 2, 3] (the same
+    as J V Sigma V^T J^T): XLA:CPU fuses that, and its gradient, into a few loops over
+    the Gaussians, where the batched 3x3 products of the matrix form run as many small matrix products
+    (50k Gaussians, 2 cores: forward 15.1 -> 7.4 ms, with its gradient 35.2 -> 15.0 ms).
     """
     view, origin = world_to_camera(c2w)
-    p_cam = (means - origin) @ view.T
-    z = p_cam[:, 2]
+    rel = [means[:, i] - origin[i] for i in range(3)]
+    x, y, z = (view[r, 0] * rel[0] + view[r, 1] * rel[1] + view[r, 2] * rel[2] for r in range(3))
     valid = z > NEAR_PLANE
-    p_cam = jnp.where(valid[:, None], p_cam, jnp.array([0.0, 0.0, 1.0], p_cam.dtype))  # finite math if culled
-    z = p_cam[:, 2]
+    x, y, z = jnp.where(valid, x, 0.0), jnp.where(valid, y, 0.0), jnp.where(valid, z, 1.0)  # finite if culled
     fx, fy, cx, cy = intrinsics
-    means2d = jnp.stack([fx * p_cam[:, 0] / z + cx, fy * p_cam[:, 1] / z + cy], axis=-1)
-    cov_cam = view @ covariance_3d(log_scales, quats) @ view.T
-    cov2d = ewa_covariance_2d(p_cam, cov_cam, intrinsics, width, height, dilation)
+    means2d = jnp.stack([fx * x / z + cx, fy * y / z + cy], axis=-1)
+    rot, scale = rotation_entries(quats), [jnp.exp(log_scales[:, j]) for j in range(3)]
+    vrs = [[sum(view[i, k] * rot[k][j] for k in range(3)) * scale[j] for j in range(3)] for i in range(3)]  # V R S
+    tx = jnp.clip(x / z, -FOV_CLAMP * cx / fx, FOV_CLAMP * (width - cx) / fx) * z
+    ty = jnp.clip(y / z, -FOV_CLAMP * cy / fy, FOV_CLAMP * (height - cy) / fy) * z
+    # J = [[fx / z, 0, -fx tx / z^2], [0, fy / z, -fy ty / z^2]]; P = J (V R S)
+    p0 = [fx / z * vrs[0][j] - fx * tx / (z * z) * vrs[2][j] for j in range(3)]
+    p1 = [fy / z * vrs[1][j] - fy * ty / (z * z) * vrs[2][j] for j in range(3)]
+    sa = p0[0] * p0[0] + p0[1] * p0[1] + p0[2] * p0[2] + dilation
+    sb = p0[0] * p1[0] + p0[1] * p1[1] + p0[2] * p1[2]
+    sc = p1[0] * p1[0] + p1[1] * p1[1] + p1[2] * p1[2] + dilation
+    cov2d = jnp.stack([jnp.stack([sa, sb], axis=-1), jnp.stack([sb, sc], axis=-1)], axis=-2)
     conics, radii = conic_and_radius(cov2d)
     m = jax.lax.stop_gradient(means2d)
     inside = ((m[:, 0] + radii > 0) & (m[:, 0] - radii < width) & (m[:, 1] + radii > 0) & (m[:, 1] - radii < height))
