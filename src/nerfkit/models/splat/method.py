@@ -33,15 +33,11 @@ from nerfkit.data.points import far_points_through_photos, far_sphere_points, tr
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
-from nerfkit.models.splat.depth import median_depth
 from nerfkit.models.splat.gaussians import (
     PARAM_NAMES,
-    held_out_gaussians,
     init_from_points,
     init_random,
     intrinsics_of,
-    render,
-    to_device,
 )
 from nerfkit.models.splat.optim import (
     LearningRates,
@@ -49,9 +45,9 @@ from nerfkit.models.splat.optim import (
     make_optimizers,
     means_lr,
 )
+from nerfkit.models.splat.renderer import SplatRenderer
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.models.splat.transform import transform_gaussians
-from nerfkit.rays.cameras import Camera
 from nerfkit.rays.correction import camera_extent
 
 RANDOM_INIT = 100_000  # random Gaussians in the box without SfM points (3DGS's Blender init), fewer if capacity is
@@ -119,49 +115,6 @@ class SplatOptimizer:
 
     def init(self, params: dict) -> dict:
         return init_state(self.opts, params)
-
-
-class SplatRenderer:
-    """Full-image rendering of a splat run's active Gaussians (the tile rasteriser; no chunks)."""
-
-    def __init__(self, model: SplatModel):
-        self.model = model
-        self._held_out: tuple | None = None  # (the arrays they came from, numpy Gaussians, the same on the device)
-
-    def gaussians(self, params, aux) -> tuple[dict, dict]:
-        """(numpy, device) held_out_gaussians of (params, aux), the active Gaussians with the photos' mean colour
-        transform folded in; kept while the same arrays come back, so a viewer's or an orbit's frames of one
-        model do not select, transform and copy them again each frame (about 10 ms at 50k Gaussians)."""
-        source = (aux["active"], *(params[k] for k in (*PARAM_NAMES, "cam_color") if k in params))
-        kept = self._held_out
-        if kept is None or len(kept[0]) != len(source) or any(a is not b for a, b in zip(kept[0], source)):
-            p = held_out_gaussians(params, aux)  # a colour transform learned per photo: their mean
-            kept = self._held_out = (source, p, to_device(p))
-        return kept[1], kept[2]
-
-    def render_camera(self, params, aux, c2w: np.ndarray, camera, median: bool = False) -> dict:
-        """rgb [H, W, 3], depth (sum_k w_k z_k), opacity and depth_normalized (depth / opacity) [H, W]; median: also
-        depth_median, each pixel's depth on the Gaussian where its ray turns half opaque (depth.py)."""
-        p, on_device = self.gaussians(params, aux)
-        try:
-            intr = intrinsics_of(camera)
-        except ValueError as e:
-            raise DataError(str(e)) from None
-        r = render(on_device, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree,
-                   self.model.cfg.splat.backend)
-        opacity = r["alpha"]
-        out = {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
-               "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
-        if median:
-            out["depth_median"] = median_depth(p, c2w, intr, camera.width, camera.height, opacity)
-        return out
-
-    def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
-        return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
-
-    def render_cameras(self, params, aux, poses, cameras, median: bool = False) -> list[dict]:
-        """render_camera of each (c2w, camera) pair (the rasteriser takes one view at a time)."""
-        return [self.render_camera(params, aux, c2w, cam, median) for c2w, cam in zip(poses, cameras)]
 
 
 class SplatModel:
