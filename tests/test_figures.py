@@ -364,7 +364,7 @@ CHECKS = [
      "25k slots gave **{} dB** on the {} held-out photos ({} steps, {} Gaussians in use at the end, {} GiB peak "
      "memory), 50k {} ({} steps, {}, {} GiB), 100k {} ({} steps, {}, {} GiB)",
      [((CAP, "presets", "splat-25k", "psnr"), f2), ((CAP, "presets", "splat-25k", "views"), d)]
-     + [((CAP, "presets", f"splat-{c}", k), fmt) for c in ("25k",) for k, fmt in
+     + [((CAP, "presets", "splat-25k", k), fmt) for k, fmt in
         (("steps", d), ("gaussians", thousands), ("train_peak_gib", f2))]
      + [((CAP, "presets", f"splat-{c}", k), fmt) for c in ("50k", "100k") for k, fmt in
         (("psnr", f2), ("steps", d), ("gaussians", thousands), ("train_peak_gib", f2))]),

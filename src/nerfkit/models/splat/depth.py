@@ -37,7 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.models.splat import tiles_numba
-from nerfkit.models.splat.project import LOWPASS_DILATION, project_gaussians
+from nerfkit.models.splat.project import LOWPASS_DILATION, project_gaussians, rotation_entries
 
 SPAN = 3.0  # t* stays within z_k +- SPAN x the largest scale of Gaussian k
 BAND = 0.25  # the exported depth: the mean depth over running opacities [(1/2 - BAND) A, (1/2 + BAND) A]
@@ -66,11 +66,7 @@ def rotations(quats: np.ndarray) -> np.ndarray:
     """Rotation matrices [N, 3, 3] (float64) of quaternions [N, 4] = (w, x, y, z), normalised in float64 (project.py's
     formula): orthonormal to float64 precision, so that P of a flat Gaussian does not leak its huge eigenvalue into
     the other axes, as a float32 rotation would."""
-    q = np.asarray(quats, np.float64)
-    w, x, y, z = (q / np.linalg.norm(q, axis=-1, keepdims=True)).T
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
+    return np.stack([np.stack(row, -1) for row in rotation_entries(np.asarray(quats, np.float64))], -2)
 
 
 @lru_cache(maxsize=16)

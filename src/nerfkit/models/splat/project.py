@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from nerfkit.encoding.sh import sh_encode
 
@@ -43,9 +44,11 @@ SIGMA_CUTOFF = 3.0  # radius = ceil(3 sqrt(lambda_max)); the rasteriser cuts at 
 SH_C0 = 0.28209479177387814  # Y_0 = 1 / (2 sqrt(pi)): colour = SH_C0 * dc + 0.5 at degree 0
 
 
-def rotation_entries(q: jax.Array) -> list[list[jax.Array]]:
-    """R(q) entry by entry: R[i][j] [...] of quaternions q [..., 4] = (w, x, y, z), normalised first."""
-    q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
+def rotation_entries(q) -> list[list]:
+    """R(q) entry by entry: R[i][j] [...] of quaternions q [..., 4] = (w, x, y, z), normalised first. A numpy q
+    stays numpy, in its own precision (depth.rotations: float64), a JAX one JAX."""
+    xp = np if isinstance(q, np.ndarray) else jnp
+    q = q / xp.linalg.norm(q, axis=-1, keepdims=True)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return [
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
