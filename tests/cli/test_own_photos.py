@@ -89,7 +89,7 @@ def _short(monkeypatch, width: int) -> None:
 
     def short_splat():
         cfg = splat()
-        cfg.train.max_minutes, cfg.train.max_steps, cfg.train.val_every, cfg.train.ckpt_every = None, 300, 300, 300
+        cfg.train.max_minutes, cfg.train.max_steps, cfg.train.val_every, cfg.train.ckpt_every = None, 200, 200, 200
         cfg.splat.capacity, cfg.train.val_views, cfg.data.target_width = 4000, 1, width
         return cfg
 
@@ -142,7 +142,8 @@ def test_the_readme_path_with_each_preset(capture, preset, tmp_path, monkeypatch
     # It learns: the training views' PSNR climbs (measured at these seconds-long budgets, first logged row to
     # last: +3.0 to +8.2 dB), and the held-out views come out no worse than the best flat picture (a broken
     # camera, lens or undistortion would be; measured 0.02 to 9.7 dB above it: buddha's grey head on a brown
-    # table is nearly flat, and 300 splat steps end before density control starts).
+    # table is nearly flat, and 200 splat steps end before density control starts: buddha's splat run 18.46 dB
+    # against 18.29 flat, 18.82 after 300 steps).
     fits = [json.loads(x)["psnr"] for x in (run / "metrics.jsonl").read_text().splitlines()]
     assert fits[-1] > fits[0] + 2.0, fits
     assert ev["n_views"] >= 2 and ev["psnr"] > flat_psnr(run, data, "test") - 0.5, ev["psnr"]

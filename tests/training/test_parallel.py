@@ -60,7 +60,9 @@ SCRIPT = textwrap.dedent('''
 @pytest.fixture(scope="module")
 def result(tmp_path_factory):
     root = tmp_path_factory.mktemp("parallel")
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu")
+    # (the suite's own XLA flags, xla_flags.py, kept: they compile faster)
+    env = dict(os.environ, JAX_PLATFORMS="cpu",
+               XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2".strip())
     proc = subprocess.run([sys.executable, "-c", SCRIPT, str(root)], env=env, capture_output=True, text=True,
                           timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -109,7 +111,7 @@ def test_two_processes_on_loopback_train_like_two_devices_and_only_process_0_wri
     for pid in range(2):
         env = dict(os.environ, JAX_PLATFORMS="cpu", NERFKIT_COORDINATOR=f"127.0.0.1:{port}",
                    NERFKIT_NUM_PROCESSES="2", NERFKIT_PROCESS_ID=str(pid))
-        env.pop("XLA_FLAGS", None)
+        env["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "")  # one device each, the suite's flags as above
         procs.append(subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
     logs = [p.communicate(timeout=600)[0] for p in procs]
     assert [p.returncode for p in procs] == [0, 0], "\n".join(x[-2000:] for x in logs)
