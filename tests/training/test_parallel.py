@@ -111,7 +111,9 @@ def test_two_processes_on_loopback_train_like_two_devices_and_only_process_0_wri
     for pid in range(2):
         env = dict(os.environ, JAX_PLATFORMS="cpu", NERFKIT_COORDINATOR=f"127.0.0.1:{port}",
                    NERFKIT_NUM_PROCESSES="2", NERFKIT_PROCESS_ID=str(pid))
-        env["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "")  # one device each, the suite's flags as above
+        # one device each (a forced device count in $XLA_FLAGS dropped), the suite's flags as above
+        env["XLA_FLAGS"] = " ".join(f for f in os.environ.get("XLA_FLAGS", "").split()
+                                    if not f.startswith("--xla_force_host_platform_device_count"))
         procs.append(subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
     logs = [p.communicate(timeout=600)[0] for p in procs]
     assert [p.returncode for p in procs] == [0, 0], "\n".join(x[-2000:] for x in logs)
