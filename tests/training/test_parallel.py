@@ -57,12 +57,20 @@ SCRIPT = textwrap.dedent('''
 ''')
 
 
+DEVICE_COUNT = "--xla_force_host_platform_device_count"
+
+
+def _xla_flags(devices: int | None) -> str:
+    """$XLA_FLAGS for a subprocess: this process's (the suite's, xla_flags.py: they compile faster) with any forced
+    device count replaced by `devices` CPU devices (None: XLA's one)."""
+    flags = [f for f in os.environ.get("XLA_FLAGS", "").split() if not f.startswith(DEVICE_COUNT)]
+    return " ".join(flags + ([f"{DEVICE_COUNT}={devices}"] if devices else []))
+
+
 @pytest.fixture(scope="module")
 def result(tmp_path_factory):
     root = tmp_path_factory.mktemp("parallel")
-    # (the suite's own XLA flags, xla_flags.py, kept: they compile faster)
-    env = dict(os.environ, JAX_PLATFORMS="cpu",
-               XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2".strip())
+    env = dict(os.environ, JAX_PLATFORMS="cpu", XLA_FLAGS=_xla_flags(devices=2))
     proc = subprocess.run([sys.executable, "-c", SCRIPT, str(root)], env=env, capture_output=True, text=True,
                           timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -111,9 +119,7 @@ def test_two_processes_on_loopback_train_like_two_devices_and_only_process_0_wri
     for pid in range(2):
         env = dict(os.environ, JAX_PLATFORMS="cpu", NERFKIT_COORDINATOR=f"127.0.0.1:{port}",
                    NERFKIT_NUM_PROCESSES="2", NERFKIT_PROCESS_ID=str(pid))
-        # one device each (a forced device count in $XLA_FLAGS dropped), the suite's flags as above
-        env["XLA_FLAGS"] = " ".join(f for f in os.environ.get("XLA_FLAGS", "").split()
-                                    if not f.startswith("--xla_force_host_platform_device_count"))
+        env["XLA_FLAGS"] = _xla_flags(devices=None)
         procs.append(subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
     logs = [p.communicate(timeout=600)[0] for p in procs]
     assert [p.returncode for p in procs] == [0, 0], "\n".join(x[-2000:] for x in logs)
