@@ -4,17 +4,18 @@ it gives.
     python benchmarks/own_photos.py --photos ../shared/data/real/buddha/images --name buddha
     python benchmarks/own_photos.py --photos ../shared/data/real/maryrose/images \\
         --masks ../shared/data/real/maryrose/masks --name maryrose
+    python benchmarks/own_photos.py --video runs/video/room.mp4 --name procedural_video --presets splat
 
 runs, each in its own process, exactly what the README says (no size or budget flags: the presets' defaults):
 
-    nerfkit process-data images PHOTOS --out OUT/data [--masks MASKS]
+    nerfkit process-data images PHOTOS --out OUT/data [--masks MASKS]   (or: process-data video VIDEO --out OUT/data)
     nerfkit train OUT/data --out OUT/<P> --preset P                    (P in --presets)
     nerfkit eval OUT/<P> --split test                                  (the run's own resolution)
     nerfkit eval OUT/<P> --split test --downscale 4 --out-name ...     (a quarter of the photos' size)
     nerfkit render OUT/<P> --orbit 60
 
-and writes benchmarks/results/own_photos_<name>.json (with the commit it ran on): the SfM's registration and
-time; per preset the training wall clock, steps, rays per step and samples per ray (the fields), the share of
+and writes benchmarks/results/own_photos_<name>.json (with the commit it ran on): the SfM's registration, time
+and printed lines; per preset the training wall clock, steps, rays per step and samples per ray (the fields), the share of
 the run spent validating, the held-out PSNR / SSIM, seconds per evaluated view at both sizes and per orbit
 frame; and own_photos_<name>.jpg (eval's picture of the first held-out photo, a row per preset).
 """
@@ -94,7 +95,9 @@ def picture(runs: dict[str, Path], out: Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--photos", type=Path, required=True)
+    source = ap.add_mutually_exclusive_group(required=True)
+    source.add_argument("--photos", type=Path)
+    source.add_argument("--video", type=Path, help="a video instead of photos (process-data video)")
     ap.add_argument("--masks", type=Path)
     ap.add_argument("--name", required=True)
     ap.add_argument("--presets", nargs="+", default=["ngp", "splat"])
@@ -104,13 +107,16 @@ def main() -> None:
     out = a.out / a.name
     data = out / "data"
     result = {"what": "the README's own-photos path at full size (process-data, train, eval, render --orbit 60), "
-                      "the presets' defaults, wall clock of the CLI", "photos": str(a.photos),
+                      "the presets' defaults, wall clock of the CLI", "photos": str(a.photos) if a.photos else None,
+              "video": str(a.video) if a.video else None,
               "masks": str(a.masks) if a.masks else None, "provenance": provenance(), "presets": {}}
-    args = ["process-data", "images", str(a.photos), "--out", str(data), "--overwrite", "--no-progress"]
-    sfm_s, _ = nerfkit(*args, *(["--masks", str(a.masks)] if a.masks else []))
+    kind, source = ("video", a.video) if a.video else ("images", a.photos)
+    args = ["process-data", kind, str(source), "--out", str(data), "--overwrite", "--no-progress"]
+    sfm_s, printed = nerfkit(*args, *(["--masks", str(a.masks)] if a.masks else []))
     info = json.loads((data / "process.json").read_text())
     result["process_data"] = {"wall_s": round(sfm_s, 1), "photos": info["photos"], "registered": info["registered"],
-                              "points": info["points"], "camera": info["camera"]}
+                              "points": info["points"], "camera": info["camera"],
+                              "log": [line for line in printed.splitlines() if line.strip()]}
     print(f"process-data: {info['registered']} of {info['photos']} photos in {sfm_s / 60:.1f} min", flush=True)
     runs = {}
     for preset in a.presets:
