@@ -87,6 +87,7 @@ FWD = "procedural_forward_cli.json"  # a forward-facing capture
 CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
+VIDEO = "own_photos_procedural_video.json"
 ROOF = "splat_roofline.json"  # the CPU rasteriser against the machine's peaks
 REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
 ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.json"
@@ -359,6 +360,17 @@ CHECKS = [
       ((lambda: R(BUDDHA, "presets", "splat", "orbit60_wall_s") / 60), f1),
       ((lambda: R(BUDDHA, "presets", "ngp", "orbit60_wall_s") / 60), f1)]),
     ("docs/measurements.md", "buddha: `own_photos_buddha.json` at", "maryrose: `own_photos_maryrose.json` at {h}", [commit(MARY)]),
+    # ---- docs/getting-started.md: from a video
+    ("docs/getting-started.md", "`process-data video` took", "`process-data video` took {} s in all",
+     [((VIDEO, "process_data", "wall_s"), f1)]),
+    ("docs/getting-started.md", "`train --preset splat` ran",
+     "ran {} steps in {} minutes and scored **{} dB / SSIM {}** on the {} held-out frames",
+     [((VIDEO, "presets", "splat", "steps"), d), ((lambda: R(VIDEO, "presets", "splat", "train_wall_s") / 60), f0),
+      ((VIDEO, "presets", "splat", "eval", "psnr"), f2), ((VIDEO, "presets", "splat", "eval", "ssim"), f3),
+      ((VIDEO, "presets", "splat", "eval", "views"), d)]),
+    ("docs/getting-started.md", "`train --preset splat` ran", "`render --orbit {}` took {} minutes",
+     [((VIDEO, "presets", "splat", "orbit60", "frames"), d),
+      ((lambda: R(VIDEO, "presets", "splat", "orbit60_wall_s") / 60), f1)]),
     # ---- docs/splats.md
     ("docs/splats.md", "What the slots cost, and when more of them help",
      "25k slots gave **{} dB** on the {} held-out photos ({} steps, {} Gaussians in use at the end, {} GiB peak "
@@ -766,6 +778,24 @@ def test_user_docs_hold_no_development_history():
     texts["README.md"] = readme[readme.index("## Your own photos"):]
     found = [(name, m.group(0)) for name, text in texts.items() for m in HISTORY.finditer(text)]
     assert not found, found
+
+
+def test_quoted_video_lines_are_the_records():
+    """The lines of `process-data video` that docs/getting-started.md shows are the ones the procedural video's
+    record logged, and the focal length said beside them is the video's own (benchmarks/procedural_video.py)."""
+    import math
+    import sys
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from procedural_video import FOV_DEGREES
+
+    text = (ROOT / "docs" / "getting-started.md").read_text()
+    block = text[text.index("### From a video"):text.index("## Lego quickstart")]
+    quoted = [line.strip() for line in block.split("```text")[1].split("```")[0].splitlines() if line.strip()]
+    assert len(quoted) == 3
+    assert set(quoted) <= set(R(VIDEO, "process_data", "log"))
+    width = R(VIDEO, "process_data", "camera", "width")
+    assert f"focal {0.5 * width / math.tan(math.radians(FOV_DEGREES) / 2):.1f} px" in block
 
 
 def test_quoted_train_log_lines_are_the_records():
