@@ -15,9 +15,9 @@ runs, each in its own process, exactly what the README says (no size or budget f
     nerfkit render OUT/<P> --orbit 60
 
 and writes benchmarks/results/own_photos_<name>.json (with the commit it ran on): the SfM's registration, time
-and printed lines; per preset the training wall clock, steps, rays per step and samples per ray (the fields), the share of
-the run spent validating, the held-out PSNR / SSIM, seconds per evaluated view at both sizes and per orbit
-frame; and own_photos_<name>.jpg (eval's picture of the first held-out photo, a row per preset).
+and printed lines; per preset the training wall clock, steps, rays per step and samples per ray (the fields),
+the share of the run spent validating, the held-out PSNR / SSIM, seconds per evaluated view at both sizes and
+per orbit frame; and own_photos_<name>.jpg (eval's picture of the first held-out photo, a row per preset).
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import re
 from pathlib import Path
 
@@ -783,19 +784,15 @@ def test_user_docs_hold_no_development_history():
 def test_quoted_video_lines_are_the_records():
     """The lines of `process-data video` that docs/getting-started.md shows are the ones the procedural video's
     record logged, and the focal length said beside them is the video's own (benchmarks/procedural_video.py)."""
-    import math
-    import sys
-
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    from procedural_video import FOV_DEGREES
-
+    script = (ROOT / "benchmarks" / "procedural_video.py").read_text()
+    fov = float(re.search(r"^FOV_DEGREES = ([\d.]+)", script, re.M).group(1))
     text = (ROOT / "docs" / "getting-started.md").read_text()
     block = text[text.index("### From a video"):text.index("## Lego quickstart")]
     quoted = [line.strip() for line in block.split("```text")[1].split("```")[0].splitlines() if line.strip()]
     assert len(quoted) == 3
     assert set(quoted) <= set(R(VIDEO, "process_data", "log"))
     width = R(VIDEO, "process_data", "camera", "width")
-    assert f"focal {0.5 * width / math.tan(math.radians(FOV_DEGREES) / 2):.1f} px" in block
+    assert f"focal {0.5 * width / math.tan(math.radians(fov) / 2):.1f} px" in block
 
 
 def test_quoted_train_log_lines_are_the_records():
