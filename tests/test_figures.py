@@ -781,14 +781,19 @@ def test_user_docs_hold_no_development_history():
     assert not found, found
 
 
+def getting_started_section(start: str, end: str) -> tuple[str, list[str]]:
+    """(the text of docs/getting-started.md from `start` to `end`, the non-empty lines of its first ```text block)."""
+    text = (ROOT / "docs" / "getting-started.md").read_text()
+    block = text[text.index(start):text.index(end)]
+    return block, [line.strip() for line in block.split("```text")[1].split("```")[0].splitlines() if line.strip()]
+
+
 def test_quoted_video_lines_are_the_records():
     """The lines of `process-data video` that docs/getting-started.md shows are the ones the procedural video's
     record logged, and the focal length said beside them is the video's own (benchmarks/procedural_video.py)."""
     script = (ROOT / "benchmarks" / "procedural_video.py").read_text()
     fov = float(re.search(r"^FOV_DEGREES = ([\d.]+)", script, re.M).group(1))
-    text = (ROOT / "docs" / "getting-started.md").read_text()
-    block = text[text.index("### From a video"):text.index("## Lego quickstart")]
-    quoted = [line.strip() for line in block.split("```text")[1].split("```")[0].splitlines() if line.strip()]
+    block, quoted = getting_started_section("### From a video", "## Lego quickstart")
     assert len(quoted) == 3
     assert set(quoted) <= set(R(VIDEO, "process_data", "log"))
     width = R(VIDEO, "process_data", "camera", "width")
@@ -797,8 +802,6 @@ def test_quoted_video_lines_are_the_records():
 
 def test_quoted_train_log_lines_are_the_records():
     """The lines of `train`'s plan that docs/getting-started.md shows are the ones the buddha record logged."""
-    text = (ROOT / "docs" / "getting-started.md").read_text()
-    block = text[text.index("## A room, no masks"):text.index("## Lego quickstart")]
-    quoted = [line.strip() for line in block.split("```text")[1].split("```")[0].splitlines() if line.strip()]
+    _, quoted = getting_started_section("## A room, no masks", "### From a video")
     assert len(quoted) == 3
     assert set(quoted) <= set(R(BUDDHA, "presets", "splat", "log"))
