@@ -5,7 +5,7 @@
 
 1. One splat run, as a user trains it (lego: the seed protocol at 200 px; maryrose: masks, --downscale 2):
        nerfkit train DATA --out OUT/run --preset splat --max-minutes M ...
-2. For each format F (.ply, .spz, .splat, .glb):
+2. For each format F (.ply, .spz, .splat, .glb, .sog):
        nerfkit export splat OUT/run --out OUT/scene.F
        nerfkit import splat OUT/scene.F --data DATA --out OUT/import_F
        nerfkit eval OUT/import_F --split HELD_OUT --downscale D
@@ -39,7 +39,7 @@ SCENES = {  # data, training arguments, held-out split, eval arguments
              "val[50:100]", ["--downscale", "2"]),
     "maryrose": (SHARED / "real" / "maryrose", ["--downscale", "2"], "test", ["--downscale", "2"]),
 }
-FORMATS = ("ply", "spz", "splat", "glb")
+FORMATS = ("ply", "spz", "splat", "glb", "sog")
 
 
 def nerfkit(*args: str) -> tuple[float, str]:

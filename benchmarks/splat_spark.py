@@ -1,5 +1,5 @@
 """A trained scene's splat files drawn by third-party web renderers in headless Chromium: Spark (.ply, .spz,
-.splat) and the PlayCanvas engine (.glb, which Spark does not read).
+.splat) and the PlayCanvas engine (.glb, which Spark does not read, and .sog, PlayCanvas's own format).
 
     python benchmarks/splat_spark.py FOLDER [--name lego] [--views 0 30] [--size 400]
 
@@ -8,8 +8,8 @@ FOLDER is what benchmarks/splat_formats.py leaves for a scene (FOLDER/run, the r
 @sparkjsdev/spark, pinned in tests/web; tests/spark_splats.py: a loopback page, nothing from the network) from
 training cameras of the run, moved into the capture's frame, and nerfkit's rasteriser draws the same file as it
 reads it back from the same camera: PSNR between the two, with Spark set to nerfkit's kernel (preBlurAmount 0.3,
-maxStdDev 3, z-sorted) and with Spark's own defaults (what a page gets). scene.glb is drawn by PlayCanvas
-(npm playcanvas, pinned in tests/web; tests/playcanvas_splats.py) with its defaults. Writes
+maxStdDev 3, z-sorted) and with Spark's own defaults (what a page gets). scene.glb and scene.sog are drawn by
+PlayCanvas (npm playcanvas, pinned in tests/web; tests/playcanvas_splats.py) with its defaults. Writes
 benchmarks/results/splat_<name>_spark.json and splat_<name>_spark.png (per format and view: nerfkit | renderer).
 """
 
@@ -26,7 +26,8 @@ from provenance import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests")]
-FORMATS = ("ply", "spz", "splat")  # Spark's; scene.glb goes to PlayCanvas
+FORMATS = ("ply", "spz", "splat")  # Spark's
+PLAYCANVAS_FORMATS = ("glb", "sog")
 
 
 def main() -> None:
@@ -48,7 +49,7 @@ def main() -> None:
         sys.exit("no Chromium found: apt-get install chromium (or set NERFKIT_CHROMIUM)")
     name = a.name or a.folder.name
     out = {"provenance": provenance(), "folder": str(a.folder),
-           "renderer": "Spark 2.2.0 (three.js 0.187.0); .glb: the PlayCanvas engine 2.23.3",
+           "renderer": "Spark 2.2.0 (three.js 0.187.0); .glb and .sog: the PlayCanvas engine 2.23.3",
            "size": a.size, "formats": {}}
     rows = []
     with tempfile.TemporaryDirectory() as tmp, SparkPage(chromium, Path(tmp) / "profile", (a.size, a.size)) as page:
@@ -67,15 +68,17 @@ def main() -> None:
                 rows.append(np.concatenate([matched["nerfkit"], matched["spark"]], 1))
             out["formats"][fmt] = {"bytes": file.stat().st_size, "views": views}
     with tempfile.TemporaryDirectory() as tmp, PlayCanvasPage(chromium, Path(tmp) / "profile", (a.size, a.size)) as page:
-        file, views = a.folder / "scene.glb", []
-        for k in a.views:
-            c2w, cam = training_view(a.folder / "run", k, a.size)
-            got = playcanvas_vs_nerfkit(page, file, c2w, cam)
-            views.append({"train_view": k, "width": cam.width, "height": cam.height,
-                          "psnr_playcanvas_vs_nerfkit": round(got["psnr"], 2)})
-            print(f"glb view {k}: PlayCanvas vs nerfkit {got['psnr']:.2f} dB at {cam.width}x{cam.height}", flush=True)
-            rows.append(np.concatenate([got["nerfkit"], got["playcanvas"]], 1))
-        out["formats"]["glb"] = {"bytes": file.stat().st_size, "renderer": "PlayCanvas 2.23.3", "views": views}
+        for fmt in PLAYCANVAS_FORMATS:
+            file, views = a.folder / f"scene.{fmt}", []
+            for k in a.views:
+                c2w, cam = training_view(a.folder / "run", k, a.size)
+                got = playcanvas_vs_nerfkit(page, file, c2w, cam)
+                views.append({"train_view": k, "width": cam.width, "height": cam.height,
+                              "psnr_playcanvas_vs_nerfkit": round(got["psnr"], 2)})
+                print(f"{fmt} view {k}: PlayCanvas vs nerfkit {got['psnr']:.2f} dB at {cam.width}x{cam.height}",
+                      flush=True)
+                rows.append(np.concatenate([got["nerfkit"], got["playcanvas"]], 1))
+            out["formats"][fmt] = {"bytes": file.stat().st_size, "renderer": "PlayCanvas 2.23.3", "views": views}
     a.results.mkdir(parents=True, exist_ok=True)
     iio.imwrite(a.results / f"splat_{name}_spark.png", np.round(np.concatenate(rows, 0) * 255).astype(np.uint8))
     (a.results / f"splat_{name}_spark.json").write_text(json.dumps(out, indent=1))

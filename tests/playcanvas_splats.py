@@ -1,5 +1,5 @@
 """The PlayCanvas engine (npm playcanvas 2.23.3, pinned in tests/web) drawing a glTF file with
-KHR_gaussian_splatting in headless Chromium, as a web page that embeds it would: shared by
+KHR_gaussian_splatting or a .sog in headless Chromium, as a web page that embeds it would: shared by
 tests/models/splat/formats/test_playcanvas.py (playcanvas_vs_nerfkit).
 
 How: a WebPage (tests/splat_pages.py: tests/web's node_modules and the registered files on 127.0.0.1, nothing
@@ -8,7 +8,9 @@ from the network; headless Chromium; the page's errors) serves a page which impo
 preserveDrawingBuffer; FILLMODE_NONE, RESOLUTION_FIXED), a camera entity (clear colour white, as nerfkit's renders)
 and, per file, a 'container' asset whose resource's instantiateRenderEntity() is added to the root at the identity:
 the engine's own glTF loader (framework/parsers/glb/extensions/khr-gaussian-splatting.js, registered by the gsplat
-component system) turns the primitive into a gsplat component, nothing a user's page adds by itself. The page
+component system) turns the primitive into a gsplat component, nothing a user's page adds by itself; a .sog is a
+'gsplat' asset (the engine's SogBundleParser) shown by an entity with a gsplat component, as PlayCanvas's own
+examples load one. The page
 renders on demand (autoRender off, renderNextFrame per requestAnimationFrame) until the engine's sort worker has
 answered for this camera (the scene's "gsplat:sorted" event, counted since the pose, the file or the work-buffer
 format last changed: nothing else makes it sort again) and three readbacks in a row (canvas.toDataURL, PNG:
@@ -92,10 +94,16 @@ let app = null, cam = null, shown = null, sorts = 0, lastKey = null;
 const defaults = {};  // app.scene.gsplat settings as the engine made them, for the keys options have touched
 
 function load(url) {
+  const sog = url.endsWith(".sog");  // a gsplat asset, drawn by a gsplat component; glTF: a container
   return new Promise((resolve, reject) => {
-    const asset = new pc.Asset(url, "container", { url });
+    const asset = new pc.Asset(url, sog ? "gsplat" : "container", { url });
     asset.once("error", e => reject(new Error("loading " + url + ": " + e)));
-    asset.ready(a => resolve(a.resource.instantiateRenderEntity()));
+    asset.ready(a => {
+      if (!sog) { resolve(a.resource.instantiateRenderEntity()); return; }
+      const e = new pc.Entity(url);
+      e.addComponent("gsplat", { asset: a });
+      resolve(e);
+    });
     app.assets.add(asset);
     app.assets.load(asset);
   });
@@ -176,16 +184,18 @@ class PlayCanvasPage(WebPage):
 
     def render(self, file: Path, c2w: np.ndarray, camera: Camera, flip: np.ndarray | None = None,
                options: dict | None = None, min_frames: int = 3, max_frames: int = 60) -> np.ndarray:
-        """PlayCanvas's render [H, W, 3] in [0, 1] of a .glb or .gltf `file` seen from c2w [4, 4] (OpenGL
+        """PlayCanvas's render [H, W, 3] in [0, 1] of a .glb, .gltf or .sog `file` seen from c2w [4, 4] (OpenGL
         camera-to-world in the capture's coordinates) through the pinhole `camera` (splat_pages.fov_y). The
-        engine's camera is flip @ c2w, in the file's own coordinates: flip None is F (nerfkit writes glTF turned
-        by F); np.eye(4) the pose as given. options: app.scene.gsplat settings (None or {}: the engine's
+        engine's camera is flip @ c2w, in the file's own coordinates: flip None is F for glTF (nerfkit writes
+        glTF turned by F) and np.eye(4), the pose as given, for a .sog (the capture's axes). options: app.scene.gsplat settings (None or {}: the engine's
         defaults; PRECISE). self.last says how many renders it took. RuntimeError, with the page's errors,
         when PlayCanvas fails or its renders do not settle within max_frames."""
         file = Path(file)
-        if file.suffix.lower() not in (".glb", ".gltf"):
-            raise ValueError(f"PlayCanvas's loader reads KHR_gaussian_splatting from .glb or .gltf, not {file.name}")
-        pose = np.asarray(F if flip is None else flip, np.float64) @ np.asarray(c2w, np.float64)
+        suffix = file.suffix.lower()
+        if suffix not in (".glb", ".gltf", ".sog"):
+            raise ValueError(f"the page draws .glb, .gltf and .sog files, not {file.name}")
+        default = np.eye(4) if suffix == ".sog" else F  # a .sog is in the capture's axes (formats/sog.py)
+        pose = np.asarray(default if flip is None else flip, np.float64) @ np.asarray(c2w, np.float64)
         w, h = int(camera.width), int(camera.height)
         args = {"url": self._url(file), "c2w": pose.T.reshape(-1).tolist(), "fov": fov_y(camera), "w": w, "h": h,
                 "options": options or {}, "minFrames": int(min_frames), "maxFrames": int(max_frames)}

@@ -118,11 +118,11 @@ class BakeArgs:
 @dataclasses.dataclass
 class ImportSplatArgs:
     """A splat file made anywhere (.ply in the Inria layout from gsplat, 3DGS, Brush, SuperSplat or nerfkit; .spz;
-    .splat; .glb / .gltf with KHR_gaussian_splatting) as a run folder: nerfkit view, render, bake and export then work on it; with --data, eval scores it on
+    .splat; .glb / .gltf with KHR_gaussian_splatting; PlayCanvas's .sog) as a run folder: nerfkit view, render, bake and export then work on it; with --data, eval scores it on
     that capture's photos and train --resume fine-tunes it."""
 
     file: tyro.conf.Positional[Path]
-    """The splat file (.ply, .spz, .splat, .glb or .gltf)."""
+    """The splat file (.ply, .spz, .splat, .glb, .gltf or .sog)."""
     out: Path
     """The run folder to write."""
     data: Path | None = None

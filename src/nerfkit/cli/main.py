@@ -239,7 +239,7 @@ COMMANDS = {
                        "or nerfkit train ... --viewer; a baked scene's WebGL page: nerfkit view --baked DIR"),
     "export": (cmd_export, "mesh, point cloud, cameras or Gaussian splats in standard formats: nerfkit export "
                            "mesh|pointcloud|cameras|splat RUN_DIR [--out FILE]"),
-    "import": (cmd_import, "a splat file someone else made (.ply, .spz, .splat, .glb) as a run folder to view, render, "
+    "import": (cmd_import, "a splat file someone else made (.ply, .spz, .splat, .glb, .sog) as a run folder to view, render, "
                            "bake, score and fine-tune: nerfkit import splat FILE --out RUN_DIR [--data CAPTURE]"),
     "bake": (cmd_bake, "a web page that renders a trained scene in real time in any browser (WebGL2): "
                        "nerfkit bake RUN_DIR --out DIR"),

@@ -1,5 +1,5 @@
 """`nerfkit export splat`: a splat run's Gaussians as a file other splat tools open, in the capture's own
-coordinates; the format is the --out extension (models/splat/formats: .ply, .spz, .splat, .glb, .gltf).
+coordinates; the format is the --out extension (models/splat/formats: .ply, .spz, .splat, .glb, .gltf, .sog).
 
 The run trains in nerfkit's normalised frame x_n = M x (scene.json's transform, a similarity
 s R x + t). The file holds the Gaussians moved by M^-1 (splat/transform.py): centres mapped,
@@ -80,13 +80,14 @@ class ExportSplatArgs:
     """Export a splat run's Gaussians in the capture's own coordinates, as the --out extension says: .ply (the
     Inria 3DGS layout: SuperSplat, gsplat, nerfstudio, Brush, Spark), .spz (Niantic's, about a tenth of the
     .ply's size: Spark, GaussianSplats3D, SuperSplat), .splat (antimatter15's, no view-dependent colour), .glb or
-    .gltf (glTF 2.0 with KHR_gaussian_splatting: the PlayCanvas engine). A picture of the file read back goes into
+    .gltf (glTF 2.0 with KHR_gaussian_splatting: the PlayCanvas engine), .sog (PlayCanvas's SOG, about a
+    twentieth of the .ply's size: SuperSplat, the PlayCanvas engine, Spark). A picture of the file read back goes into
     RUN_DIR/exports/splat.png."""
 
     run_dir: tyro.conf.Positional[Path]
     """A run folder written by `nerfkit train --preset splat`."""
     out: Path | None = None
-    """The file to write: .ply, .spz, .splat, .glb or .gltf (default: RUN_DIR/exports/splat.ply)."""
+    """The file to write: .ply, .spz, .splat, .glb, .gltf or .sog (default: RUN_DIR/exports/splat.ply)."""
     overwrite: bool = False
     """Replace --out if it exists."""
 
@@ -107,7 +108,8 @@ def _facts(rec: dict) -> str:
 
 
 EXPORTER = Exporter(
-    name="splat", summary="a splat run's Gaussians as .ply, .spz, .splat or glTF (SuperSplat, Spark, gsplat, PlayCanvas)",
+    name="splat",
+    summary="a splat run's Gaussians as .ply, .spz, .splat, glTF or .sog (SuperSplat, Spark, gsplat, PlayCanvas)",
     args=ExportSplatArgs, accepts=lambda supports: supports.gaussians, needs="Gaussians (a run of --preset splat)",
     outputs=("splat.ply", "splat.png"), export=lambda a, given: export_splat(a.run_dir, a.out, overwrite=a.overwrite),
     wrote=_wrote, facts=_facts)

@@ -1,5 +1,5 @@
 """`nerfkit import splat FILE --out RUN`: a splat file made anywhere (.ply from gsplat, 3DGS, Brush, SuperSplat or
-nerfkit; .spz; .splat; .glb / .gltf) as a run folder, so that view, render, bake, export, eval and train --resume work on it as on
+nerfkit; .spz; .splat; .glb / .gltf; .sog) as a run folder, so that view, render, bake, export, eval and train --resume work on it as on
 a trained run.
 
 The run is what `nerfkit train CAPTURE --preset splat --init FILE --capacity N --max-steps 0` writes: the

@@ -1,5 +1,5 @@
-"""A third-party web renderer draws the glTF files nerfkit writes (KHR_gaussian_splatting, formats/gltf.py) as
-nerfkit does: the PlayCanvas engine (npm playcanvas 2.23.3, pinned in tests/web) in headless Chromium
+"""A third-party web renderer draws the glTF and .sog files nerfkit writes (KHR_gaussian_splatting, formats/gltf.py;
+PlayCanvas's SOG, formats/sog.py) as nerfkit does: the PlayCanvas engine (npm playcanvas 2.23.3, pinned in tests/web) in headless Chromium
 (tests/playcanvas_splats.py: a loopback server, nothing from the network; the engine's own glTF loader and its
 default settings, as a page that embeds the file gets them), against nerfkit's rasteriser on the same file as
 nerfkit reads it back, from the same pinhole camera, both on white.
@@ -28,6 +28,11 @@ The run has no view-dependent colour yet, so a second test writes Gaussians with
 (evaluated per Gaussian from the camera's centre, as nerfkit; coefficients packed to 11/10/11 bits): 38.3 dB
 against nerfkit's degree-3 render, 21.0-21.9 against its degree-0 one, 43.7-44.0 against playcanvas_model; floors
 34 dB, 8 dB above degree 0, and 40 dB.
+
+The same run exported to .sog (PlayCanvas's own format, loaded as a 'gsplat' asset, in the capture's axes): 38.9 dB
+against nerfkit's render of the file as read back, 52.7 against playcanvas_model, 11.9 with glTF's turn; the SH
+scene as .sog (every Gaussian its own palette entry) 38.2-38.4 dB (degree 0: 21.0-22.0), 43.8-44.3 against the
+model. The .glb's floors hold for both.
 
 Each comparison (nerfkit, PlayCanvas, the model) is written as a PNG into the test's tmp_path and copied into the
 folder $NERFKIT_PLAYCANVAS_SCREENSHOTS names, when set. One browser serves the module's tests. Run time: 37-43 s
@@ -97,7 +102,7 @@ def test_playcanvas_draws_the_exported_glb_like_nerfkit(chromium, playcanvas_pag
     assert wrong["psnr"] <= WRONG_CEILING, wrong["psnr"]
 
 
-@pytest.mark.parametrize("ext", (".glb", ".gltf"))
+@pytest.mark.parametrize("ext", (".glb", ".gltf", ".sog"))
 def test_playcanvas_draws_the_view_dependent_colour(chromium, playcanvas_page, tmp_path, ext):
     from nerfkit.core.metrics import psnr
 
@@ -114,3 +119,32 @@ def test_playcanvas_draws_the_view_dependent_colour(chromium, playcanvas_page, t
         assert got["psnr"] >= SH_FLOOR, got["psnr"]
         assert got["psnr"] >= flat + SH_OVER_FLAT, (got["psnr"], flat)
         assert got["psnr_model"] >= SH_MODEL_FLOOR, got["psnr_model"]
+
+
+@pytest.fixture(scope="module")
+def exported_sog(splat_run, tmp_path_factory):
+    """(the shared run exported to .sog by `nerfkit export splat`, the run)."""
+    _, run = splat_run
+    path = tmp_path_factory.mktemp("playcanvas_export_sog") / "scene.sog"
+    assert main(["export", "splat", str(run), "--out", str(path)]) == 0
+    return path, run
+
+
+def test_playcanvas_draws_the_exported_sog_like_nerfkit(chromium, playcanvas_page, exported_sog, tmp_path):
+    """PlayCanvas's own format: its SOG loader, the .sog in the capture's axes (no turn), the same floors as the
+    .glb (PlayCanvas's kernel; the .sog's quantisation costs nothing measurable at this size)."""
+    node_module("playcanvas")
+    sog, run = exported_sog
+    c2w, cam = training_view(run, 0, SIZE)
+    page = playcanvas_page(chromium)
+    png = tmp_path / "playcanvas_sog.png"
+    right = playcanvas_vs_nerfkit(page, sog, c2w, cam, png=png, model=True)
+    keep(png, SCREENSHOTS)
+    wrong = playcanvas_vs_nerfkit(page, sog, c2w, cam, flip=np.diag([1.0, -1.0, -1.0, 1.0]))  # glTF's turn
+    assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
+    assert right["playcanvas"].std() > 0.05, "PlayCanvas drew nothing"
+    print(f"PlayCanvas vs nerfkit, .sog: {right['psnr']:.2f} dB ({right['frames']} renders), vs PlayCanvas's "
+          f"rules {right['psnr_model']:.2f} dB, turned {wrong['psnr']:.2f} dB, {cam.width}x{cam.height}")
+    assert right["psnr"] >= FLOOR, right["psnr"]
+    assert right["psnr_model"] >= MODEL_FLOOR, right["psnr_model"]
+    assert wrong["psnr"] <= WRONG_CEILING, wrong["psnr"]

@@ -1,5 +1,5 @@
 """Splat files, by extension: the formats `nerfkit export splat` writes and `nerfkit import splat` reads
-(.ply, .spz, .splat, .glb / .gltf).
+(.ply, .spz, .splat, .glb / .gltf, .sog).
 
 Adding a format is a module defining FORMAT (a `SplatFormat`, below) and one line in FORMATS. The
 exporter (export/splat.py), the importer (run/imported.py) and their help read this table.
@@ -31,6 +31,7 @@ FORMATS: dict[str, str] = {  # extension -> the module that defines its FORMAT (
     ".splat": "nerfkit.models.splat.formats.antimatter",
     ".glb": "nerfkit.models.splat.formats.gltf",
     ".gltf": "nerfkit.models.splat.formats.gltf",
+    ".sog": "nerfkit.models.splat.formats.sog",
 }
 
 N_REST = 15  # SH coefficients of bands 1..3
