@@ -8,7 +8,9 @@ SPZ quantises every attribute (nianticlabs/spz, load-spz.cc):
     rotations   smallest three of the unit quaternion, 9 bits and a sign each
     opacity     8 bits of sigmoid(opacity)
     colour      8 bits of 0.15 sh_dc + 0.5  (sh_dc in [-3.33, 3.33])
-    SH 1..3     8 bits of sh / 128 + 0.5  (|sh| < 1)
+    SH 1..3     8 bits of sh / 128 + 0.5  (|sh| < 1), rounded further as Niantic's own writer rounds them
+                (its PackOptions' defaults sh1Bits 5, shRestBits 4): band 1 to multiples of 8 of those bytes,
+                bands 2-3 to multiples of 16, so that gzip finds them repeated
 
 and the whole payload is gzipped: about a tenth of the .ply's size.
 
@@ -28,7 +30,20 @@ from nerfkit.models.splat.transform import transform_gaussians
 
 SPZ_VERSION = 3
 FRACTIONAL_BITS = 12
+SH1_BITS, SH_REST_BITS = 5, 4  # the SH bytes' precision (Niantic's writer's defaults; the module docstring)
 _REST_OF_DEGREE = (0, 3, 8, 15)
+
+
+def quantise_sh(rest: np.ndarray) -> np.ndarray:
+    """SH bands 1..3 rest [N, K, 3] as Niantic's writer stores them: the byte q = round(128 sh) + 128 rounded to the
+    nearest multiple of 2^(8 - bits) (SH1_BITS for band 1's three coefficients, SH_REST_BITS after), clipped to
+    0..255, and read back as (q - 128) / 128."""
+    rest = np.asarray(rest, np.float64)
+    q = np.round(128.0 * rest) + 128.0
+    bits = np.where(np.arange(rest.shape[1]) < 3, SH1_BITS, SH_REST_BITS)[None, :, None]
+    bucket = 2.0 ** (8 - bits)
+    q = np.clip(np.floor((q + bucket / 2) / bucket) * bucket, 0, 255)
+    return ((q - 128.0) / 128.0).astype(np.float32)
 
 
 def write_spz(path: str | Path, g: dict, sh_degree: int = 3) -> None:
@@ -39,7 +54,7 @@ def write_spz(path: str | Path, g: dict, sh_degree: int = 3) -> None:
     k = _REST_OF_DEGREE[sh_degree]
     n = len(p["means"])
     data = gsply.GSData(means=p["means"], scales=p["log_scales"], quats=unit_quats(np.asarray(p["quats"], np.float32)), opacities=p["opacity"],
-                        sh0=p["sh_dc"].reshape(n, 3), shN=np.ascontiguousarray(p["sh_rest"][:, :k], np.float32),
+                        sh0=p["sh_dc"].reshape(n, 3), shN=np.ascontiguousarray(quantise_sh(p["sh_rest"][:, :k])),
                         _format=gsply.create_ply_format(sh_degree))
     gsply.write_spz(path, data, version=SPZ_VERSION, fractional_bits=FRACTIONAL_BITS)
 
