@@ -615,15 +615,16 @@ CHECKS = [
        + ([] if fmt in ("ply", "glb") else [((rec, "formats", fmt, "psnr_vs_ply_render"), f1)])
        + [((rec, "formats", fmt, "psnr"), f2)])
       for k, (scene, rec) in enumerate((("lego", SF_LEGO), ("maryrose", SF_MARY)))
-      for fmt in ("ply", "spz", "splat", "glb")],
+      for fmt in ("ply", "spz", "splat", "glb", "sog")],
     ("docs/verbs/export.md", "Web renderers draw these files as nerfkit does",
      "Spark (npm `@sparkjsdev/spark` 2.2.0) draws lego's `.ply` at {} / {} dB against nerfkit's render of the same "
      "file, its `.spz` at {} / {} and its `.splat` at {} / {} (maryrose: {} / {}, {} / {}, {} / {}), and the PlayCanvas "
-     "engine (npm `playcanvas` 2.23.3) draws the `.glb` at {} / {} dB (maryrose {} / {};",
+     "engine (npm `playcanvas` 2.23.3) draws the `.glb` at {} / {} dB and the `.sog` at {} / {} (maryrose {} / {} and "
+     "{} / {};",
      [((f"splat_{scene}_spark.json", "formats", fmt, "views", i, "psnr_spark_vs_nerfkit"), f1)
       for scene in ("lego", "maryrose") for fmt in ("ply", "spz", "splat") for i in (0, 1)]
-     + [((f"splat_{scene}_spark.json", "formats", "glb", "views", i, "psnr_playcanvas_vs_nerfkit"), f1)
-        for scene in ("lego", "maryrose") for i in (0, 1)]),
+     + [((f"splat_{scene}_spark.json", "formats", fmt, "views", i, "psnr_playcanvas_vs_nerfkit"), f1)
+        for scene in ("lego", "maryrose") for fmt in ("glb", "sog") for i in (0, 1)]),
     ("docs/verbs/import.md", "**Starting a training run from a file**",
      "a 5-minute run's {} Gaussians cut to SH degree 0 (a file from a tool without view dependence) scored {} dB on "
      "the held-out photos once imported; {} minutes of `train --init` from that file brought them to {} dB",
