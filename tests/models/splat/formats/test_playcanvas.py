@@ -60,12 +60,19 @@ SCREENSHOTS = "NERFKIT_PLAYCANVAS_SCREENSHOTS"  # the folder (an environment var
 
 
 @pytest.fixture(scope="module")
-def exported_glb(splat_run, tmp_path_factory):
-    """(the shared run exported to .glb by `nerfkit export splat`, the run)."""
+def exported(splat_run, tmp_path_factory):
+    """export(suffix) -> (the shared run exported by `nerfkit export splat` to scene<suffix>, once per suffix; the
+    run)."""
     _, run = splat_run
-    path = tmp_path_factory.mktemp("playcanvas_export") / "scene.glb"
-    assert main(["export", "splat", str(run), "--out", str(path)]) == 0
-    return path, run
+    files = {}
+
+    def export(suffix: str):
+        if suffix not in files:
+            files[suffix] = tmp_path_factory.mktemp("playcanvas_export") / f"scene{suffix}"
+            assert main(["export", "splat", str(run), "--out", str(files[suffix])]) == 0
+        return files[suffix], run
+
+    return export
 
 
 @pytest.fixture(scope="module")
@@ -84,18 +91,24 @@ def playcanvas_page(tmp_path_factory):
         p.close()
 
 
-def test_playcanvas_draws_the_exported_glb_like_nerfkit(chromium, playcanvas_page, exported_glb, tmp_path):
+# the other axis convention, for each file: the .glb is drawn from F c2w (glTF is +Y up), so the pose as given is
+# wrong; the .sog holds the capture's axes, so glTF's turn F is wrong
+WRONG_TURN = {".glb": np.eye(4), ".sog": np.diag([1.0, -1.0, -1.0, 1.0])}
+
+
+@pytest.mark.parametrize("suffix", (".glb", ".sog"))
+def test_playcanvas_draws_the_exported_file_like_nerfkit(chromium, playcanvas_page, exported, tmp_path, suffix):
     node_module("playcanvas")
-    glb, run = exported_glb
+    file, run = exported(suffix)
     c2w, cam = training_view(run, 0, SIZE)
     page = playcanvas_page(chromium)
-    png = tmp_path / "playcanvas_glb.png"
-    right = playcanvas_vs_nerfkit(page, glb, c2w, cam, png=png, model=True)
+    png = tmp_path / f"playcanvas_{suffix[1:]}.png"
+    right = playcanvas_vs_nerfkit(page, file, c2w, cam, png=png, model=True)
     keep(png, SCREENSHOTS)
-    wrong = playcanvas_vs_nerfkit(page, glb, c2w, cam, flip=np.eye(4))  # the pose as given: the capture's axes
+    wrong = playcanvas_vs_nerfkit(page, file, c2w, cam, flip=WRONG_TURN[suffix])
     assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
     assert right["playcanvas"].std() > 0.05, "PlayCanvas drew nothing"
-    print(f"PlayCanvas vs nerfkit, .glb: {right['psnr']:.2f} dB ({right['frames']} renders), vs PlayCanvas's "
+    print(f"PlayCanvas vs nerfkit, {suffix}: {right['psnr']:.2f} dB ({right['frames']} renders), vs PlayCanvas's "
           f"rules {right['psnr_model']:.2f} dB, other axes {wrong['psnr']:.2f} dB, {cam.width}x{cam.height}")
     assert right["psnr"] >= FLOOR, right["psnr"]
     assert right["psnr_model"] >= MODEL_FLOOR, right["psnr_model"]
@@ -120,31 +133,3 @@ def test_playcanvas_draws_the_view_dependent_colour(chromium, playcanvas_page, t
         assert got["psnr"] >= flat + SH_OVER_FLAT, (got["psnr"], flat)
         assert got["psnr_model"] >= SH_MODEL_FLOOR, got["psnr_model"]
 
-
-@pytest.fixture(scope="module")
-def exported_sog(splat_run, tmp_path_factory):
-    """(the shared run exported to .sog by `nerfkit export splat`, the run)."""
-    _, run = splat_run
-    path = tmp_path_factory.mktemp("playcanvas_export_sog") / "scene.sog"
-    assert main(["export", "splat", str(run), "--out", str(path)]) == 0
-    return path, run
-
-
-def test_playcanvas_draws_the_exported_sog_like_nerfkit(chromium, playcanvas_page, exported_sog, tmp_path):
-    """PlayCanvas's own format: its SOG loader, the .sog in the capture's axes (no turn), the same floors as the
-    .glb (PlayCanvas's kernel; the .sog's quantisation costs nothing measurable at this size)."""
-    node_module("playcanvas")
-    sog, run = exported_sog
-    c2w, cam = training_view(run, 0, SIZE)
-    page = playcanvas_page(chromium)
-    png = tmp_path / "playcanvas_sog.png"
-    right = playcanvas_vs_nerfkit(page, sog, c2w, cam, png=png, model=True)
-    keep(png, SCREENSHOTS)
-    wrong = playcanvas_vs_nerfkit(page, sog, c2w, cam, flip=np.diag([1.0, -1.0, -1.0, 1.0]))  # glTF's turn
-    assert right["nerfkit"].std() > 0.05, "a blank reference image: a bad test camera"
-    assert right["playcanvas"].std() > 0.05, "PlayCanvas drew nothing"
-    print(f"PlayCanvas vs nerfkit, .sog: {right['psnr']:.2f} dB ({right['frames']} renders), vs PlayCanvas's "
-          f"rules {right['psnr_model']:.2f} dB, turned {wrong['psnr']:.2f} dB, {cam.width}x{cam.height}")
-    assert right["psnr"] >= FLOOR, right["psnr"]
-    assert right["psnr_model"] >= MODEL_FLOOR, right["psnr_model"]
-    assert wrong["psnr"] <= WRONG_CEILING, wrong["psnr"]
