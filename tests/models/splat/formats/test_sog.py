@@ -9,11 +9,13 @@ renders, measured: 67.2 dB from the original at degree 0, 58.0 at degree 3 (the 
 values); floors 58 and 50.
 """
 
+import io
 import json
 import zipfile
 
 import numpy as np
 import pytest
+from PIL import Image
 from test_ply import C2W, CAM, gaussians
 
 from nerfkit.core.errors import ConfigError
@@ -63,9 +65,6 @@ def test_sog_bundle_is_what_playcanvas_reads(tmp_path):
     with zipfile.ZipFile(tmp_path / "g.sog") as z:
         meta = json.loads(z.read("meta.json"))
         names = set(z.namelist())
-        import io
-
-        from PIL import Image
         quats = np.asarray(Image.open(io.BytesIO(z.read("quats.webp"))))
         cent = Image.open(io.BytesIO(z.read("shN_centroids.webp")))
     assert meta["version"] == 2 and meta["count"] == 300

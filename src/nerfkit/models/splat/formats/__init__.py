@@ -35,6 +35,7 @@ FORMATS: dict[str, str] = {  # extension -> the module that defines its FORMAT (
 }
 
 N_REST = 15  # SH coefficients of bands 1..3
+REST_OF_DEGREE = (0, 3, 8, 15)  # SH coefficients of bands 1..d, per channel, for SH degree d = 0..3
 SH_C0 = 0.28209479177387814  # project.py's; repeated so that the format modules stay numpy-only
 RDF_TO_RUB = np.diag([1.0, -1.0, -1.0, 1.0])  # capture axes -> SPZ and glTF axes (180 degrees about x); self-inverse
 
@@ -65,6 +66,23 @@ class SplatFormat:
     max_sh: int
     write: Callable[[Path, dict, int], None]
     read: Callable[[Path], tuple[dict, int]] | None = None
+
+
+def from_gsply(d) -> tuple[dict, int]:
+    """(Gaussians in the layout above, SH degree) of a gsply GSData d as its readers return it (means, log scales,
+    w-first quaternions, logit opacities, sh0 [N, 3], shN [N, K, 3] or None), in the file's own axes;
+    ValueError unless K is 0, 3, 8 or 15."""
+    n = len(d.means)
+    k = 0 if d.shN is None else int(np.asarray(d.shN).shape[1])
+    if k not in REST_OF_DEGREE:
+        raise ValueError(f"{k} higher SH coefficients per channel (expected 0, 3, 8 or 15)")
+    rest = np.zeros((n, N_REST, 3), np.float32)
+    if k:
+        rest[:, :k] = np.asarray(d.shN, np.float32).reshape(n, k, 3)
+    g = {"means": np.asarray(d.means, np.float32), "log_scales": np.asarray(d.scales, np.float32),
+         "quats": np.asarray(d.quats, np.float32), "opacity": np.asarray(d.opacities, np.float32).reshape(n),
+         "sh_dc": np.asarray(d.sh0, np.float32).reshape(n, 1, 3), "sh_rest": rest}
+    return g, REST_OF_DEGREE.index(k)
 
 
 def splat_format(path: str | Path, flag: str = "--out") -> SplatFormat:

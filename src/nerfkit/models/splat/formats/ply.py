@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.models.splat.formats import N_REST, SplatFormat
+from nerfkit.models.splat.formats import N_REST, REST_OF_DEGREE, SplatFormat
 from nerfkit.models.splat.transform import transform_gaussians
 
 def _rest_count(names) -> int:
     n = sum(1 for k in names if k.startswith("f_rest_"))
-    if n % 3 or n // 3 not in (0, 3, 8, 15):
+    if n % 3 or n // 3 not in REST_OF_DEGREE:
         raise ValueError(f"{n} f_rest properties: not 3 x (0, 3, 8 or 15) SH coefficients")
     return n // 3
 

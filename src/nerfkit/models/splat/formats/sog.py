@@ -37,14 +37,13 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.models.splat.formats import N_REST, SplatFormat, unit_quats
+from nerfkit.models.splat.formats import REST_OF_DEGREE, SplatFormat, from_gsply, unit_quats
 
 SOG_VERSION = 2
 CODEBOOK = 256  # entries of each 1-D codebook (an 8-bit index)
 PALETTE = 4096  # SH palette entries at most (shN)
 KMEANS_ITER = 10
 MORTON_BITS = 10  # per axis, for the spatial order
-_REST_OF_DEGREE = (0, 3, 8, 15)
 _IMAGES = ("means_l.webp", "means_u.webp", "quats.webp", "scales.webp", "sh0.webp")
 _SH_IMAGES = ("shN_centroids.webp", "shN_labels.webp")
 
@@ -172,7 +171,7 @@ def write_sog(path: str | Path, g: dict, sh_degree: int = 3) -> None:
             "scales": {"codebook": scale_book.tolist(), "files": ["scales.webp"]},
             "quats": {"files": ["quats.webp"]},
             "sh0": {"codebook": dc_book.tolist(), "files": ["sh0.webp"]}}
-    k = _REST_OF_DEGREE[sh_degree]
+    k = REST_OF_DEGREE[sh_degree]
     if k:
         palette, labels = sh_palette(np.asarray(g["sh_rest"], np.float64)[:, :k], palette_size(n))
         book, codes = codebook_1d(palette)  # codes [P, K, 3]
@@ -193,18 +192,7 @@ def read_sog(path: str | Path) -> tuple[dict, int]:
     """(Gaussians in the capture's coordinates, SH degree) of a .sog bundle (SOG versions 1-2, through gsply)."""
     from gsply.sog_reader import sogread
 
-    d = sogread(Path(path))
-    n = len(d.means)
-    shn = np.zeros((n, 0, 3), np.float32) if d.shN is None else np.asarray(d.shN, np.float32).reshape(n, -1, 3)
-    k = shn.shape[1]
-    if k not in _REST_OF_DEGREE:
-        raise ValueError(f"{k} higher SH coefficients per channel (expected 0, 3, 8 or 15)")
-    rest = np.zeros((n, N_REST, 3), np.float32)
-    rest[:, :k] = shn
-    g = {"means": np.asarray(d.means, np.float32), "log_scales": np.asarray(d.scales, np.float32),
-         "quats": np.asarray(d.quats, np.float32), "opacity": np.asarray(d.opacities, np.float32).reshape(n),
-         "sh_dc": np.asarray(d.sh0, np.float32).reshape(n, 1, 3), "sh_rest": rest}
-    return g, _REST_OF_DEGREE.index(k)
+    return from_gsply(sogread(Path(path)))
 
 
 FORMAT = SplatFormat(name="PlayCanvas .sog (SOG version 2)", opens="SuperSplat, the PlayCanvas engine, Spark",

@@ -27,13 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from nerfkit.models.splat.formats import N_REST, RDF_TO_RUB, SplatFormat, unit_quats
+from nerfkit.models.splat.formats import RDF_TO_RUB, REST_OF_DEGREE, SplatFormat, from_gsply, unit_quats
 from nerfkit.models.splat.transform import transform_gaussians
 
 SPZ_VERSION = 3
 FRACTIONAL_BITS = 12
 SH1_BITS, SH_REST_BITS = 6, 5  # the SH bytes' precision (Niantic's writer's PackOptions; the module docstring)
-_REST_OF_DEGREE = (0, 3, 8, 15)
 
 
 def quantise_sh(rest: np.ndarray) -> np.ndarray:
@@ -53,7 +52,7 @@ def write_spz(path: str | Path, g: dict, sh_degree: int = 3) -> None:
     import gsply
 
     p = transform_gaussians({k: np.asarray(v) for k, v in g.items()}, RDF_TO_RUB)
-    k = _REST_OF_DEGREE[sh_degree]
+    k = REST_OF_DEGREE[sh_degree]
     n = len(p["means"])
     data = gsply.GSData(means=p["means"], scales=p["log_scales"], quats=unit_quats(np.asarray(p["quats"], np.float32)), opacities=p["opacity"],
                         sh0=p["sh_dc"].reshape(n, 3), shN=np.ascontiguousarray(quantise_sh(p["sh_rest"][:, :k])),
@@ -65,18 +64,8 @@ def read_spz(path: str | Path) -> tuple[dict, int]:
     """(Gaussians in the capture's coordinates, SH degree) of an .spz (versions 1-3; 4 with zstandard)."""
     import gsply
 
-    d = gsply.read_spz(path)
-    n = len(d.means)
-    rest = np.zeros((n, N_REST, 3), np.float32)
-    k = 0 if d.shN is None else int(np.asarray(d.shN).shape[1])
-    if k not in _REST_OF_DEGREE:
-        raise ValueError(f"{k} higher SH coefficients per channel (expected 0, 3, 8 or 15)")
-    if k:
-        rest[:, :k] = np.asarray(d.shN, np.float32).reshape(n, k, 3)
-    p = {"means": np.asarray(d.means, np.float32), "log_scales": np.asarray(d.scales, np.float32),
-         "quats": np.asarray(d.quats, np.float32), "opacity": np.asarray(d.opacities, np.float32).reshape(n),
-         "sh_dc": np.asarray(d.sh0, np.float32).reshape(n, 1, 3), "sh_rest": rest}
-    return transform_gaussians(p, RDF_TO_RUB), _REST_OF_DEGREE.index(k)
+    p, degree = from_gsply(gsply.read_spz(path))
+    return transform_gaussians(p, RDF_TO_RUB), degree
 
 
 FORMAT = SplatFormat(name="Niantic .spz (version 3)", opens="Spark, GaussianSplats3D, SuperSplat, Scaniverse",
