@@ -1,17 +1,10 @@
-"""Adam with per-parameter learning rates (optax), and Adam-state surgery for density control.
+"""Adam with 3DGS's per-parameter learning rates (optax), and Adam-state surgery for density control.
 
-Learning rates, Adam eps = 1e-15 (3DGS's, Kerbl et al. 2023, in brackets where they differ):
+Learning rates (Kerbl et al. 2023, their code's defaults), Adam eps = 1e-15:
 
-    means       lr(t) = exp((1 - t) log(6.4e-4 E) + t log(6.4e-6 E)),  t = progress in [0, 1]   [1.6e-4, 1.6e-6]
-    sh_dc       2e-2 [2.5e-3]     sh_rest  2e-2 / 20 [2.5e-3 / 20]
-    opacity     5e-2              log_scales  1e-2 [5e-3]          quats  1e-3
-
-3DGS's rates are set for 30k steps from SfM points whose colours are already right. A 10-minute CPU
-run takes 1-7k steps, and Adam moves a parameter by about its rate a step, so at 3DGS's colour rate a
-mid-grey start (a Blender scene's points) needs ~700 consistent steps to reach white or black. Colour x8,
-positions x4 and scales x2 were chosen on lego (seed protocol, held-out val[50:75]; CHANGELOG.md): 28.96 ->
-31.97 dB after 1200 steps, 33.96 -> 35.05 after 6000 (colour x16: 30.46 at 1200; a colour rate decaying
-to 3DGS's by the end: 31.08 and 35.00).
+    means       lr(t) = exp((1 - t) log(1.6e-4 E) + t log(1.6e-6 E)),  t = progress in [0, 1]
+    sh_dc       2.5e-3        sh_rest  2.5e-3 / 20
+    opacity     5e-2          log_scales  5e-3          quats  1e-3
 
 E is the scene extent: 1.1 x the largest distance of a training camera centre from their
 mean (3DGS's "cameras_extent"), so the position step is relative to the scene's size.
@@ -46,12 +39,12 @@ ADAM_EPS = 1e-15
 class LearningRates:
     """Per-group Adam learning rates (means: initial and final factors of the scene extent)."""
 
-    means_init: float = 6.4e-4
-    means_final: float = 6.4e-6
-    sh_dc: float = 2e-2
-    sh_rest: float = 2e-2 / 20
+    means_init: float = 1.6e-4
+    means_final: float = 1.6e-6
+    sh_dc: float = 2.5e-3
+    sh_rest: float = 2.5e-3 / 20
     opacity: float = 5e-2
-    log_scales: float = 1e-2
+    log_scales: float = 5e-3
     quats: float = 1e-3
     cam_color: float = 1e-3
     cam_pose: float = 5e-4
