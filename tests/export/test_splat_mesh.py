@@ -54,22 +54,23 @@ def test_a_splat_run_meshes_onto_the_scene_with_its_own_colours(run, tmp_path, c
     dist = surface_distance(verts)
     print(f"splat mesh: {len(mesh.faces)} faces, distance to the true surfaces: mean {dist.mean() / PIXEL:.2f}, "
           f"median {np.median(dist) / PIXEL:.2f} pixels")
-    assert dist.mean() < 1.2 * PIXEL and np.median(dist) < 0.8 * PIXEL  # measured 0.82 and 0.63
-    # and the other way: the surface the training cameras see is covered (measured: mean 1.13 pixels to the mesh;
-    # the holes are the light ground squares that this white-background run left see-through, see --random-background)
+    assert dist.mean() < 1.2 * PIXEL and np.median(dist) < 0.8 * PIXEL  # measured 0.78 and 0.66
+    # and the other way: the surface the training cameras see is covered (measured: mean 1.24 pixels to the mesh;
+    # 1.10-1.36 with 3DGS's learning rates at 200, 400 and 800 steps: a run this small does not settle)
     seen = visible_surface(run)
     dense = trimesh.sample.sample_surface(mesh, 20 * len(seen), seed=0)[0]
     gap = cKDTree(dense).query(seen)[0]
     print(f"the seen surface to the mesh: mean {gap.mean() / PIXEL:.2f} pixels")
     assert gap.mean() < 1.5 * PIXEL
     # the colours are the renders' own: each vertex a training view sees head-on has the colour that view renders
-    # at its pixel (a 200-step run renders the scene's colours washed out, so its renders are the reference)
+    # at its pixel (a 200-step run renders the scene's colours not yet right, so its renders are the reference)
     cols = mesh.visual.vertex_colors[:, :3].astype(float) / 255
-    assert cols.std(axis=0).min() > 0.02  # not one flat colour (measured 0.035: the run renders greys)
+    # not one flat colour (measured 0.149; 0.035 with 3DGS's learning rates, whose run renders greys)
+    assert cols.std(axis=0).min() > 0.02
     rec = RunFolder(run).load()
     views = render_views(rec, pinhole=True, median=True)
     normals = mesh.vertex_normals
-    diffs = []
+    diffs, flat = [], []
     for k in range(len(views.c2w)):
         u, v, z = project(verts.astype(np.float32), views.c2w[k], views.intrinsics[k])
         h, w = views.opacity[k].shape
@@ -78,10 +79,18 @@ def test_a_splat_run_meshes_onto_the_scene_with_its_own_colours(run, tmp_path, c
         facing = np.sum(normals * to_cam, 1) / np.linalg.norm(to_cam, axis=1) > 0.8
         seen = ((u >= 0) & (u < w) & (v >= 0) & (v < h) & (views.opacity[k][iv, iu] > 0.99) & facing
                 & (np.abs(views.median[k][iv, iu] - z) < 0.5 * PIXEL))
-        diffs.append(np.abs(cols[seen] - views.rgb[k][iv[seen], iu[seen]]).mean(1))
-    diffs = np.concatenate(diffs)
-    print(f"vertex colour against the renders: mean difference {diffs.mean():.3f} over {len(diffs)} sightings")
-    assert len(diffs) > 1000 and diffs.mean() < 0.03  # measured 0.008; grey 0.5 everywhere would be 0.08
+        shown = views.rgb[k][iv[seen], iu[seen]]
+        diffs.append(np.abs(cols[seen] - shown).mean(1))
+        flat.append(shown)
+    diffs, flat = np.concatenate(diffs), np.concatenate(flat)
+    # against one flat colour (the renders' mean at the same sightings): the difference scales with the renders'
+    # contrast, and a run that renders the scene's colours fully has more of it than a washed-out one
+    flat = np.abs(flat - flat.mean(0)).mean(1)
+    print(f"vertex colour against the renders: mean difference {diffs.mean():.3f} over {len(diffs)} sightings; "
+          f"one flat colour {flat.mean():.3f}")
+    # measured 0.031 against 0.117; with 3DGS's learning rates 0.007 against 0.053 at 200 steps, 0.044 against
+    # 0.158 at 800 (the old absolute bound, 0.03, was 0.57 of the washed-out run's flat colour)
+    assert len(diffs) > 1000 and diffs.mean() < 0.35 * flat.mean()
 
 
 def test_a_textured_and_a_watertight_splat_mesh(run, tmp_path):

@@ -1,13 +1,15 @@
 """Gaussian splats render pinhole cameras; a capture whose camera has lens distortion (every capture that
 process-data makes) trains on its photos undistorted (data/undistort.py, DataConfig.undistort). The same
 scene photographed through a distorted lens and through the pinhole camera it undistorts to trains to the
-same held-out PSNR, within 0.5 dB."""
+same held-out error, give or take half of what the undistortion's resampling costs the photos themselves."""
 
 import json
 
+import numpy as np
 import pytest
 
 from nerfkit.cli.main import main
+from nerfkit.data.loader import load_scene
 from nerfkit.data.procedural.captures import make_capture
 from nerfkit.rays.cameras import Camera
 
@@ -51,7 +53,16 @@ def test_a_distorted_capture_trains_as_well_as_its_pinhole_twin(tmp_path, capsys
     assert main(["eval", str(runs["lens"]), "--split", "test", "--overwrite"]) == 0
     own = json.loads((runs["lens"] / "eval_test.json").read_text())["psnr"]
     assert psnr["pinhole"] > 20.0 and own > 20.0, (psnr, own)  # the runs learned the scene
-    assert abs(psnr["lens"] - psnr["pinhole"]) <= 0.5, psnr
+    # The lens run learns from resampled photos: the better both runs fit, the more that shows on the sharp
+    # photos (with 3DGS's learning rates: 0.14 dB apart at 300 steps, 0.88 at 1200). Its extra squared error
+    # is held against what the resampling itself costs the held-out photos (the lens capture's, undistorted,
+    # against the twin's: 31.8 dB): measured 0.19-0.25 of it at 300 and 1200 steps, 3DGS's rates and today's.
+    lens, twin = (load_scene(tmp_path / n, "test", downscale=2, undistort=n == "lens") for n in ("lens", "pinhole"))
+    resampling = float(np.mean((lens.images - twin.images) ** 2))
+    extra = 10 ** (-psnr["lens"] / 10) - 10 ** (-psnr["pinhole"] / 10)
+    print(f"lens {psnr['lens']:.2f} dB, twin {psnr['pinhole']:.2f}: extra error {extra / resampling:.2f} "
+          "of the resampling's")
+    assert abs(extra) <= 0.5 * resampling, (psnr, resampling)
 
 
 def test_the_fields_keep_the_lens(tmp_path, capsys):

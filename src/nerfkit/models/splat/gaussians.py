@@ -88,8 +88,9 @@ def init_random(n: int, box: float = BLENDER_BOX, seed: int = 0, opacity: float 
     """Parameters of n Gaussians uniform in [-box, box]^3 (no SfM points), grey.
 
     Colours are 0.5 + SH_C0 u, u ~ U[0, 1/255) per channel: the 3DGS code's random init
-    (sh_dc = u), i.e. mid-grey; random colours in [0, 1] start ~2 dB worse and take the
-    colour learning rate (2.5e-3 per step in SH units) hundreds of steps to undo."""
+    (sh_dc = u), i.e. mid-grey; random colours in [0, 1] started ~2 dB worse and took 3DGS's
+    colour learning rate (2.5e-3 per step in SH units; nerfkit's is 8x that, optim.py) hundreds of
+    steps to undo."""
     rng = np.random.default_rng(seed)
     points = rng.uniform(-box, box, (n, 3)).astype(np.float32)
     colors = 0.5 + SH_C0 * rng.uniform(0, 1 / 255, (n, 3))
