@@ -6,7 +6,9 @@ nerfkit reads it back, from the same pinhole camera, both on white.
 
 The shared 200-step run (conftest.splat_run; 1,000 Gaussians in its export) is exported through the CLI to .glb and
 drawn from training view 0 at 192 x 192 (the run's field of view; it trains at 32 px). Measured (SwiftShader WebGL2,
-Chromium's CPU renderer), training views 0, 3 and 6:
+Chromium's CPU renderer), training views 0, 3 and 6, on the run as 3DGS's learning rates left it (greys; with today's
+rates it renders the scene's colours, and view 0 measures 36.3 dB against nerfkit, 48.5 (.glb) and 45.4 (.sog)
+against playcanvas_model):
 
     PlayCanvas vs nerfkit                       38.4-38.6 dB  (playcanvas_splats.PRECISE: 38.6-39.0)
     PlayCanvas vs playcanvas_model              51.4-51.6 dB  (PRECISE: 56.5-56.8)
@@ -19,8 +21,8 @@ sqrt(8) sigma, thinning the tails (-12 % at 2 sigma); both are in its shaders, n
 nerfkit's own projection (playcanvas_model) account for all but 51-57 dB of what PlayCanvas draws (the rest is its
 work-buffer packing and 8-bit blending), at 32 px as at 192, and cost what separates it from nerfkit: mostly the
 tails at 192 px, mostly the dilation at 32 px (Gaussians about a pixel wide, which is why the test draws at 192).
-So the floors: 34 dB against nerfkit (the issue's bar is 30; 4.4 dB under what was measured), 46 dB against the
-model (5.4 under), and a wrong camera must fall under 20 dB. The axes: PlayCanvas draws the glTF node as stored
+So the floors: 34 dB against nerfkit (the issue's bar is 30; 2.3 dB under today's 36.3), 43 dB against the
+model (2.4 under the .sog's 45.4, and 7 over nerfkit's own rules), and a wrong camera must fall under 20 dB. The axes: PlayCanvas draws the glTF node as stored
 (+Y up, no turn), so the capture seen from c2w is seen in the .glb from F @ c2w (F = diag(1, -1, -1)).
 
 The run has no view-dependent colour yet, so a second test writes Gaussians with strong SH bands 1-3
@@ -52,8 +54,11 @@ from web_tools import node_module
 from nerfkit.cli.main import main
 
 SIZE = 192  # px: at the run's 32 px PlayCanvas's 0.075 px^2 dilation leaves 1-px Gaussians far thinner
-FLOOR = 34.0  # dB against nerfkit (measured 38.4-38.6)
-MODEL_FLOOR = 46.0  # dB against playcanvas_model (measured 51.4-51.6)
+FLOOR = 34.0  # dB against nerfkit (measured 36.3; 38.4-38.6 with 3DGS's learning rates)
+# dB against playcanvas_model, which leaves out the engine's quantisation and 8-bit blending: measured 48.5 (.glb)
+# and 45.4 (.sog) on the shared run, 51.4-51.6 on its washed-out greys with 3DGS's learning rates; between that and
+# the 36.3 that nerfkit's own rules (0.3 px^2 dilation, the 0.99 clamp) score against PlayCanvas
+MODEL_FLOOR = 43.0
 WRONG_CEILING = 20.0  # dB, the other axis convention (measured 11.3-12.8)
 SH_FLOOR, SH_MODEL_FLOOR, SH_OVER_FLAT = 34.0, 40.0, 8.0  # measured 38.3, 43.7-44.0, 16.4-17.4
 SCREENSHOTS = "NERFKIT_PLAYCANVAS_SCREENSHOTS"  # the folder (an environment variable) keep() copies the comparisons to
