@@ -22,8 +22,9 @@ nerfkit's own projection (playcanvas_model) account for all but 51-57 dB of what
 work-buffer packing and 8-bit blending), at 32 px as at 192, and cost what separates it from nerfkit: mostly the
 tails at 192 px, mostly the dilation at 32 px (Gaussians about a pixel wide, which is why the test draws at 192).
 So the floors: 34 dB against nerfkit (the issue's bar is 30; 2.3 dB under today's 36.3), 43 dB against the
-model (2.4 under the .sog's 45.4, and 7 over nerfkit's own rules), and a wrong camera must fall under 20 dB. The axes: PlayCanvas draws the glTF node as stored
-(+Y up, no turn), so the capture seen from c2w is seen in the .glb from F @ c2w (F = diag(1, -1, -1)).
+model (2.4 under the .sog's 45.4, and 7 over nerfkit's own rules), and a wrong camera must fall under 20 dB. The
+axes: PlayCanvas draws the glTF node as stored (+Y up, no turn), so the capture seen from c2w is seen in the .glb
+from F @ c2w (F = diag(1, -1, -1)).
 
 The run has no view-dependent colour yet, so a second test writes Gaussians with strong SH bands 1-3
 (test_ply.gaussians) to .glb and .gltf at degree 3: PlayCanvas reads SH_DEGREE_1..3 from glTF and draws them
