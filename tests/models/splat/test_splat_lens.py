@@ -63,6 +63,9 @@ def test_a_distorted_capture_trains_as_well_as_its_pinhole_twin(tmp_path, capsys
     print(f"lens {psnr['lens']:.2f} dB, twin {psnr['pinhole']:.2f}: extra error {extra / resampling:.2f} "
           "of the resampling's")
     assert abs(extra) <= 0.5 * resampling, (psnr, resampling)
+    # The resampling's cost is measured through the undistortion under test, so a broken one raises it too (photos
+    # resized without the lens: 0.54 of it, and 3.3 dB apart); the gap in dB is held as well (measured 0.11-0.88)
+    assert psnr["pinhole"] - psnr["lens"] <= 1.5, psnr
 
 
 def test_the_fields_keep_the_lens(tmp_path, capsys):
