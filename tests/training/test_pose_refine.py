@@ -1,5 +1,5 @@
 """Pose refinement for the ray methods (--pose-refine on; training/step.py): the corrections are parameters of
-their own (zeros at the start, still through the warm-up, then learned at their own rate), the rays of a step are
+their own (zeros at the start, learned from the first step at their own rate), the rays of a step are
 made from the corrected poses, and a run keeps them: `eval` and periodic validation render other views moved with
 the training rig (rays/correction.run_poses, run/folder.TrainedRun.seen_from)."""
 
@@ -12,7 +12,7 @@ from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.data.procedural.captures import make_capture
 from nerfkit.models.registry import build_model
 from nerfkit.training.resolve import resolve_config
-from nerfkit.training.step import init_state, make_optimizer, make_train_step, pose_schedule
+from nerfkit.training.step import POSE_LR, init_state, make_optimizer, make_train_step, pose_schedule
 
 
 def _setup(tmp_path, refine: str):
@@ -28,21 +28,21 @@ def _setup(tmp_path, refine: str):
     return cfg, model, opt, train
 
 
-def test_corrections_are_parameters_learned_after_the_warm_up(tmp_path):
+def test_corrections_are_parameters_learned_from_the_first_step(tmp_path):
     cfg, model, opt, train = _setup(tmp_path, "on")
     state = init_state(model, opt, 0)
     assert state["params"]["cam_pose"].shape == (len(train.poses), 6) and not np.any(state["params"]["cam_pose"])
     lr = pose_schedule(cfg)
-    assert float(lr(0)) == 0.0 and float(lr(4)) == 0.0 and 0.0 < float(lr(6)) < float(lr(8))  # W = 40 / 10 = 4
+    assert np.isclose(float(lr(0)), POSE_LR) and POSE_LR > float(lr(1000)) > 0.0  # no warm-up; the field's decay
     step = make_train_step(model, opt, train, cfg)
     images, poses = jnp.asarray(train.images), jnp.asarray(train.poses)
     field0 = jax.tree_util.tree_leaves({k: v for k, v in state["params"].items() if k != "cam_pose"})
     field0 = [np.array(x) for x in field0]
-    moved_at = []
-    for s in range(12):
-        state, m = step(state, jnp.int32(s), images, poses)
-        moved_at.append(float(jnp.abs(state["params"]["cam_pose"]).max()))
-    assert moved_at[4] == 0.0 and moved_at[-1] > 0.0, moved_at  # still through the warm-up, then learned
+    state, m = step(state, jnp.int32(0), images, poses)
+    xi = np.asarray(state["params"]["cam_pose"])
+    # Adam's first step moves every correction that has a gradient by about its rate
+    seen = np.abs(xi).max(axis=1) > 0
+    assert seen.sum() >= len(xi) // 2 and np.abs(xi).max() <= 1.01 * POSE_LR, xi
     field = jax.tree_util.tree_leaves({k: v for k, v in state["params"].items() if k != "cam_pose"})
     assert all(np.abs(np.asarray(a) - b).max() > 0 for a, b in zip(field, field0))  # the field learns alongside
     # the other parameters are the field's own (the model renders without looking at the corrections)

@@ -4,12 +4,14 @@ models/base.py). The loop that runs it and writes the run folder is trainer.py.
 
 Pose refinement (--pose-refine on; rays/correction.py): params["cam_pose"] [N, 6] holds a correction xi_k of
 each training photo's pose, c2w_k T(xi_k) (translations in units of correction.camera_extent of the training
-poses), learned with the field by its own Adam at
+poses), learned with the field from the first step by its own Adam at
 
-    lr_pose(s) = POSE_LR ramp(s) decay(s),  ramp(s) = clip((s - POSE_WARMUP) / POSE_WARMUP, 0, 1),
+    lr_pose(s) = POSE_LR decay(s),
 
-decay(s) the field's exponential decay (--lr-decay-rate ** (s / --lr-decay-steps)): still for the first
-W = min(POSE_WARMUP, --max-steps / 10) steps (the field is too blurred to pull a pose), then a ramp of as many.
+decay(s) the field's exponential decay (--lr-decay-rate ** (s / --lr-decay-steps)). No warm-up: a hash grid
+fits each photo at its given pose within a few hundred steps and then holds it there (the procedural unbounded
+capture, 35 photos 0.96 degrees off, ngp, 1000 steps: a warm-up of 100 steps and a ramp of 100 left the poses
+0.96 degrees off and the held-out photos at 12.4 dB; learned from the first step, 0.50 degrees and 21.0 dB).
 """
 
 from __future__ import annotations
@@ -33,7 +35,6 @@ from nerfkit.rays.correction import camera_extent, corrected_pose
 from nerfkit.training import parallel
 
 POSE_LR = 5e-4  # nerfstudio's camera optimiser uses 6e-4 (SO3xR3); 3DGS ports 5e-4 to 1e-3
-POSE_WARMUP = 200  # steps (about a minute of ngp on 2 CPU cores)
 
 
 def refines_poses(model) -> bool:
@@ -44,9 +45,7 @@ def refines_poses(model) -> bool:
 def pose_schedule(cfg: Config):
     """lr_pose(step) (module docstring)."""
     t = cfg.train
-    w = max(1, min(POSE_WARMUP, t.max_steps // 10)) if t.max_steps else POSE_WARMUP
-    decay = optax.exponential_decay(POSE_LR, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
-    return lambda step: decay(step) * jnp.clip((step - w) / w, 0.0, 1.0)
+    return optax.exponential_decay(POSE_LR, transition_steps=t.lr_decay_steps, decay_rate=t.lr_decay_rate)
 
 
 def make_optimizer(cfg: Config, model=None):
