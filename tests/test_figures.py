@@ -656,9 +656,13 @@ CHECKS = [
      [(("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
     # ---- docs/methods.md: pose refinement
     ("docs/methods.md", "ngp scored", "ngp scored {} dB on the exact capture, {} on the imperfect one and {} with refinement, whose "
-     "poses stayed {} degrees off",
+     "poses ended {} degrees off ({} dB and {} degrees with appearance embeddings as well)",
      [(("corrections_procedural_ngp.json", "runs", v, "eval_psnr"), f2) for v in ("exact", "none", "pose")]
-     + [(("corrections_procedural_ngp.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
+     + [(("corrections_procedural_ngp.json", "runs", "pose", "refined_pose_error", "degrees"), f2),
+        (("corrections_procedural_ngp.json", "runs", "both", "eval_psnr"), f2),
+        (("corrections_procedural_ngp.json", "runs", "both", "refined_pose_error", "degrees"), f2)]),
+    ("docs/methods.md", "ngp scored", "photos exact ({} px, {} steps;",
+     [(("corrections_procedural_ngp.json", "size"), d), (("corrections_procedural_ngp.json", "steps"), d)]),
     ("docs/methods.md", "It costs", "the ngp preset ran {} steps per second with it and {} without",
      [(("pose_refine_speed_ngp.json", "steps_per_s_on"), f2), (("pose_refine_speed_ngp.json", "steps_per_s_off"), f2)]),
     ("docs/methods.md", "ngp scored", "poses were written {} degrees and {}% of the camera radius off",
