@@ -103,7 +103,7 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     f.appearance_count = len(train) if f.appearance_dim or cfg.train.pose_refine == "on" else 0
     registry.resolve_settings(cfg, photos, len(train), log)
     if cfg.train.pose_refine == "on":
-        log(f"pose refinement: a pose correction per training photo ({len(train)}), learned after a warm-up; "
+        log(f"pose refinement: a pose correction per training photo ({len(train)}), learned with the scene; "
             f"held-out photos are rendered from their given poses moved with the training rig (--pose-refine off: none)")
     if forward_facing(train.poses):
         notes.append(f"forward-facing: every camera within {view_spread(train.poses):.0f} degrees of one direction")
