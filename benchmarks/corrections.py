@@ -59,6 +59,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--size", type=int, default=64)
     ap.add_argument("--views", type=int, default=40)
+    ap.add_argument("--supersample", type=int, default=1,
+                    help="S: each photo's pixels integrate S x S samples, as a sensor does (1: point-sampled, aliased)")
     ap.add_argument("--masks", action="store_true", help="objects on a backdrop with masks (else a far environment)")
     ap.add_argument("--degrees", type=float, default=1.0)
     ap.add_argument("--shift", type=float, default=0.02, help="pose error as a fraction of the camera radius")
@@ -79,10 +81,12 @@ def main() -> None:
         caps[kind] = make_capture(a.out / f"cap_{kind}", "nerfstudio", n_views=a.views, size=a.size, seed=3,
                                   environment=not a.masks, masks=a.masks,
                                   pose_noise=(a.degrees, a.shift) if noisy else (0.0, 0.0),
-                                  gains=a.gains if noisy else 0.0, exact_every=8 if a.held_out == "exact" else 0)
+                                  gains=a.gains if noisy else 0.0, exact_every=8 if a.held_out == "exact" else 0,
+                                  supersample=a.supersample)
     truth_poses = np.load(caps["imperfect"] / "truth" / "poses.npy")
     truth_gains = np.load(caps["imperfect"] / "truth" / "gains.npy")
     result = {"what": __doc__.split("\n\n")[0], "preset": a.preset, "steps": a.steps, "size": a.size, "views": a.views, "masks": a.masks,
+              "supersample": a.supersample,
               "pose_noise_degrees": a.degrees, "pose_noise_radius_share": a.shift, "gains": a.gains,
               "held_out": a.held_out, "flags": a.flags, "start": "random" if a.random_start else "auto", "runs": {},
               "provenance": provenance()}

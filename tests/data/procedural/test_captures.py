@@ -16,7 +16,7 @@ from nerfkit.core.errors import DataError
 from nerfkit.data.loader import detect_format, load_scene, read_capture
 from nerfkit.data.normalize import CAMERA_RADIUS
 from nerfkit.data.procedural import scene as proc
-from nerfkit.data.procedural.captures import make_capture, render, ring_poses
+from nerfkit.data.procedural.captures import make_capture, render, render_area, ring_poses
 from nerfkit.rays.cameras import Camera, camera_rays, ray_table, table_directions
 
 W, H = 40, 32
@@ -267,3 +267,20 @@ def test_imperfect_captures_spare_the_held_out_photos_when_asked(tmp_path):
         assert np.allclose(deg[~exact], 1.0, atol=1e-3) and np.allclose(dist[~exact], 0.02 * proc.CAMERA_RADIUS)
         gains = np.load(root / "truth" / "gains.npy")
         assert np.all(gains[exact] == 1.0) and np.all(np.abs(gains[~exact] - 1.0).max(1) > 0.01)
+
+
+def test_area_rendering_averages_the_sub_pixel_grid():
+    """render_area's S x S supersampling is the mean of S^2 point-sampled photos whose pixel centres sit on the
+    sub-pixel grid (cameras with their principal point moved by 0.5 - (m + 0.5) / S), depth at the centres."""
+    s, c2w = 3, ring_poses(4, seed=2)[1]
+    rgb, alpha, depth = render_area(c2w, PINHOLE, True, s)
+    subs = [render(c2w, Camera(W, H, PINHOLE.fx, PINHOLE.fy, PINHOLE.cx + 0.5 - (a + 0.5) / s,
+                               PINHOLE.cy + 0.5 - (b + 0.5) / s), True)[0]
+            for a in range(s) for b in range(s)]
+    np.testing.assert_allclose(rgb, np.mean(subs, 0), atol=1e-6)
+    point_rgb, _, point_depth = render(c2w, PINHOLE, True)
+    np.testing.assert_array_equal(depth, point_depth)
+    assert np.abs(rgb - point_rgb).max() > 0.1  # the edges differ: the test sees the averaging
+    one = render_area(c2w, PINHOLE, True, 1)
+    np.testing.assert_array_equal(one[0], point_rgb)
+    assert np.all((alpha >= 0) & (alpha <= 1))
