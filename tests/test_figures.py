@@ -81,6 +81,7 @@ def commit(name):
 NGP, SPLAT = "lego_cli_ngp.json", "lego_cli_splat.json"
 INIT = "maryrose_nomasks_init_cli.json"  # splat init: triangulated points against random ones
 CORR, PCORR = "buddha_corrections_cli.json", "corrections_procedural.json"  # splats' per-photo corrections
+ACORR = "corrections_procedural_area.json"  # the same on photos whose pixels integrate their area
 FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats' far points
 START = "procedural_splat_start_cli.json"  # where a splat run starts
 BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
@@ -452,6 +453,12 @@ CHECKS = [
       ((PCORR, "runs", "pose", "eval_psnr"), f2), ((PCORR, "runs", "both", "eval_psnr"), f2),
       ((PCORR, "runs", "both", "refined_pose_error", "degrees"), f2),
       ((PCORR, "runs", "both", "refined_pose_error", "radius_share"), pct1)]),
+    ("docs/splats.md", "`--pose-refine on` also learns",
+     "(`--supersample {}`, `corrections_procedural_area.json`) the exact capture scores {} dB, and the imperfect one {} without "
+     "corrections, {} with pose refinement and {} with both (poses {} degrees off)",
+     [((ACORR, "supersample"), d), ((ACORR, "runs", "exact", "eval_psnr"), f2), ((ACORR, "runs", "none", "eval_psnr"), f2),
+      ((ACORR, "runs", "pose", "eval_psnr"), f2), ((ACORR, "runs", "both", "eval_psnr"), f2),
+      ((ACORR, "runs", "both", "refined_pose_error", "degrees"), f2)]),
     ("docs/splats.md", "What it is worth, on maryrose with `--no-masks`",
      "3-minute runs at 432 px, one sitting: **{} dB / SSIM {}** on the {} held-out photos from the triangulated points "
      "({} steps), {} dB / SSIM {} from random points ({} steps); the command took {} minutes against {}",
