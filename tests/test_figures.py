@@ -459,6 +459,13 @@ CHECKS = [
      [((ACORR, "supersample"), d), ((ACORR, "runs", "exact", "eval_psnr"), f2), ((ACORR, "runs", "none", "eval_psnr"), f2),
       ((ACORR, "runs", "pose", "eval_psnr"), f2), ((ACORR, "runs", "both", "eval_psnr"), f2),
       ((ACORR, "runs", "both", "refined_pose_error", "degrees"), f2)]),
+    ("docs/methods.md", "`corrections_procedural_ngp_area.json`",
+     "(`--supersample {} --variants exact pose`, `corrections_procedural_ngp_area.json`) the exact capture scores {} "
+     "dB and refinement {}, its poses {} degrees off",
+     [(("corrections_procedural_ngp_area.json", "supersample"), d),
+      (("corrections_procedural_ngp_area.json", "runs", "exact", "eval_psnr"), f2),
+      (("corrections_procedural_ngp_area.json", "runs", "pose", "eval_psnr"), f2),
+      (("corrections_procedural_ngp_area.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
     ("docs/splats.md", "What it is worth, on maryrose with `--no-masks`",
      "3-minute runs at 432 px, one sitting: **{} dB / SSIM {}** on the {} held-out photos from the triangulated points "
      "({} steps), {} dB / SSIM {} from random points ({} steps); the command took {} minutes against {}",
