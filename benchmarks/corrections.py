@@ -3,7 +3,7 @@ embeddings --appearance-dim) on procedural captures whose photos were taken with
 written ones by a known amount; the same capture with exact poses and no gains is the reference.
 
     python benchmarks/corrections.py [--preset splat] [--steps 2000] [--size 64] [--masks] [--name NAME]
-        [--held-out exact|imperfect] [--random-start] [--flags "..."]
+        [--rig ring|forward] [--supersample S] [--held-out exact|imperfect] [--random-start] [--flags "..."]
 
 For each variant (exact: the exact capture, corrections off; none: the imperfect capture, corrections off;
 colour, pose, both), one run of `nerfkit train --preset P` with --max-steps (splats: 20,000 slots, starting from
@@ -62,6 +62,8 @@ def main() -> None:
     ap.add_argument("--supersample", type=int, default=1,
                     help="S: each photo's pixels integrate S x S samples, as a sensor does (1: point-sampled, aliased)")
     ap.add_argument("--masks", action="store_true", help="objects on a backdrop with masks (else a far environment)")
+    ap.add_argument("--rig", choices=("ring", "forward"), default="ring",
+                    help="cameras all around the objects, or all facing one way (LLFF's forward-facing captures)")
     ap.add_argument("--degrees", type=float, default=1.0)
     ap.add_argument("--shift", type=float, default=0.02, help="pose error as a fraction of the camera radius")
     ap.add_argument("--gains", type=float, default=0.15)
@@ -82,11 +84,11 @@ def main() -> None:
                                   environment=not a.masks, masks=a.masks,
                                   pose_noise=(a.degrees, a.shift) if noisy else (0.0, 0.0),
                                   gains=a.gains if noisy else 0.0, exact_every=8 if a.held_out == "exact" else 0,
-                                  supersample=a.supersample)
+                                  supersample=a.supersample, rig=a.rig)
     truth_poses = np.load(caps["imperfect"] / "truth" / "poses.npy")
     truth_gains = np.load(caps["imperfect"] / "truth" / "gains.npy")
     result = {"what": __doc__.split("\n\n")[0], "preset": a.preset, "steps": a.steps, "size": a.size, "views": a.views, "masks": a.masks,
-              "supersample": a.supersample,
+              "supersample": a.supersample, "rig": a.rig,
               "pose_noise_degrees": a.degrees, "pose_noise_radius_share": a.shift, "gains": a.gains,
               "held_out": a.held_out, "flags": a.flags, "start": "random" if a.random_start else "auto", "runs": {},
               "provenance": provenance()}
