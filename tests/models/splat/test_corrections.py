@@ -48,7 +48,7 @@ def test_corrections_find_the_gains_and_the_poses(capture, tmp_path, capsys):
     true_poses = np.load(capture / "truth" / "poses.npy")[idx]
     given, after = aligned_pose_error(poses, true_poses), aligned_pose_error(refined, true_poses)
     print("given", given, "refined", after)
-    assert after[0] < 0.8 * given[0] and after[1] < 0.9 * given[1], (given, after)  # measured 0.54 and 0.83
+    assert after[0] < 0.8 * given[0] and after[1] < 0.9 * given[1], (given, after)  # measured 0.68 and 0.57
     # Held-out photos are rendered from their given poses moved into the refined training poses' frame (the
     # similarity from given to refined training poses; its math: tests/rays/test_correction.py). This run's rig
     # hardly drifts (measured: 0.577 degrees with the given held-out poses, 0.583 with the moved ones), so the move
