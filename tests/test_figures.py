@@ -82,6 +82,7 @@ NGP, SPLAT = "lego_cli_ngp.json", "lego_cli_splat.json"
 INIT = "maryrose_nomasks_init_cli.json"  # splat init: triangulated points against random ones
 CORR, PCORR = "buddha_corrections_cli.json", "corrections_procedural.json"  # splats' per-photo corrections
 ACORR = "corrections_procedural_area.json"  # the same on photos whose pixels integrate their area
+FCORR = "corrections_forward_area.json"  # and on a forward-facing capture
 FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats' far points
 START = "procedural_splat_start_cli.json"  # where a splat run starts
 BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
@@ -466,6 +467,22 @@ CHECKS = [
       (("corrections_procedural_ngp_area.json", "runs", "exact", "eval_psnr"), f2),
       (("corrections_procedural_ngp_area.json", "runs", "pose", "eval_psnr"), f2),
       (("corrections_procedural_ngp_area.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
+    ("docs/splats.md", "`--pose-refine on` also learns",
+     "(every camera facing one way; `--rig forward --supersample {}`, `corrections_forward_area.json`): {} dB "
+     "exact, {} imperfect, {} with the colour transforms, {} with pose refinement and {} with both (poses {} "
+     "degrees off)",
+     [((FCORR, "supersample"), d), ((FCORR, "runs", "exact", "eval_psnr"), f2),
+      ((FCORR, "runs", "none", "eval_psnr"), f2), ((FCORR, "runs", "colour", "eval_psnr"), f2),
+      ((FCORR, "runs", "pose", "eval_psnr"), f2), ((FCORR, "runs", "both", "eval_psnr"), f2),
+      ((FCORR, "runs", "both", "refined_pose_error", "degrees"), f2)]),
+    ("docs/methods.md", "`corrections_forward_ngp_area.json`",
+     "(`--rig forward --supersample {} --variants exact none pose`, `corrections_forward_ngp_area.json`) {} dB exact, "
+     "{} imperfect and {} with refinement (poses {} degrees off)",
+     [(("corrections_forward_ngp_area.json", "supersample"), d),
+      (("corrections_forward_ngp_area.json", "runs", "exact", "eval_psnr"), f2),
+      (("corrections_forward_ngp_area.json", "runs", "none", "eval_psnr"), f2),
+      (("corrections_forward_ngp_area.json", "runs", "pose", "eval_psnr"), f2),
+      (("corrections_forward_ngp_area.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
     ("docs/splats.md", "What it is worth, on maryrose with `--no-masks`",
      "3-minute runs at 432 px, one sitting: **{} dB / SSIM {}** on the {} held-out photos from the triangulated points "
      "({} steps), {} dB / SSIM {} from random points ({} steps); the command took {} minutes against {}",
