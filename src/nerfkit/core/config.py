@@ -215,7 +215,7 @@ class TrainConfig:
     translation, in the camera's frame) learned with the scene at its own learning rate (the fields from the first
     step, splats after a warm-up). Other views (held-out photos in eval) are rendered from their given poses moved
     by the similarity that best maps the given training poses onto the refined ones. Off by default: on buddha (11
-    registered photos, SfM poses, 3-minute runs) it cost ngp 0.56 dB and splats 0.23 dB on the held-out photos
+    registered photos, SfM poses, 3-minute runs) it cost ngp 0.54 dB and splats 0.29 dB on the held-out photos
     (benchmarks/results/buddha_pose_cli.json)."""
     devices: int | None = None
     """Local devices to split each step's rays over (data parallel; --batch-rays is the global batch, a
