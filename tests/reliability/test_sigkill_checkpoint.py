@@ -101,7 +101,8 @@ def test_sigkill_during_saves_leaves_a_loadable_latest_checkpoint(tmp_path):
             np.testing.assert_array_equal(state["params"]["b"], expect["params"]["b"])
             assert int(state["count"]) == step
             # keep=2: older checkpoints are pruned only after a newer one is complete (a kill between the
-            # rename and the pruning leaves one extra, which the next save removes); all of them load.
+            # rename and the pruning leaves one extra, which the next save removes before it writes, so kills in
+            # that window one after the other leave no more); all of them load.
             assert 1 <= len(list_checkpoints(ckpt_dir)) <= 3
             for older in list_checkpoints(ckpt_dir):
                 restore_checkpoint(older, template, FIELD)

@@ -84,12 +84,15 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
 
 
 def save_checkpoint(ckpt_dir: Path, step: int, state, field_cfg: dict, keep: int) -> Path:
-    """Write state at `step`, then delete all but the newest `keep` checkpoints."""
+    """Write state at `step`, then delete all but the newest `keep` checkpoints (and, before writing, any beyond
+    `keep` that a writer killed between its rename and its pruning left: so there are never more than keep + 1)."""
     host_state = jax.tree_util.tree_map(np.asarray, serialization.to_state_dict(state))
     blob = serialization.msgpack_serialize({"format": FORMAT, "step": int(step), "field": field_cfg, "state": host_state})
     path = checkpoint_path(Path(ckpt_dir), step)
+    for old in list_checkpoints(Path(ckpt_dir))[:-keep]:
+        old.unlink(missing_ok=True)
     atomic_write_bytes(path, blob)
-    # Only now that the new checkpoint is complete and renamed into place: prune.
+    # Only now that the new checkpoint is complete and renamed into place: prune to `keep`.
     for old in list_checkpoints(Path(ckpt_dir))[:-keep]:
         old.unlink(missing_ok=True)
     _remove_stale_temporaries(Path(ckpt_dir))
