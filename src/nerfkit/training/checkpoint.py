@@ -89,14 +89,17 @@ def save_checkpoint(ckpt_dir: Path, step: int, state, field_cfg: dict, keep: int
     host_state = jax.tree_util.tree_map(np.asarray, serialization.to_state_dict(state))
     blob = serialization.msgpack_serialize({"format": FORMAT, "step": int(step), "field": field_cfg, "state": host_state})
     path = checkpoint_path(Path(ckpt_dir), step)
-    for old in list_checkpoints(Path(ckpt_dir))[:-keep]:
-        old.unlink(missing_ok=True)
+    _prune(Path(ckpt_dir), keep)
     atomic_write_bytes(path, blob)
-    # Only now that the new checkpoint is complete and renamed into place: prune to `keep`.
-    for old in list_checkpoints(Path(ckpt_dir))[:-keep]:
-        old.unlink(missing_ok=True)
+    _prune(Path(ckpt_dir), keep)  # only now that the new checkpoint is complete and renamed into place
     _remove_stale_temporaries(Path(ckpt_dir))
     return path
+
+
+def _prune(ckpt_dir: Path, keep: int) -> None:
+    """Delete all but the newest `keep` complete checkpoints in ckpt_dir."""
+    for old in list_checkpoints(ckpt_dir)[:-keep]:
+        old.unlink(missing_ok=True)
 
 
 def _fallback_hint(path: Path) -> str:
