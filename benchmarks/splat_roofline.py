@@ -35,39 +35,40 @@ import numpy as np
 from numba import njit, prange
 from provenance import provenance
 
-from nerfkit.models.splat import tiles_numba
+from nerfkit.models.splat import tiles_kernels, tiles_numba
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, intrinsics_of, splat_inputs
 from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
-from nerfkit.models.splat.tiles_kernels import TILE, _cols, _gaussian, _rows, _tile_box
+from nerfkit.models.splat.tiles_kernels import _INV_A, _OK, TILE, _cols, _entry, _rows, _tile_box
 from nerfkit.rays.cameras import Camera
 from nerfkit.run.folder import RunFolder
 
 ROOT = Path(__file__).resolve().parents[1]
 
 # Flops per pair, read off tiles_kernels.py's inner loops (3 colour channels):
-#   tested: e *= r, r *= q (2); d_x = m_x - (x0 + x + 0.5) (2); sigma = 0.5 (a dx^2 + c dy^2) + b dx dy (9)
+#   tested: e *= r, r *= q (2); the 3-sigma cut e < E_MIN (1)
 #   forward blended: alpha = min(ALPHA_MAX, o e) (2); next_t = T (1 - alpha) (2); w = alpha T (1);
 #       acc += w c (6)
-#   backward blended: alpha (2); 1 / (1 - alpha) (2); t_k, w (2); per channel g_col += w G, d_alpha +=
-#       (c - R) G, R += alpha (c - R) (7 x 3); d_alpha t_k - g_end inv (3); g_o += e d_alpha (2);
+#   backward blended: d_x = m_x - (x0 + x + 0.5) (2); alpha (2); 1 / (1 - alpha) (2); t_k, w (2); per
+#       channel g_col += w G, d_alpha += (c - R) G, R += alpha (c - R) (7 x 3); d_alpha t_k - g_end inv (3);
+#       g_o += e d_alpha (2);
 #       d_sigma = -alpha d_alpha (2); g_mx, g_my += d_sigma (a dx + b dy) (5 + 5); g_a, g_b, g_c (3 x 3)
-FLOPS = {"tested": 13, "forward_blended": 11, "backward_blended": 53}
-PARAM_BYTES = 10 * 8  # per Gaussian-tile entry: mean 2, conic 3, opacity 1, colour 3, id (as 8)
+FLOPS = {"tested": 3, "forward_blended": 11, "backward_blended": 55}
+PARAM_BYTES = 17 * 8  # per Gaussian-tile entry: its gaussian_table row 13, colour 3, id (as 8)
 PIXEL_BYTES = {"forward": 3 * 8 + 8 + 4, "backward": 3 * 8 + 8 + 4 + 8}  # image, T, n_contrib (+ dL/dT)
 
 
 @njit(cache=False)
-def _pair_passes(g, means2d, conics, opacities, x0, y0, nx, ny):
+def _pair_passes(g, gt, x0, y0, nx, ny):
     """The pixels (y, x) of Gaussian g's ellipse span in the tile and whether each passes the alpha test
-    (tiles_kernels._blend_tile's tests), as a list of (y, x, alpha or -1)."""
+    (tiles_kernels._blend_tile's tests; gt: tiles_kernels.gaussian_table), as a list of (y, x, alpha or -1)."""
     res = []
-    mx, my, a, b, c, o, det, span, ok = _gaussian(g, means2d, conics, opacities)
-    if not ok:
+    if gt[g, _OK] == 0.0:
         return res
+    mx, my, a, b, c, o, det, span, _ = _entry(gt, g)
     ys, ye = _rows(my, a, det, span, y0, ny)
     for y in range(ys, ye + 1):
         dy = my - (y0 + y + 0.5)
-        xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
+        xs, xe = _cols(mx, dy, a, b, det, gt[g, _INV_A], span, x0, nx)
         for x in range(xs, xe + 1):
             dx = mx - (x0 + x + 0.5)
             sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
@@ -77,7 +78,7 @@ def _pair_passes(g, means2d, conics, opacities, x0, y0, nx, ny):
 
 
 @njit(cache=False)
-def count_pairs(means2d, conics, opacities, offsets, ids, n_contrib, width, height):
+def count_pairs(gt, offsets, ids, n_contrib, width, height):
     """(forward tested, forward blended, backward tested, backward blended, Gaussian-tile entries the forward
     pass visits, entries the backward pass visits): the kernels' loops (tiles_kernels._blend_tile,
     _unblend_tile) run with counters instead of arithmetic (the same tests, so the same pairs)."""
@@ -91,7 +92,7 @@ def count_pairs(means2d, conics, opacities, offsets, ids, n_contrib, width, heig
         n_live = nx * ny
         for k in range(count):  # forward, front to back, until every pixel is done
             f_entries += 1
-            for y, x, alpha in _pair_passes(ids[start + k], means2d, conics, opacities, x0, y0, nx, ny):
+            for y, x, alpha in _pair_passes(ids[start + k], gt, x0, y0, nx, ny):
                 if done[y, x]:
                     continue
                 f_test += 1
@@ -108,7 +109,7 @@ def count_pairs(means2d, conics, opacities, offsets, ids, n_contrib, width, heig
                 break
         for k in range(n_contrib[y0:y0 + ny, x0:x0 + nx].max() - 1, -1, -1):  # backward, from the tile's largest n_contrib
             b_entries += 1
-            for y, x, alpha in _pair_passes(ids[start + k], means2d, conics, opacities, x0, y0, nx, ny):
+            for y, x, alpha in _pair_passes(ids[start + k], gt, x0, y0, nx, ny):
                 if k >= n_contrib[y0 + y, x0 + x]:
                     continue
                 b_test += 1
@@ -196,7 +197,8 @@ def measure_view(inputs, size: tuple[int, int], view: int, reps: int) -> dict:
     g_t = np.zeros_like(t_final)
     m64, c64, o64 = tiles_numba._f64(means2d, conics, opac)
     offsets, ids = tiles_numba.bin_gaussians(m64, c64, o64, depths, radii, w, h)
-    f_test, f_blend, b_test, b_blend, f_entries, b_entries = count_pairs(m64, c64, o64, offsets, ids, n_contrib, w, h)
+    gt = tiles_kernels.gaussian_table(m64, c64, o64)
+    f_test, f_blend, b_test, b_blend, f_entries, b_entries = count_pairs(gt, offsets, ids, n_contrib, w, h)
     times = {"forward_s": _median(lambda: tiles_numba.forward(*args, w, h), reps),
              "backward_s": _median(lambda: tiles_numba.backward(*args, w, h, t_final, n_contrib, g_img, g_t), reps),
              "forward_1thread_s": _median(lambda: tiles_numba.forward(*args, w, h, threads=1), reps),

@@ -10,8 +10,19 @@ import math
 import numpy as np
 from numba import njit
 
-from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
-from nerfkit.models.splat.tiles_kernels import TILE, _cols, _gaussian, _rows, _tile_box
+from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, T_MIN
+from nerfkit.models.splat.tiles_kernels import (
+    _INV_A,
+    _OK,
+    E_MIN,
+    TILE,
+    _cols,
+    _entry,
+    _row_start,
+    _rows,
+    _sharp_exp,
+    _tile_box,
+)
 
 
 @njit(cache=True, inline="always")
@@ -48,7 +59,7 @@ def _band_step(planes, g, px, py, c0, c1, final, band, acc, wsum, y, x):
 
 
 @njit(cache=True, nogil=True)
-def median_tiles(means2d, conics, opacities, planes, offsets, ids, width, height, t_final, band, out, first, stride):
+def median_tiles(gt, planes, offsets, ids, width, height, t_final, band, out, first, stride):
     """Tiles first, first + stride, ...: at each pixel, blended front to back as _blend_tile does, the mean of
     its depth quantile function over the running opacities [(1/2 - band) A, (1/2 + band) A], A = 1 - t_final
     the pixel's final opacity: each Gaussian g weighs the share of that band its blend step [1 - T_before,
@@ -67,21 +78,30 @@ def median_tiles(means2d, conics, opacities, planes, offsets, ids, width, height
             if n_live == 0:
                 break
             g = ids[start + k]
-            mx, my, a, b, c, o, det, span, ok = _gaussian(g, means2d, conics, opacities)
-            if not ok:
+            if gt[g, _OK] == 0.0:
                 continue
+            mx, my, a, b, c, o, det, span, q = _entry(gt, g)
             ys, ye = _rows(my, a, det, span, y0, ny)
+            xa = ya = -1
+            e0 = r0 = v0 = 0.0
             for y in range(ys, ye + 1):
                 dy = my - (y0 + y + 0.5)
-                xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
+                xs, xe = _cols(mx, dy, a, b, det, gt[g, _INV_A], span, x0, nx)
+                if xs > xe:
+                    continue
+                e0, r0, v0 = _row_start(gt, g, mx - (x0 + xs + 0.5), dy, xs, y, xa, ya, e0, r0, v0)
+                xa, ya = xs, y
+                e, r = e0, r0
                 for x in range(xs, xe + 1):
+                    if x > xs:
+                        e *= r
+                        r *= q
                     if done[y, x]:
                         continue
-                    dx = mx - (x0 + x + 0.5)
-                    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-                    if sigma < 0.0 or sigma > SIGMA_MAX:
+                    e = _sharp_exp(a, b, c, mx - (x0 + x + 0.5), dy, e)
+                    if e < E_MIN:  # sigma > SIGMA_MAX
                         continue
-                    alpha = min(ALPHA_MAX, o * math.exp(-sigma))
+                    alpha = min(ALPHA_MAX, o * e)
                     if alpha < ALPHA_MIN:
                         continue
                     next_t = trans[y, x] * (1.0 - alpha)

@@ -1,9 +1,11 @@
 """The numba kernels of the CPU tile rasteriser (tiles_numba.py calls them; its docstring states the
 binning, the blend and the gradients they compute).
 
+    gaussian_table          once a pass, per Gaussian: mean, conic, opacity, the alpha test's bound, and the
+                            ratios e^{-a}, e^{-b}, e^{-c} that scanlines advance e^{-sigma} by
     tile_rects, bin_tiles   binning: each Gaussian's tile rectangle, the per-tile lists in depth order
     _span, _rows, _cols     the alpha test's ellipse d^T Q d <= s(o), its rows and each row's columns
-    _row_exp                e^{-sigma} advanced along a scanline by two products per pixel
+    _row_start              e^{-sigma} and its ratios at a scanline's first pixel, walked from the last one's
     forward_tiles           per tile: _blend_tile (front to back), _store_tile
     backward_tiles          per tile: _load_tile, _unblend_tile (back to front)
 
@@ -11,7 +13,8 @@ depth_kernels.py holds the exports' depth kernel (median_tiles), built on the he
 
 The per-tile helpers are inlined (inline="always") and take a whole tile: a helper called once per
 Gaussian with the scanline loop inside cost the backward pass 2-4 % (measured); these cost nothing.
-Kernels take float64 arrays and are compiled on first use and cached on disk (cache=True).
+Kernels take float64 arrays (images may be float32) and are compiled on first use and cached on disk
+(cache=True).
 """
 
 from __future__ import annotations
@@ -48,7 +51,12 @@ def bin_tiles(rects, order, n_tiles, tiles_x):
 
 
 _LOG_ALPHA_MIN = math.log(ALPHA_MIN)
-_A_RECUR = 25.0  # conic a (px^-2) up to which e^{-sigma} is advanced by products along rows
+E_MIN = math.exp(-SIGMA_MAX)  # the 3-sigma cut sigma <= SIGMA_MAX, read on e^{-sigma}
+_A_RECUR = 25.0  # conic a (px^-2) up to which e^{-sigma} is advanced by products (else an exp a pixel)
+WALK = 4  # a scanline start at most this many steps (rows down + columns across) from the last is walked to
+
+# gaussian_table's columns
+_MX, _MY, _A, _B, _C, _O, _DET, _SPAN, _OK, _INV_A, _EA, _EB, _EC = range(13)
 
 
 @njit(cache=True, inline="always")
@@ -60,36 +68,83 @@ def _span(o):
     return 2.0 * min(SIGMA_MAX, math.log(o) - _LOG_ALPHA_MIN) * (1.0 + 1e-6) + 1e-9
 
 
+@njit(cache=True, nogil=True)
+def gaussian_table(means2d, conics, opacities):
+    """[N, 13] float64, a row per Gaussian: m_x, m_y, the conic Q = [[a, b], [b, c]], opacity o, det Q, the alpha
+    test's bound _span(o), ok (1: Q positive definite and span > 0; 0: it shows nowhere), and where ok 1 / a and
+    the ratios e^{-a}, e^{-b}, e^{-c} of _row_start. Once a pass, rather than once per tile a Gaussian lands in."""
+    n = means2d.shape[0]
+    gt = np.zeros((n, 13))
+    for g in range(n):
+        a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
+        o = float(opacities[g])
+        det = a * c - b * b
+        span = _span(o)
+        gt[g, _MX], gt[g, _MY] = float(means2d[g, 0]), float(means2d[g, 1])
+        gt[g, _A], gt[g, _B], gt[g, _C], gt[g, _O], gt[g, _DET], gt[g, _SPAN] = a, b, c, o, det, span
+        if a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(gt[g, _MX]) and math.isfinite(gt[g, _MY]):
+            gt[g, _OK], gt[g, _INV_A] = 1.0, 1.0 / a
+            gt[g, _EA], gt[g, _EB], gt[g, _EC] = math.exp(-a), math.exp(-b), math.exp(-c)
+    return gt
+
+
 @njit(cache=True, inline="always")
 def _rows(my, a, det, span, y0, ny):
-    """Tile rows [ys, ye] (relative to y0) that the ellipse d^T Q d <= span may reach."""
-    sy = math.sqrt(span * a / det)  # Sigma'_yy = a / det
-    return max(0, int(math.floor(my - sy - 0.5)) - y0), min(ny - 1, int(math.floor(my + sy - 0.5)) + 1 - y0)
+    """Tile rows [ys, ye] (relative to y0) whose pixel centres p_y lie within the ellipse d^T Q d <= span's rows,
+    |p_y - m_y| <= sqrt(span Sigma'_yy), Sigma'_yy = a / det. No pixel of slack: _span's own (a millionth of
+    the bound) is far above the rounding here, so every pixel that can pass the alpha test is inside."""
+    sy = math.sqrt(span * a / det)
+    return max(0, int(math.ceil(my - sy - 0.5)) - y0), min(ny - 1, int(math.floor(my + sy - 0.5)) - y0)
 
 
 @njit(cache=True, inline="always")
-def _cols(mx, dy, a, b, c, span, x0, nx):
-    """Tile columns [xs, xe] (relative to x0) of the ellipse's span in the row at offset dy = m_y - p_y."""
-    disc = b * b * dy * dy - a * (c * dy * dy - span)
+def _cols(mx, dy, a, b, det, inv_a, span, x0, nx):
+    """Tile columns [xs, xe] (relative to x0) of the ellipse's span in the row at offset dy = m_y - p_y: the pixel
+    centres between the roots of a d_x^2 + 2 b d_x d_y + c d_y^2 = span (no pixel of slack, as _rows)."""
+    disc = a * span - det * dy * dy  # (b d_y)^2 - a (c d_y^2 - span)
     if disc < 0.0:
         return 0, -1
     sq = math.sqrt(disc)
-    hi = (-b * dy + sq) / a  # d_x = m_x - p_x, so p_x spans [m_x - hi, m_x - lo]
-    lo = (-b * dy - sq) / a
-    return max(0, int(math.floor(mx - hi - 0.5)) - x0), min(nx - 1, int(math.floor(mx - lo - 0.5)) + 1 - x0)
+    hi = (-b * dy + sq) * inv_a  # d_x = m_x - p_x, so p_x spans [m_x - hi, m_x - lo]
+    lo = (-b * dy - sq) * inv_a
+    return max(0, int(math.ceil(mx - hi - 0.5)) - x0), min(nx - 1, int(math.floor(mx - lo - 0.5)) - x0)
 
 
 @njit(cache=True, inline="always")
-def _row_exp(dx, dy, a, b, c):
-    """(e^{-sigma}, e^{-(sigma' - sigma)}) at the first pixel of a scanline, sigma' the next pixel's.
+def _row_start(gt, g, dx, dy, xs, y, xa, ya, e, r, v):
+    """(e, r, v) at pixel (xs, y) of a tile, d = (dx, dy) = m - p there: e = e^{-sigma(d)}, and r = e(x + 1) / e(x),
+    v = e(y + 1) / e(y) its ratios to the next pixel along the row and down the column:
 
-    Along a row, d_x drops by 1 per pixel and sigma(d_x - 1) - sigma(d_x) = -(a d_x + b d_y) + a/2,
-    whose own step is +a: e^{-sigma} advances as e <- e r, r <- r e^{-a}, two products per pixel
-    instead of an exp (relative drift ~1e-15 over a tile row; both passes use the same sequence).
-    With Sigma' >= 0.3 I (project.py's dilation), a <= 1 / 0.3 and |log r| stays below ~10 over the
-    span and its slack; sharper conics (a > _A_RECUR) take an exp per pixel instead (no overflow)."""
-    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-    return math.exp(-sigma), math.exp(a * dx + b * dy - 0.5 * a)
+        sigma = (a d_x^2 + c d_y^2) / 2 + b d_x d_y,  r = e^{a d_x + b d_y - a/2},  v = e^{b d_x + c d_y - c/2}.
+
+    Walked by products from (e, r, v) at the Gaussian's previous scanline start (xa, ya) in the tile when
+    (y - ya) + |xs - xa| <= WALK: a step down is e <- e v, r <- r e^{-b}, v <- v e^{-c}; one to the right
+    e <- e r, v <- v e^{-b}, r <- r e^{-a}; one to the left r <- r e^{a}, e <- e / r, v <- v e^{b}. Exact (three
+    exps) when there is none (ya < 0) or it is further. Row starts lie in or beside the ellipse, so the values
+    walked through stay far from overflow; each product adds an ulp of relative error (~1e-15 over a tile).
+    Along the row, e <- e r, r <- r e^{-a} (two products a pixel). Forward and backward walk the same sequence."""
+    if ya < 0 or (y - ya) + abs(xs - xa) > WALK:
+        a, b, c = gt[g, _A], gt[g, _B], gt[g, _C]
+        return (math.exp(-(0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy)), math.exp(a * dx + b * dy - 0.5 * a),
+                math.exp(b * dx + c * dy - 0.5 * c))
+    p, s = gt[g, _EB], gt[g, _EC]
+    for _ in range(y - ya):
+        e *= v
+        r *= p
+        v *= s
+    if xs >= xa:
+        q = gt[g, _EA]
+        for _ in range(xs - xa):
+            e *= r
+            v *= p
+            r *= q
+    else:
+        iq, ip = 1.0 / gt[g, _EA], 1.0 / p
+        for _ in range(xa - xs):
+            r *= iq
+            e /= r
+            v *= ip
+    return e, r, v
 
 
 @njit(cache=True)
@@ -109,11 +164,11 @@ def tile_rects(means2d, conics, opacities, radii, width, height):
             continue
         hx = min(radii[g] + 1.0, math.sqrt(span * c / det))  # Sigma'_xx = c / det
         hy = min(radii[g] + 1.0, math.sqrt(span * a / det))
-        # pixels j with |j + 0.5 - m| <= h, one pixel of slack for rounding
-        j0 = max(0.0, math.floor(mx - hx - 0.5))
-        j1 = min(width - 1.0, math.floor(mx + hx - 0.5) + 1.0)
-        i0 = max(0.0, math.floor(my - hy - 0.5))
-        i1 = min(height - 1.0, math.floor(my + hy - 0.5) + 1.0)
+        # pixels j with |j + 0.5 - m| <= h (as _rows, no pixel of slack)
+        j0 = max(0.0, math.ceil(mx - hx - 0.5))
+        j1 = min(width - 1.0, math.floor(mx + hx - 0.5))
+        i0 = max(0.0, math.ceil(my - hy - 0.5))
+        i1 = min(height - 1.0, math.floor(my + hy - 0.5))
         if j0 > j1 or i0 > i1:
             continue
         rects[g, 0] = int(j0) // TILE
@@ -133,61 +188,77 @@ def _tile_box(t, tiles_x, width, height):
 
 
 @njit(cache=True, inline="always")
-def _gaussian(g, means2d, conics, opacities):
-    """(m_x, m_y, a, b, c, o, det, span, ok) of Gaussian g: mean, conic Q = [[a, b], [b, c]], opacity, det Q
-    and the alpha test's bound _span(o); ok: Q positive definite and span > 0 (else it shows nowhere)."""
-    mx, my = float(means2d[g, 0]), float(means2d[g, 1])
-    a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
-    o = float(opacities[g])
-    det = a * c - b * b
-    span = _span(o)
-    return mx, my, a, b, c, o, det, span, a > 0.0 and det > 0.0 and span > 0.0
+def _entry(gt, g):
+    """(m_x, m_y, a, b, c, o, det, span, e^{-a}) of Gaussian g's row of gaussian_table."""
+    return gt[g, _MX], gt[g, _MY], gt[g, _A], gt[g, _B], gt[g, _C], gt[g, _O], gt[g, _DET], gt[g, _SPAN], gt[g, _EA]
 
 
 @njit(cache=True, inline="always")
-def _blend_tile(ids, start, count, means2d, conics, colors, opacities, x0, y0, nx, ny, trans, done, last, acc):
+def _sharp_exp(a, b, c, dx, dy, e):
+    """e^{-sigma} at d = (dx, dy) for a conic too sharp for products along the row (a > _A_RECUR: |log r| could
+    reach overflow over a tile), else e as walked; sigma < 0 (rounding, at most) reads as the 3-sigma cut's 0."""
+    if a <= _A_RECUR:
+        return e
+    sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
+    return math.exp(-sigma) if sigma >= 0.0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _blend_tile(ids, start, count, gt, colors, x0, y0, nx, ny, trans, done, last, acc):
     """Blend the tile's list ids[start:start + count] front to back into its pixels: at each pixel of a
     Gaussian's ellipse not yet done, acc += alpha T c, T *= 1 - alpha, last = k + 1 (k its list position);
-    a pixel whose T would drop below T_MIN is done instead. Stops when every pixel is done."""
+    a pixel whose T would drop below T_MIN is done instead. Stops when every pixel is done. Three and four
+    channels (colour, colour and depth) are written out, not looped over: a tenth of the pass."""
     n_ch = colors.shape[1]
-    col = np.empty(n_ch)
+    col = np.zeros(max(n_ch, 4))
     n_live = nx * ny
     for k in range(count):
         g = ids[start + k]
-        mx, my, a, b, c, o, det, span, ok = _gaussian(g, means2d, conics, opacities)
-        if not ok:
+        if gt[g, _OK] == 0.0:
             continue
+        mx, my, a, b, c, o, det, span, q = _entry(gt, g)
         for ch in range(n_ch):
             col[ch] = colors[g, ch]
-        q = math.exp(-a)
+        c0, c1, c2, c3 = col[0], col[1], col[2], col[3]
         ys, ye = _rows(my, a, det, span, y0, ny)
+        xa = ya = -1
+        e0 = r0 = v0 = 0.0
         for y in range(ys, ye + 1):
             dy = my - (y0 + y + 0.5)
-            xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
-            e, r = _row_exp(mx - (x0 + xs + 0.5), dy, a, b, c)
+            xs, xe = _cols(mx, dy, a, b, det, gt[g, _INV_A], span, x0, nx)
+            if xs > xe:
+                continue
+            e0, r0, v0 = _row_start(gt, g, mx - (x0 + xs + 0.5), dy, xs, y, xa, ya, e0, r0, v0)
+            xa, ya = xs, y
+            e, r = e0, r0
             for x in range(xs, xe + 1):
                 if x > xs:
                     e *= r
                     r *= q
                 if done[y, x]:
                     continue
-                dx = mx - (x0 + x + 0.5)
-                sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-                if sigma < 0.0 or sigma > SIGMA_MAX:
+                e = _sharp_exp(a, b, c, mx - (x0 + x + 0.5), dy, e)
+                if e < E_MIN:  # sigma > SIGMA_MAX
                     continue
-                if a > _A_RECUR:
-                    e = math.exp(-sigma)
                 alpha = min(ALPHA_MAX, o * e)
                 if alpha < ALPHA_MIN:
                     continue
-                next_t = trans[y, x] * (1.0 - alpha)
+                t_k = trans[y, x]
+                next_t = t_k * (1.0 - alpha)
                 if next_t < T_MIN:
                     done[y, x] = True
                     n_live -= 1
                     continue
-                w = alpha * trans[y, x]
-                for ch in range(n_ch):
-                    acc[y, x, ch] += w * col[ch]
+                w = alpha * t_k
+                if n_ch == 3 or n_ch == 4:
+                    acc[y, x, 0] += w * c0
+                    acc[y, x, 1] += w * c1
+                    acc[y, x, 2] += w * c2
+                    if n_ch == 4:
+                        acc[y, x, 3] += w * c3
+                else:
+                    for ch in range(n_ch):
+                        acc[y, x, ch] += w * col[ch]
                 trans[y, x] = next_t
                 last[y, x] = k + 1
         if n_live == 0:
@@ -206,8 +277,7 @@ def _store_tile(acc, trans, last, background, n_ch, x0, y0, nx, ny, image, t_fin
 
 
 @njit(cache=True, nogil=True)
-def forward_tiles(means2d, conics, colors, opacities, background, offsets, ids, width, height, image, t_final, n_contrib,
-             first, stride):
+def forward_tiles(gt, colors, background, offsets, ids, width, height, image, t_final, n_contrib, first, stride):
     """Tiles first, first + stride, ... (one worker's share): each blended (_blend_tile), then written out."""
     n_ch = colors.shape[1]
     tiles_x = (width + TILE - 1) // TILE
@@ -217,8 +287,7 @@ def forward_tiles(means2d, conics, colors, opacities, background, offsets, ids, 
         done = np.zeros((TILE, TILE), np.bool_)
         last = np.zeros((TILE, TILE), np.int32)
         acc = np.zeros((TILE, TILE, n_ch))
-        _blend_tile(ids, offsets[t], offsets[t + 1] - offsets[t], means2d, conics, colors, opacities, x0, y0, nx, ny,
-                    trans, done, last, acc)
+        _blend_tile(ids, offsets[t], offsets[t + 1] - offsets[t], gt, colors, x0, y0, nx, ny, trans, done, last, acc)
         _store_tile(acc, trans, last, background, n_ch, x0, y0, nx, ny, image, t_final, n_contrib)
 
 
@@ -255,27 +324,31 @@ def _add_grads(out, g, g_mx, g_my, g_a, g_b, g_c, g_o):
 
 
 @njit(cache=True, inline="always")
-def _unblend_tile(ids, start, means2d, conics, colors, opacities, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend,
-                  rec, out):
+def _unblend_tile(ids, start, gt, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend, rec, out):
     """Take the tile's Gaussians back off its pixels, back to front from its largest n_contrib (each pixel for
     k < n_contrib), with T_k = T_{k+1} / (1 - alpha_k) and R_{k-1} = alpha_k c_k + (1 - alpha_k) R_k, adding
     each Gaussian's gradient sums over the tile to out[g] (tiles_numba.py, step 3)."""
     col, g_col = np.empty(n_ch), np.empty(n_ch)
     for k in range(n_blend.max() - 1, -1, -1):
         g = ids[start + k]
-        mx, my, a, b, c, o, det, span, ok = _gaussian(g, means2d, conics, opacities)
-        if not ok:
+        if gt[g, _OK] == 0.0:
             continue
+        mx, my, a, b, c, o, det, span, q = _entry(gt, g)
         for ch in range(n_ch):
             col[ch] = colors[g, ch]
         g_col[:] = 0.0
         g_mx = g_my = g_a = g_b = g_c = g_o = 0.0
-        q = math.exp(-a)
         ys, ye = _rows(my, a, det, span, y0, ny)
+        xa = ya = -1
+        e0 = r0 = v0 = 0.0
         for y in range(ys, ye + 1):
             dy = my - (y0 + y + 0.5)
-            xs, xe = _cols(mx, dy, a, b, c, span, x0, nx)
-            e, r = _row_exp(mx - (x0 + xs + 0.5), dy, a, b, c)
+            xs, xe = _cols(mx, dy, a, b, det, gt[g, _INV_A], span, x0, nx)
+            if xs > xe:
+                continue
+            e0, r0, v0 = _row_start(gt, g, mx - (x0 + xs + 0.5), dy, xs, y, xa, ya, e0, r0, v0)
+            xa, ya = xs, y
+            e, r = e0, r0
             for x in range(xs, xe + 1):
                 if x > xs:
                     e *= r
@@ -283,11 +356,9 @@ def _unblend_tile(ids, start, means2d, conics, colors, opacities, n_ch, x0, y0, 
                 if k >= n_blend[y, x]:
                     continue
                 dx = mx - (x0 + x + 0.5)
-                sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy
-                if sigma < 0.0 or sigma > SIGMA_MAX:
+                e = _sharp_exp(a, b, c, dx, dy, e)
+                if e < E_MIN:  # sigma > SIGMA_MAX
                     continue
-                if a > _A_RECUR:
-                    e = math.exp(-sigma)
                 raw = o * e
                 alpha = min(ALPHA_MAX, raw)
                 if alpha < ALPHA_MIN:
@@ -318,8 +389,8 @@ def _unblend_tile(ids, start, means2d, conics, colors, opacities, n_ch, x0, y0, 
 
 
 @njit(cache=True, nogil=True)
-def backward_tiles(means2d, conics, colors, opacities, background, offsets, ids, width, height, t_final, n_contrib,
-              grad_image, grad_t, out, first, stride):
+def backward_tiles(gt, colors, background, offsets, ids, width, height, t_final, n_contrib, grad_image, grad_t, out,
+                   first, stride):
     """Gradient sums over tiles first, first + stride, ... into out [N, 6 + C]: (m_x, m_y, a, b, c, o, colours);
     each tile's state loaded (_load_tile), then its Gaussians taken back off (_unblend_tile)."""
     n_ch = colors.shape[1]
@@ -328,5 +399,4 @@ def backward_tiles(means2d, conics, colors, opacities, background, offsets, ids,
         x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
         trans, g_end, g_img, n_blend, rec = _load_tile(t_final, n_contrib, grad_image, grad_t, background, n_ch,
                                                        x0, y0, nx, ny)
-        _unblend_tile(ids, offsets[t], means2d, conics, colors, opacities, n_ch, x0, y0, nx, ny, trans, g_end,
-                      g_img, n_blend, rec, out)
+        _unblend_tile(ids, offsets[t], gt, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend, rec, out)

@@ -8,16 +8,18 @@ the alpha test only inside its ellipse d^T Q d <= s(o) = 2 min(SIGMA_MAX, log(o 
 its radius square. Conics must be positive definite (project.py's are: Sigma' >= 0.3 I);
 Gaussians with others are skipped.
 
-1. Binning. Gaussian k's pixel box is its mean +- h, h_x = min(r_k + 1, sqrt(s(o) Sigma'_xx))
-   (likewise y; Sigma' = Q^{-1}), one pixel of slack for rounding. Live Gaussians (r_k > 0)
+1. Binning. Gaussian k's pixel box is the pixels whose centres lie within its mean +- h,
+   h_x = min(r_k + 1, sqrt(s(o) Sigma'_xx)) (likewise y; Sigma' = Q^{-1}); s(o) carries a
+   millionth of slack for rounding. Live Gaussians (r_k > 0)
    are visited in depth order (stable argsort) and appended to every tile their box
    touches, so each tile's list comes out already sorted by depth (a counting sort by tile,
    stable in depth: the order a sort on (tile, depth) keys gives, as in the 3DGS code).
 2. Forward, tiles spread over worker threads (the kernels release the GIL). Within a tile,
    the Gaussians are taken front to back and each visits only the pixels of its ellipse,
    scanline by scanline (the rows within sqrt(s Sigma'_yy), in each row the d_x between the
-   roots of d^T Q d = s; one pixel of slack, and the exact per-pixel tests still decide;
-   e^{-sigma} is advanced along the row by two products per pixel, see _row_exp). Per pixel: T,
+   roots of d^T Q d = s; the exact per-pixel tests still decide; e^{-sigma} is advanced along
+   the row by two products per pixel, and from one scanline's start to the next by a few,
+   see _row_start; per-Gaussian constants come from gaussian_table, once a pass). Per pixel: T,
    the colour sum, a done flag (set when T would drop below T_MIN) and n_contrib = 1 + the list
    position of the last Gaussian blended. The tile stops when all its pixels are done.
 3. Backward, tiles spread over worker threads: the same scan back to front from the tile's largest
@@ -55,6 +57,7 @@ from nerfkit.models.splat.tiles_kernels import (
     backward_tiles,
     bin_tiles,
     forward_tiles,
+    gaussian_table,
     tile_rects,
 )
 from nerfkit.models.splat.depth_kernels import median_tiles
@@ -195,13 +198,14 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
     means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
     radii = np.ascontiguousarray(radii, np.int32)
     offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
-    token = KEPT_BINS.put((width, height, offsets, ids)) if keep_bins else None
-    image = np.empty((height, width, colors.shape[1]))
-    t_final = np.empty((height, width))
+    table = gaussian_table(means2d, conics, opacities)
+    token = KEPT_BINS.put((width, height, offsets, ids, table)) if keep_bins else None
+    image = np.empty((height, width, colors.shape[1]), dtype)  # the kernel writes the output dtype: no copy
+    t_final = np.empty((height, width), dtype)
     n_contrib = np.empty((height, width), np.int32)
-    _run(forward_tiles, threads, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width, height,
-                                       image, t_final, n_contrib))
-    out = image.astype(dtype, copy=False), t_final.astype(dtype, copy=False), n_contrib
+    _run(forward_tiles, threads, lambda w: (table, colors, background, offsets, ids, width, height, image, t_final,
+                                            n_contrib))
+    out = image, t_final, n_contrib
     return out + (token,) if keep_bins else out
 
 
@@ -219,15 +223,16 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
     n_contrib = np.ascontiguousarray(n_contrib, np.int32)
     kept = KEPT_BINS.take(bins) if bins is not None else None
     if kept is not None and kept[:2] == (width, height):
-        offsets, ids = kept[2:]
+        offsets, ids, table = kept[2:]
     else:
         offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
+        table = gaussian_table(means2d, conics, opacities)
     n, n_ch = colors.shape
     workers = worker_count(threads)
     out = _SUMS.take((workers, n, 6 + n_ch))
     try:
-        _run(backward_tiles, workers, lambda w: (means2d, conics, colors, opacities, background, offsets, ids, width,
-                                            height, t_final, n_contrib, grad_image, grad_t, out[w]))
+        _run(backward_tiles, workers, lambda w: (table, colors, background, offsets, ids, width, height, t_final,
+                                                 n_contrib, grad_image, grad_t, out[w]))
         total = out[0]
         for w in range(1, workers):
             total += out[w]
@@ -247,7 +252,7 @@ def median_depth(means2d, conics, opacities, depths, radii, planes, width: int, 
     means2d, conics, opacities, planes, t_final = _f64(means2d, conics, opacities, planes, t_final)
     radii = np.ascontiguousarray(radii, np.int32)
     offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
+    table = gaussian_table(means2d, conics, opacities)
     out = np.empty((height, width))
-    _run(median_tiles, threads, lambda w: (means2d, conics, opacities, planes, offsets, ids, width, height, t_final,
-                                           float(band), out))
+    _run(median_tiles, threads, lambda w: (table, planes, offsets, ids, width, height, t_final, float(band), out))
     return out
