@@ -197,7 +197,7 @@ def measure_view(inputs, size: tuple[int, int], view: int, reps: int) -> dict:
     g_t = np.zeros_like(t_final)
     m64, c64, o64 = tiles_numba._f64(means2d, conics, opac)
     offsets, ids = tiles_numba.bin_gaussians(m64, c64, o64, depths, radii, w, h)
-    gt = tiles_kernels.gaussian_table(m64, c64, o64)
+    gt = tiles_kernels.gaussian_table(m64, c64, o64, radii, h)
     f_test, f_blend, b_test, b_blend, f_entries, b_entries = count_pairs(gt, offsets, ids, n_contrib, w, h)
     times = {"forward_s": _median(lambda: tiles_numba.forward(*args, w, h), reps),
              "backward_s": _median(lambda: tiles_numba.backward(*args, w, h, t_final, n_contrib, g_img, g_t), reps),

@@ -12,16 +12,15 @@ from numba import njit
 
 from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, T_MIN
 from nerfkit.models.splat.tiles_kernels import (
-    _INV_A,
     _OK,
     E_MIN,
     TILE,
-    _cols,
     _entry,
     _row_start,
-    _rows,
     _sharp_exp,
     _tile_box,
+    _tile_cols,
+    _tile_rows,
 )
 
 
@@ -59,7 +58,7 @@ def _band_step(planes, g, px, py, c0, c1, final, band, acc, wsum, y, x):
 
 
 @njit(cache=True, nogil=True)
-def median_tiles(gt, planes, offsets, ids, width, height, t_final, band, out, first, stride):
+def median_tiles(gt, start, spans, planes, offsets, ids, width, height, t_final, band, out, first, stride):
     """Tiles first, first + stride, ...: at each pixel, blended front to back as _blend_tile does, the mean of
     its depth quantile function over the running opacities [(1/2 - band) A, (1/2 + band) A], A = 1 - t_final
     the pixel's final opacity: each Gaussian g weighs the share of that band its blend step [1 - T_before,
@@ -73,22 +72,21 @@ def median_tiles(gt, planes, offsets, ids, width, height, t_final, band, out, fi
         out[y0:y0 + ny, x0:x0 + nx] = 0.0
         done[:ny, :nx] = t_final[y0:y0 + ny, x0:x0 + nx] >= 1.0
         n_live = ny * nx - np.sum(done[:ny, :nx])
-        start = offsets[t]
-        for k in range(offsets[t + 1] - start):
+        for k in range(offsets[t + 1] - offsets[t]):
             if n_live == 0:
                 break
-            g = ids[start + k]
+            g = ids[offsets[t] + k]
             if gt[g, _OK] == 0.0:
                 continue
-            mx, my, a, b, c, o, det, span, q = _entry(gt, g)
-            ys, ye = _rows(my, a, det, span, y0, ny)
+            mx, my, a, b, c, o, _, _, q = _entry(gt, g)
+            ys, ye, base = _tile_rows(gt, g, start, y0, ny)
             xa = ya = -1
             e0 = r0 = v0 = 0.0
             for y in range(ys, ye + 1):
-                dy = my - (y0 + y + 0.5)
-                xs, xe = _cols(mx, dy, a, b, det, gt[g, _INV_A], span, x0, nx)
+                xs, xe = _tile_cols(spans, base, y, x0, nx)
                 if xs > xe:
                     continue
+                dy = my - (y0 + y + 0.5)
                 e0, r0, v0 = _row_start(gt, g, mx - (x0 + xs + 0.5), dy, xs, y, xa, ya, e0, r0, v0)
                 xa, ya = xs, y
                 e, r = e0, r0

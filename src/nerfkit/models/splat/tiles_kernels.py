@@ -1,10 +1,12 @@
 """The numba kernels of the CPU tile rasteriser (tiles_numba.py calls them; its docstring states the
 binning, the blend and the gradients they compute).
 
-    gaussian_table          once a pass, per Gaussian: mean, conic, opacity, the alpha test's bound, and the
-                            ratios e^{-a}, e^{-b}, e^{-c} that scanlines advance e^{-sigma} by
+    gaussian_table          once a pass, per Gaussian: mean, conic, opacity, the alpha test's bound, its image
+                            rows, and the ratios e^{-a}, e^{-b}, e^{-c} that scanlines advance e^{-sigma} by
+    row_spans               once a pass, per Gaussian and image row: the columns of its ellipse's span
     tile_rects, bin_tiles   binning: each Gaussian's tile rectangle, the per-tile lists in depth order
     _span, _rows, _cols     the alpha test's ellipse d^T Q d <= s(o), its rows and each row's columns
+    _tile_rows, _tile_cols  a Gaussian's rows in a tile and each one's columns, read off row_spans
     _row_start              e^{-sigma} and its ratios at a scanline's first pixel, walked from the last one's
     forward_tiles           per tile: _blend_tile (front to back), _store_tile
     backward_tiles          per tile: _load_tile, _unblend_tile (back to front)
@@ -56,7 +58,7 @@ _A_RECUR = 25.0  # conic a (px^-2) up to which e^{-sigma} is advanced by product
 WALK = 4  # a scanline start at most this many steps (rows down + columns across) from the last is walked to
 
 # gaussian_table's columns
-_MX, _MY, _A, _B, _C, _O, _DET, _SPAN, _OK, _INV_A, _EA, _EB, _EC = range(13)
+_MX, _MY, _A, _B, _C, _O, _DET, _SPAN, _OK, _INV_A, _EA, _EB, _EC, _Y0, _NROWS = range(15)
 
 
 @njit(cache=True, inline="always")
@@ -69,23 +71,64 @@ def _span(o):
 
 
 @njit(cache=True, nogil=True)
-def gaussian_table(means2d, conics, opacities):
-    """[N, 13] float64, a row per Gaussian: m_x, m_y, the conic Q = [[a, b], [b, c]], opacity o, det Q, the alpha
-    test's bound _span(o), ok (1: Q positive definite and span > 0; 0: it shows nowhere), and where ok 1 / a and
-    the ratios e^{-a}, e^{-b}, e^{-c} of _row_start. Once a pass, rather than once per tile a Gaussian lands in."""
+def gaussian_table(means2d, conics, opacities, radii, height):
+    """[N, 15] float64, a row per Gaussian: m_x, m_y, the conic Q = [[a, b], [b, c]], opacity o, det Q, the alpha
+    test's bound _span(o), ok (1: Q positive definite and span > 0; 0: it shows nowhere), and where ok 1 / a, the
+    ratios e^{-a}, e^{-b}, e^{-c} of _row_start, and the image rows its ellipse reaches (_rows): the first and
+    how many (0 where not ok or culled, radii <= 0). Once a pass, rather than once per tile a Gaussian lands in."""
     n = means2d.shape[0]
-    gt = np.zeros((n, 13))
+    gt = np.zeros((n, 15))
     for g in range(n):
         a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
         o = float(opacities[g])
         det = a * c - b * b
         span = _span(o)
-        gt[g, _MX], gt[g, _MY] = float(means2d[g, 0]), float(means2d[g, 1])
+        mx, my = float(means2d[g, 0]), float(means2d[g, 1])
+        gt[g, _MX], gt[g, _MY] = mx, my
         gt[g, _A], gt[g, _B], gt[g, _C], gt[g, _O], gt[g, _DET], gt[g, _SPAN] = a, b, c, o, det, span
-        if a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(gt[g, _MX]) and math.isfinite(gt[g, _MY]):
+        if a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(mx) and math.isfinite(my):
             gt[g, _OK], gt[g, _INV_A] = 1.0, 1.0 / a
             gt[g, _EA], gt[g, _EB], gt[g, _EC] = math.exp(-a), math.exp(-b), math.exp(-c)
+            ys, ye = _rows(my, a, det, span, 0, height)
+            if radii[g] > 0 and ye >= ys:
+                gt[g, _Y0], gt[g, _NROWS] = ys, ye - ys + 1
     return gt
+
+
+@njit(cache=True, nogil=True)
+def span_starts(gt):
+    """[N + 1] int64: start[g] = the rows of Gaussians before g (gaussian_table's counts), row_spans' offsets."""
+    start = np.zeros(gt.shape[0] + 1, np.int64)
+    for g in range(gt.shape[0]):
+        start[g + 1] = start[g] + int(gt[g, _NROWS])
+    return start
+
+
+@njit(cache=True, nogil=True)
+def row_spans(gt, start, width, spans, first, stride):
+    """Gaussians first, first + stride, ...: spans[start[g] + i] = (xs, xe), the image columns (_cols) of Gaussian
+    g's ellipse in image row gt[g, _Y0] + i, i < gt[g, _NROWS] (xs > xe: none); start = the running sum of
+    _NROWS. Each row once a pass: the tiles it crosses clip it (_tile_cols) instead of solving it again."""
+    for g in range(first, gt.shape[0], stride):
+        mx, my, a, b, _, _, det, span, _ = _entry(gt, g)
+        y0 = int(gt[g, _Y0])
+        for i in range(start[g + 1] - start[g]):
+            spans[start[g] + i, 0], spans[start[g] + i, 1] = _cols(mx, my - (y0 + i + 0.5), a, b, det, gt[g, _INV_A],
+                                                                 span, 0, width)
+
+
+@njit(cache=True, inline="always")
+def _tile_rows(gt, g, start, y0, ny):
+    """(ys, ye, base): the tile rows [ys, ye] (relative to y0) that Gaussian g's ellipse reaches; spans[base + y]
+    holds tile row y's image columns."""
+    gy = int(gt[g, _Y0])
+    return max(0, gy - y0), min(ny - 1, gy + int(gt[g, _NROWS]) - 1 - y0), start[g] - gy + y0
+
+
+@njit(cache=True, inline="always")
+def _tile_cols(spans, base, y, x0, nx):
+    """Tile columns [xs, xe] (relative to x0) of the span in tile row y (xs > xe: none in this tile)."""
+    return max(0, spans[base + y, 0] - x0), min(nx - 1, spans[base + y, 1] - x0)
 
 
 @njit(cache=True, inline="always")
@@ -204,7 +247,7 @@ def _sharp_exp(a, b, c, dx, dy, e):
 
 
 @njit(cache=True, inline="always")
-def _blend_tile(ids, start, count, gt, colors, x0, y0, nx, ny, trans, done, last, acc):
+def _blend_tile(ids, first, count, gt, start, spans, colors, x0, y0, nx, ny, trans, done, last, acc):
     """Blend the tile's list ids[start:start + count] front to back into its pixels: at each pixel of a
     Gaussian's ellipse not yet done, acc += alpha T c, T *= 1 - alpha, last = k + 1 (k its list position);
     a pixel whose T would drop below T_MIN is done instead. Stops when every pixel is done. Three and four
@@ -213,21 +256,21 @@ def _blend_tile(ids, start, count, gt, colors, x0, y0, nx, ny, trans, done, last
     col = np.zeros(max(n_ch, 4))
     n_live = nx * ny
     for k in range(count):
-        g = ids[start + k]
+        g = ids[first + k]
         if gt[g, _OK] == 0.0:
             continue
-        mx, my, a, b, c, o, det, span, q = _entry(gt, g)
+        mx, my, a, b, c, o, _, _, q = _entry(gt, g)
         for ch in range(n_ch):
             col[ch] = colors[g, ch]
         c0, c1, c2, c3 = col[0], col[1], col[2], col[3]
-        ys, ye = _rows(my, a, det, span, y0, ny)
+        ys, ye, base = _tile_rows(gt, g, start, y0, ny)
         xa = ya = -1
         e0 = r0 = v0 = 0.0
         for y in range(ys, ye + 1):
-            dy = my - (y0 + y + 0.5)
-            xs, xe = _cols(mx, dy, a, b, det, gt[g, _INV_A], span, x0, nx)
+            xs, xe = _tile_cols(spans, base, y, x0, nx)
             if xs > xe:
                 continue
+            dy = my - (y0 + y + 0.5)
             e0, r0, v0 = _row_start(gt, g, mx - (x0 + xs + 0.5), dy, xs, y, xa, ya, e0, r0, v0)
             xa, ya = xs, y
             e, r = e0, r0
@@ -277,8 +320,10 @@ def _store_tile(acc, trans, last, background, n_ch, x0, y0, nx, ny, image, t_fin
 
 
 @njit(cache=True, nogil=True)
-def forward_tiles(gt, colors, background, offsets, ids, width, height, image, t_final, n_contrib, first, stride):
-    """Tiles first, first + stride, ... (one worker's share): each blended (_blend_tile), then written out."""
+def forward_tiles(gt, start, spans, colors, background, offsets, ids, width, height, image, t_final, n_contrib, first,
+                  stride):
+    """Tiles first, first + stride, ... (one worker's share): each blended (_blend_tile), then written out.
+    gt: gaussian_table; start, spans: row_spans'."""
     n_ch = colors.shape[1]
     tiles_x = (width + TILE - 1) // TILE
     for t in range(first, offsets.size - 1, stride):
@@ -287,7 +332,8 @@ def forward_tiles(gt, colors, background, offsets, ids, width, height, image, t_
         done = np.zeros((TILE, TILE), np.bool_)
         last = np.zeros((TILE, TILE), np.int32)
         acc = np.zeros((TILE, TILE, n_ch))
-        _blend_tile(ids, offsets[t], offsets[t + 1] - offsets[t], gt, colors, x0, y0, nx, ny, trans, done, last, acc)
+        _blend_tile(ids, offsets[t], offsets[t + 1] - offsets[t], gt, start, spans, colors, x0, y0, nx, ny, trans,
+                    done, last, acc)
         _store_tile(acc, trans, last, background, n_ch, x0, y0, nx, ny, image, t_final, n_contrib)
 
 
@@ -324,28 +370,29 @@ def _add_grads(out, g, g_mx, g_my, g_a, g_b, g_c, g_o):
 
 
 @njit(cache=True, inline="always")
-def _unblend_tile(ids, start, gt, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend, rec, out):
+def _unblend_tile(ids, first, gt, start, spans, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend, rec,
+                  out):
     """Take the tile's Gaussians back off its pixels, back to front from its largest n_contrib (each pixel for
     k < n_contrib), with T_k = T_{k+1} / (1 - alpha_k) and R_{k-1} = alpha_k c_k + (1 - alpha_k) R_k, adding
     each Gaussian's gradient sums over the tile to out[g] (tiles_numba.py, step 3)."""
     col, g_col = np.empty(n_ch), np.empty(n_ch)
     for k in range(n_blend.max() - 1, -1, -1):
-        g = ids[start + k]
+        g = ids[first + k]
         if gt[g, _OK] == 0.0:
             continue
-        mx, my, a, b, c, o, det, span, q = _entry(gt, g)
+        mx, my, a, b, c, o, _, _, q = _entry(gt, g)
         for ch in range(n_ch):
             col[ch] = colors[g, ch]
         g_col[:] = 0.0
         g_mx = g_my = g_a = g_b = g_c = g_o = 0.0
-        ys, ye = _rows(my, a, det, span, y0, ny)
+        ys, ye, base = _tile_rows(gt, g, start, y0, ny)
         xa = ya = -1
         e0 = r0 = v0 = 0.0
         for y in range(ys, ye + 1):
-            dy = my - (y0 + y + 0.5)
-            xs, xe = _cols(mx, dy, a, b, det, gt[g, _INV_A], span, x0, nx)
+            xs, xe = _tile_cols(spans, base, y, x0, nx)
             if xs > xe:
                 continue
+            dy = my - (y0 + y + 0.5)
             e0, r0, v0 = _row_start(gt, g, mx - (x0 + xs + 0.5), dy, xs, y, xa, ya, e0, r0, v0)
             xa, ya = xs, y
             e, r = e0, r0
@@ -389,8 +436,8 @@ def _unblend_tile(ids, start, gt, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_
 
 
 @njit(cache=True, nogil=True)
-def backward_tiles(gt, colors, background, offsets, ids, width, height, t_final, n_contrib, grad_image, grad_t, out,
-                   first, stride):
+def backward_tiles(gt, start, spans, colors, background, offsets, ids, width, height, t_final, n_contrib, grad_image,
+                   grad_t, out, first, stride):
     """Gradient sums over tiles first, first + stride, ... into out [N, 6 + C]: (m_x, m_y, a, b, c, o, colours);
     each tile's state loaded (_load_tile), then its Gaussians taken back off (_unblend_tile)."""
     n_ch = colors.shape[1]
@@ -399,4 +446,5 @@ def backward_tiles(gt, colors, background, offsets, ids, width, height, t_final,
         x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
         trans, g_end, g_img, n_blend, rec = _load_tile(t_final, n_contrib, grad_image, grad_t, background, n_ch,
                                                        x0, y0, nx, ny)
-        _unblend_tile(ids, offsets[t], gt, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend, rec, out)
+        _unblend_tile(ids, offsets[t], gt, start, spans, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend,
+                      rec, out)

@@ -58,6 +58,8 @@ from nerfkit.models.splat.tiles_kernels import (
     bin_tiles,
     forward_tiles,
     gaussian_table,
+    row_spans,
+    span_starts,
     tile_rects,
 )
 from nerfkit.models.splat.depth_kernels import median_tiles
@@ -78,6 +80,27 @@ def depth_order(depths, live) -> np.ndarray:
     bits = bits ^ np.where(bits >> 31 == 1, np.uint32(0xFFFFFFFF), np.uint32(0x80000000))  # negatives reversed
     keys = (bits.astype(np.uint64) << np.uint64(32)) | live.astype(np.uint64)
     return (np.sort(keys) & np.uint64(0xFFFFFFFF)).astype(np.int32)
+
+
+def gaussian_rows(means2d, conics, opacities, radii, width: int, height: int, threads: int | None = None):
+    """(table, start, spans): tiles_kernels.gaussian_table (float64 inputs) and each Gaussian's image rows with
+    their columns (tiles_kernels.row_spans, on the worker threads), what the blend kernels read instead of
+    solving every scanline once per tile it crosses."""
+    table = gaussian_table(means2d, conics, opacities, radii, height)
+    start = span_starts(table)
+    spans = np.empty((start[-1], 2), np.int16 if width < 2**15 else np.int32)  # half the bytes to read
+    _run(row_spans, threads, lambda w: (table, start, width, spans))
+    return table, start, spans
+
+
+def _bins_and_rows(means2d, conics, opacities, depths, radii, width: int, height: int, threads: int | None):
+    """(offsets, ids, rows): bin_gaussians, and gaussian_rows on a worker thread meanwhile (its kernels release
+    the GIL) when there is more than one."""
+    if worker_count(threads) == 1:
+        return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height),
+                gaussian_rows(means2d, conics, opacities, radii, width, height, 1))
+    rows = _pool(worker_count(threads)).submit(gaussian_rows, means2d, conics, opacities, radii, width, height, 1)
+    return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height), rows.result())
 
 
 def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height: int):
@@ -158,6 +181,14 @@ def worker_count(threads: int | None = None) -> int:
     return max(1, threads or THREADS or len(os.sched_getaffinity(0)))
 
 
+def _pool(n: int) -> ThreadPoolExecutor:
+    """The worker threads (at least n), started on first use."""
+    global _POOL
+    if _POOL is None or _POOL._max_workers < n:
+        _POOL = ThreadPoolExecutor(n, thread_name_prefix="splat")
+    return _POOL
+
+
 def _run(kernel, threads: int | None, args_of) -> None:
     """Run kernel(*args_of(w), first, stride) over all tiles on n worker threads (the kernels release
     the GIL). The tiles are cut into CHUNKS_PER_WORKER x n interleaved chunks (chunk i: tiles i,
@@ -168,9 +199,7 @@ def _run(kernel, threads: int | None, args_of) -> None:
     if n == 1:
         kernel(*args_of(0), 0, 1)
         return
-    global _POOL
-    if _POOL is None or _POOL._max_workers < n:
-        _POOL = ThreadPoolExecutor(n, thread_name_prefix="splat")
+    pool = _pool(n)
     free = queue.SimpleQueue()
     for w in range(n):
         free.put(w)
@@ -183,7 +212,7 @@ def _run(kernel, threads: int | None, args_of) -> None:
         finally:
             free.put(w)
 
-    for f in [_POOL.submit(chunk, i) for i in range(stride)]:
+    for f in [pool.submit(chunk, i) for i in range(stride)]:
         f.result()
 
 
@@ -197,13 +226,12 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
     dtype = np.result_type(colors.dtype, np.float32)
     means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
     radii = np.ascontiguousarray(radii, np.int32)
-    offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
-    table = gaussian_table(means2d, conics, opacities)
-    token = KEPT_BINS.put((width, height, offsets, ids, table)) if keep_bins else None
+    offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads)
+    token = KEPT_BINS.put((width, height, offsets, ids, rows)) if keep_bins else None
     image = np.empty((height, width, colors.shape[1]), dtype)  # the kernel writes the output dtype: no copy
     t_final = np.empty((height, width), dtype)
     n_contrib = np.empty((height, width), np.int32)
-    _run(forward_tiles, threads, lambda w: (table, colors, background, offsets, ids, width, height, image, t_final,
+    _run(forward_tiles, threads, lambda w: (*rows, colors, background, offsets, ids, width, height, image, t_final,
                                             n_contrib))
     out = image, t_final, n_contrib
     return out + (token,) if keep_bins else out
@@ -223,15 +251,14 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
     n_contrib = np.ascontiguousarray(n_contrib, np.int32)
     kept = KEPT_BINS.take(bins) if bins is not None else None
     if kept is not None and kept[:2] == (width, height):
-        offsets, ids, table = kept[2:]
+        offsets, ids, rows = kept[2:]
     else:
-        offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
-        table = gaussian_table(means2d, conics, opacities)
+        offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads)
     n, n_ch = colors.shape
     workers = worker_count(threads)
     out = _SUMS.take((workers, n, 6 + n_ch))
     try:
-        _run(backward_tiles, workers, lambda w: (table, colors, background, offsets, ids, width, height, t_final,
+        _run(backward_tiles, workers, lambda w: (*rows, colors, background, offsets, ids, width, height, t_final,
                                                  n_contrib, grad_image, grad_t, out[w]))
         total = out[0]
         for w in range(1, workers):
@@ -251,8 +278,7 @@ def median_depth(means2d, conics, opacities, depths, radii, planes, width: int, 
     median_tiles); 0 where t_final = 1. Forward only (the exports read it)."""
     means2d, conics, opacities, planes, t_final = _f64(means2d, conics, opacities, planes, t_final)
     radii = np.ascontiguousarray(radii, np.int32)
-    offsets, ids = bin_gaussians(means2d, conics, opacities, depths, radii, width, height)
-    table = gaussian_table(means2d, conics, opacities)
+    offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads)
     out = np.empty((height, width))
-    _run(median_tiles, threads, lambda w: (table, planes, offsets, ids, width, height, t_final, float(band), out))
+    _run(median_tiles, threads, lambda w: (*rows, planes, offsets, ids, width, height, t_final, float(band), out))
     return out
