@@ -1,10 +1,12 @@
 """Rendering speed of a trained run, compiled: one 800x800 frame and the viewer's 256x256, with a profile.
 
     python benchmarks/render_speed.py RUN_DIR [--data DIR] [--split "val[50:100]"] [--profile] [--slots N]
+                                      [--repeats 3]
 
 Renders view 0 of the split (the run's own data folder unless --data) at 800x800 and 256x256 with the
 renderer `nerfkit render` uses (render.images.make_renderer), once to compile, then times the median of
-3 (800) / 5 (256) renders. Also prints the rounds and the samples the wavefront renderer shaded. With
+--repeats (800) / --repeats + 2 (256) renders (on a shared machine, more repeats steady the median of a
+fast renderer; the fastest is recorded too). Also prints the rounds and the samples the wavefront renderer shaded. With
 --profile, one more 800x800 render runs under jax.profiler and the time per XLA operation kind (summed
 over the render) is printed. --slots N: the wavefront renderer with N ray slots instead of make_renderer's
 (more slots: fewer, larger rounds).
@@ -32,14 +34,15 @@ from nerfkit.render.images import make_renderer
 from nerfkit.run.folder import RunFolder
 
 
-def timed(renderer, params, aux, c2w, camera, repeats: int) -> float:
+def timed(renderer, params, aux, c2w, camera, repeats: int) -> tuple[float, float]:
+    """(median, fastest) seconds of `repeats` compiled renders."""
     renderer.render_camera(params, aux, c2w, camera)  # compile
     times = []
     for _ in range(repeats):
         t = time.perf_counter()
         renderer.render_camera(params, aux, c2w, camera)
         times.append(time.perf_counter() - t)
-    return statistics.median(times)
+    return statistics.median(times), min(times)
 
 
 # Python frames and executor bookkeeping (waits): left out, so the list is the XLA operations and transfers.
@@ -69,6 +72,7 @@ def main():
     ap.add_argument("--split", default="val[50:100]")
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--slots", type=int, default=None)
+    ap.add_argument("--repeats", type=int, default=3, help="800x800 renders timed (256x256: this + 2)")
     ap.add_argument("--results", type=Path, default=Path(__file__).resolve().parent / "results" / "render_speed.json")
     a = ap.parse_args()
 
@@ -83,13 +87,16 @@ def main():
     chunk = getattr(renderer, "chunk", None)  # ray renderers' batch; the splat rasteriser draws whole images
     print(f"{a.run} (step {step}), {type(renderer).__name__}, chunk {chunk}; jax {jax.__version__} on "
           f"{jax.devices()[0].platform}")
-    results = {}
-    for side, repeats in ((800, 3), (256, 5)):
+    results, fastest = {}, {}
+    for side, repeats in ((800, a.repeats), (256, a.repeats + 2)):
         camera = Camera.pinhole(side, side, cam.fx * side / cam.width)
-        results[side] = timed(renderer, params, aux, c2w, camera, repeats)
-        print(f"{side}x{side}: {results[side]:.3f} s (median of {repeats}, compiled)", flush=True)
+        results[side], fastest[side] = timed(renderer, params, aux, c2w, camera, repeats)
+        print(f"{side}x{side}: {results[side]:.3f} s (median of {repeats}, compiled; fastest {fastest[side]:.3f})",
+              flush=True)
     record = {"run": str(a.run), "step": step, "renderer": type(renderer).__name__, "chunk": chunk,
               "seconds_per_frame": {f"{k}x{k}": round(v, 4) for k, v in results.items()},
+              "fastest_frame": {f"{k}x{k}": round(v, 4) for k, v in fastest.items()},
+              "repeats_800": a.repeats,
               "what": "one compiled frame of the run's field (view 0 of the split), median of repeats"}
     if hasattr(renderer, "last_rounds"):
         camera = Camera.pinhole(800, 800, cam.fx * 800 / cam.width)
