@@ -89,6 +89,7 @@ BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
 CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
+SPLAT_NOW, RS_NOW = "lego_cli_splat_adb5a57.json", "render_speed_splat_adb5a57.json"  # today's kernels: a run, its frame
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 VIDEO = "own_photos_procedural_video.json"
 ROOF = "splat_roofline.json"  # the CPU rasteriser against the machine's peaks
@@ -155,10 +156,10 @@ CHECKS = [
      "**{} dB** after 2 min, **{} dB** after 5 min, **{} dB / SSIM {}** after 10 min ({} steps)",
      [((SPLAT, "runs", 0, "psnr"), f1), ((SPLAT, "runs", 1, "psnr"), f1), ((SPLAT, "runs", 2, "psnr"), f1),
       ((SPLAT, "runs", 2, "ssim"), f3), ((SPLAT, "runs", 2, "steps"), d)]),
-    ("README.md", "one 800x800 lego frame, compiled", "trained at commit {h} ({} / {} steps;",
-     [commit(NGP_3F), (("render_speed.json", "step"), d), (("render_speed_splat.json", "step"), d)]),
+    ("README.md", "one 800x800 lego frame, compiled", "the field's trained at commit {h} ({} steps), the splats' at {h} ({} steps;",
+     [commit(NGP_3F), (("render_speed.json", "step"), d), commit(SPLAT_NOW), ((RS_NOW, "step"), d)]),
     ("README.md", "one 800x800 lego frame, compiled", "| {} s / {} s |",
-     [(("render_speed.json", "seconds_per_frame", "800x800"), f2), (("render_speed_splat.json", "seconds_per_frame", "800x800"), f3)]),
+     [(("render_speed.json", "seconds_per_frame", "800x800"), f2), ((RS_NOW, "seconds_per_frame", "800x800"), f3)]),
     ("README.md", "10 min each through the CLI, one sitting", "ngp {} dB / SSIM {}; splat **{} dB / SSIM {}**",
      [((MCLI, "presets", "ngp", "psnr"), f1), ((MCLI, "presets", "ngp", "ssim"), f3),
       ((MCLI, "presets", "splat", "psnr"), f1), ((MCLI, "presets", "splat", "ssim"), f3)]),
@@ -230,21 +231,21 @@ CHECKS = [
           ((ROOF, "runs", run, "roofline", pas, "attainable_gflops"), f1),
           ((ROOF, "runs", run, "roofline", pas, "gap"), f0),
           ((ROOF, "runs", run, "roofline", pas, "parallel_speedup"), f2)])
-      for label, run in (("lego 200x200, a 2-minute run", "/tmp/w/lego_splat"),
-                         ("maryrose 432x432, a 10-minute run", "/tmp/w/mr_runs/splat"))
+      for label, run in (("lego 200x200, a 2-minute run", "/tmp/w/fr/runs_new/splat_2min"),
+                         ("maryrose 432x432, a 10-minute run", "/tmp/w/rec/mary/splat"))
       for pas in ("forward", "backward")],
     ("docs/measurements.md", "`python benchmarks/splat_roofline.py RUN",
      "(numpy's BLAS) **{} GFLOP/s** (float32 {}), a plain numba loop of independent multiply-adds {} GFLOP/s, "
      "memory {} GB/s", [((ROOF, "machine", "blas_float64_gflops"), f1), ((ROOF, "machine", "blas_float32_gflops"), f1),
                         ((ROOF, "machine", "numba_fma_float64_gflops"), f1), ((ROOF, "machine", "triad_gbs"), f1)]),
-    ("docs/measurements.md", "The kernels run 30 to 100 times",
-     "lego's tile entries (a Gaussian in a tile) cover {} pairs each and cost {} ns a pair, maryrose's cover {} and "
-     "cost {} ns", [((ROOF, "runs", "/tmp/w/lego_splat", "roofline", "forward", "pairs_per_entry"), f0),
-                    ((ROOF, "runs", "/tmp/w/lego_splat", "roofline", "forward", "ns_per_tested_pair"), f1),
-                    ((ROOF, "runs", "/tmp/w/mr_runs/splat", "roofline", "forward", "pairs_per_entry"), f0),
-                    ((ROOF, "runs", "/tmp/w/mr_runs/splat", "roofline", "forward", "ns_per_tested_pair"), f1)]),
-    ("docs/measurements.md", "The kernels run 30 to 100 times", "splat run took {} steps,",
-     [(("maryrose_recheck_cli.json", "presets", "splat", "steps"), d)]),
+    ("docs/measurements.md", "`python benchmarks/splat_roofline.py RUN",
+     "(3 to test a pair, 11 more to blend it forward, {} backward)", [((ROOF, "flops_per_pair", "backward_blended"), d)]),
+    ("docs/measurements.md", "The kernels run 20 to 70 times",
+     "lego's tile entries (a Gaussian in a tile) cover {} pairs each and cost {} ns a pair, maryrose's cover {} and cost {} ns",
+     [((ROOF, "runs", "/tmp/w/fr/runs_new/splat_2min", "roofline", "forward", "pairs_per_entry"), f0),
+      ((ROOF, "runs", "/tmp/w/fr/runs_new/splat_2min", "roofline", "forward", "ns_per_tested_pair"), f1),
+      ((ROOF, "runs", "/tmp/w/rec/mary/splat", "roofline", "forward", "pairs_per_entry"), f0),
+      ((ROOF, "runs", "/tmp/w/rec/mary/splat", "roofline", "forward", "ns_per_tested_pair"), f1)]),
     # ---- docs/measurements.md
     ("docs/measurements.md", "| `--preset ngp` (hash grid + occupancy grid), through the CLI",
      "**{} dB** after 2 min ({} steps), **{} dB** after 5 min ({} steps), **{} dB / SSIM {} after 10 min** ({} steps, {} steps/s) "
@@ -513,9 +514,10 @@ CHECKS = [
     ("docs/splats.md", "On a real capture: maryrose", "splats win photos 1, 4 and 5 (by {}, {} and {} dB)",
      [((lambda: _mary_diff()[1]), f1), ((lambda: _mary_diff()[4]), f1), ((lambda: _mary_diff()[5]), f1)]),
     ("docs/splats.md", "| one 800x800 lego frame, compiled",
-     "trained at commit {h} (splat {} steps, ngp {}; `lego_cli_splat_3f13384.json`, `lego_cli_ngp_3f13384.json`) | **{} s** | {} s |",
-     [commit(SPLAT_3F), (("render_speed_splat.json", "step"), d), (("render_speed.json", "step"), d),
-      (("render_speed_splat.json", "seconds_per_frame", "800x800"), f3), (("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
+     "(splat {} steps, trained at commit {h}, `lego_cli_splat_adb5a57.json`; ngp {} steps, at {h}, `lego_cli_ngp_3f13384.json`) "
+     "| **{} s** | {} s |",
+     [((RS_NOW, "step"), d), commit(SPLAT_NOW), (("render_speed.json", "step"), d), commit(NGP_3F),
+      ((RS_NOW, "seconds_per_frame", "800x800"), f3), (("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
     ("docs/splats.md", "| the web page in headless Chromium's software WebGL2",
      "| {} s / {} s per frame | the baked NeRF page: {} s / {} s |",
      [(("splat_web_lego.json", "sizes", 0, "min_ms"), per_s), (("splat_web_lego.json", "sizes", 1, "min_ms"), per_s),
@@ -524,19 +526,21 @@ CHECKS = [
      "the whole compiled step {} ms (the CLI ran that run at {} steps/s, {} ms, with its host-side density control and logging); "
      "alone, the tile rasteriser's forward {} ms and forward + loss + gradient {} ms, projection + SH colour {} ms ({} ms with its "
      "gradient), the loss's (L1 + D-SSIM) gradient {} ms, Adam {} ms",
-     [(("splat_step_profile.json", "parts", "whole_step", "median_ms"), f1), ((SPLAT_3F, "runs", 2, "steps_per_second_cli"), f1),
-      ((lambda: 1000 / R(SPLAT_3F, "runs", 2, "steps_per_second_cli")), f0)]
+     [(("splat_step_profile.json", "parts", "whole_step", "median_ms"), f1), ((SPLAT_NOW, "runs", 1, "steps_per_second_cli"), f1),
+      ((lambda: 1000 / R(SPLAT_NOW, "runs", 1, "steps_per_second_cli")), f0)]
      + [(("splat_step_profile.json", "parts", p, "median_ms"), f1) for p in
         ("rasterise_forward", "rasterise_forward_loss_grad", "project_sh_forward", "project_sh_forward_grad", "loss_grad", "adam")]),
     ("docs/splats.md", "**Where a training step goes**",
-     "50k Gaussians at 200x200, forward {} ms / backward {} ms, against NVIDIA Warp's CPU backend {} / {} ms and a padded "
-     "pure-XLA version {} / {} s",
+     "50k Gaussians at 200x200, forward {} ms / backward {} ms, a padded pure-XLA version {} / {} s; NVIDIA Warp's CPU "
+     "backend took {} / {} ms on the same scenes where numba's kernels of then took {} / {}, `splat_raster_ced3294.json`",
      [(("splat_raster.json", "configs", 0, "timings", "numba", "forward_ms_min"), f0),
       (("splat_raster.json", "configs", 0, "timings", "numba", "backward_ms_min"), f0),
-      (("splat_raster.json", "configs", 0, "timings", "warp", "forward_ms_min"), f0),
-      (("splat_raster.json", "configs", 0, "timings", "warp", "backward_ms_min"), f0),
       (("splat_raster.json", "configs", 0, "timings", "xla", "forward_ms_min"), per_s),
-      (("splat_raster.json", "configs", 0, "timings", "xla", "backward_ms_min"), per_s)]),
+      (("splat_raster.json", "configs", 0, "timings", "xla", "backward_ms_min"), per_s),
+      (("splat_raster_ced3294.json", "configs", 0, "timings", "warp", "forward_ms_min"), f0),
+      (("splat_raster_ced3294.json", "configs", 0, "timings", "warp", "backward_ms_min"), f0),
+      (("splat_raster_ced3294.json", "configs", 0, "timings", "numba", "forward_ms_min"), f0),
+      (("splat_raster_ced3294.json", "configs", 0, "timings", "numba", "backward_ms_min"), f0)]),
     ("docs/splats.md", "**Where a training step goes**", "and keep {} of the 2 cores busy",
      [(("splat_raster.json", "configs", 0, "timings", "numba", "cpu_ratio"), f1)]),
     ("docs/splats.md", "**When to pick which.**",
@@ -545,9 +549,9 @@ CHECKS = [
      [((lambda i=i: R(SPLAT, "runs", i, "psnr") - R(NGP, "runs", i, "psnr")), f1) for i in range(3)]
      + [((lambda: R(MCLI, "presets", "splat", "psnr") - R(MCLI, "presets", "ngp", "psnr")), f1),
         ((MCLI, "presets", "splat", "ssim"), f3), ((MCLI, "presets", "ngp", "ssim"), f3),
-        ((lambda: R("render_speed.json", "seconds_per_frame", "800x800") / R("render_speed_splat.json", "seconds_per_frame", "800x800")), f0)]),
+        ((lambda: R("render_speed.json", "seconds_per_frame", "800x800") / R(RS_NOW, "seconds_per_frame", "800x800")), f0)]),
     ("docs/splats.md", "viser's Gaussian splats draw the exported file",
-     "lego ({} steps, commit {h}, the run of the rendering table below) and maryrose: {} / {} dB and {} / {} dB",
+     "lego ({} steps, commit {h}) and maryrose: {} / {} dB and {} / {} dB",
      [((SPLAT_3F, "runs", 2, "steps"), d), commit(SPLAT_3F)]
      + [((rec, "views", i, "psnr_viser_vs_nerfkit"), f1) for rec in ("splat_lego_viser.json", "splat_maryrose_viser.json") for i in (0, 1)]),
     ("docs/splats.md", "- **Limits.**", "trained lego at {} steps/s on an H200", [(("gpu_h200/lego_cli_splat.json", "runs", 0, "steps_per_second_cli"), f1)]),
@@ -802,7 +806,9 @@ def test_named_runs_are_the_records_runs():
     assert R("render_speed.json", "step") == R(NGP_3F, "runs", 2, "steps")
     assert R("render_speed_splat.json", "step") == R(SPLAT_3F, "runs", 2, "steps")
     assert R("render_speed.json", "run") == R(ML, "run") == R("mesh_lego_textured.json", "run")
-    assert R("render_speed_splat.json", "run") == R("splat_step_profile.json", "run") == R("splat_lego_viser.json", "run")
+    assert R("render_speed_splat.json", "run") == R("splat_lego_viser.json", "run")
+    assert R(RS_NOW, "step") == R(SPLAT_NOW, "runs", 1, "steps")
+    assert R(RS_NOW, "run") == R("splat_step_profile.json", "run") == R(SPLAT_NOW, "provenance", "command").split("--out ")[1].split()[0] + "/splat_10min"
     assert R(NGP_3F, "provenance", "commit") == R(SPLAT_3F, "provenance", "commit")
     assert R(MW, "methods", "tsdf", "closed_manifold") is True
     assert R(ML, "run") == R(NGP_3F, "provenance", "command").split("--out ")[1].split()[0] + "/ngp_10min"
