@@ -41,7 +41,7 @@ import numpy as np
 
 from provenance import provenance
 
-from nerfkit.models.splat import tiles_kernels, tiles_numba
+from nerfkit.models.splat import tiles_geometry, tiles_numba
 from nerfkit.models.splat.project import project_gaussians
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.rays.cameras import look_at
@@ -123,7 +123,7 @@ def xla_candidate(frames, size):
         rects = np.stack([np.asarray(r) for r in tile_rects(jnp.asarray(m), jnp.asarray(rad), size, size)], -1)
         order = np.argsort(dep, kind="stable").astype(np.int32)
         tiles_x = -(-size // tiles_numba.TILE)
-        offsets, _ = tiles_kernels.bin_tiles(rects, order, tiles_x * tiles_x, tiles_x)
+        offsets, _ = tiles_geometry.bin_tiles(rects, order, tiles_x * tiles_x, tiles_x)
         budgets.append((int(np.diff(offsets).max()), int(offsets[-1])))
     k_max, m_max = next_pow2(max(b[0] for b in budgets)), next_pow2(max(b[1] for b in budgets))
     work = (-(-size // tiles_numba.TILE)) ** 2 * tiles_numba.TILE ** 2 * k_max  # alpha evaluations per frame

@@ -35,10 +35,10 @@ import numpy as np
 from numba import njit, prange
 from provenance import provenance
 
-from nerfkit.models.splat import tiles_kernels, tiles_numba
+from nerfkit.models.splat import tiles_geometry, tiles_numba
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, intrinsics_of, splat_inputs
 from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MIN
-from nerfkit.models.splat.tiles_kernels import _INV_A, _OK, TILE, _cols, _entry, _rows, _tile_box
+from nerfkit.models.splat.tiles_geometry import _INV_A, _OK, TILE, _cols, _entry, _rows, _tile_box
 from nerfkit.rays.cameras import Camera
 from nerfkit.run.folder import RunFolder
 
@@ -60,7 +60,7 @@ PIXEL_BYTES = {"forward": 3 * 8 + 8 + 4, "backward": 3 * 8 + 8 + 4 + 8}  # image
 @njit(cache=False)
 def _pair_passes(g, gt, x0, y0, nx, ny):
     """The pixels (y, x) of Gaussian g's ellipse span in the tile and whether each passes the alpha test
-    (tiles_kernels._blend_tile's tests; gt: tiles_kernels.gaussian_table), as a list of (y, x, alpha or -1)."""
+    (tiles_kernels._blend_tile's tests; gt: tiles_geometry.gaussian_table), as a list of (y, x, alpha or -1)."""
     res = []
     if gt[g, _OK] == 0.0:
         return res
@@ -197,7 +197,7 @@ def measure_view(inputs, size: tuple[int, int], view: int, reps: int) -> dict:
     g_t = np.zeros_like(t_final)
     m64, c64, o64 = tiles_numba._f64(means2d, conics, opac)
     offsets, ids = tiles_numba.bin_gaussians(m64, c64, o64, depths, radii, w, h)
-    gt = tiles_kernels.gaussian_table(m64, c64, o64, radii, h)
+    gt = tiles_geometry.gaussian_table(m64, c64, o64, radii, h)
     f_test, f_blend, b_test, b_blend, f_entries, b_entries = count_pairs(gt, offsets, ids, n_contrib, w, h)
     times = {"forward_s": _median(lambda: tiles_numba.forward(*args, w, h), reps),
              "backward_s": _median(lambda: tiles_numba.backward(*args, w, h, t_final, n_contrib, g_img, g_t), reps),

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, T_MIN
-from nerfkit.models.splat.tiles_kernels import (
+from nerfkit.models.splat.tiles_geometry import (
     _OK,
     E_MIN,
     TILE,
@@ -80,8 +80,7 @@ def median_tiles(gt, start, spans, planes, offsets, ids, width, height, t_final,
                 continue
             mx, my, a, b, c, o, _, _, q = _entry(gt, g)
             ys, ye, base = _tile_rows(gt, g, start, y0, ny)
-            xa = ya = -1
-            e0 = r0 = v0 = 0.0
+            xa, ya, e0, r0, v0 = -1, -1, 0.0, 0.0, 0.0  # no scanline start yet
             for y in range(ys, ye + 1):
                 xs, xe = _tile_cols(spans, base, y, x0, nx)
                 if xs > xe:

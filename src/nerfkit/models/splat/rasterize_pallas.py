@@ -8,7 +8,7 @@ renders the image defined in reference.py. Layout (every array on the device):
 
 1. Preparation (plain JAX). Gaussians are sorted front to back (a stable argsort of the depths) and
    padded with invisible ones to a multiple of CHUNK; each gets the tile rectangle that holds its
-   alpha-test ellipse d^T Q d <= s(o) (as tiles_kernels.tile_rects, plus one pixel of slack; empty when
+   alpha-test ellipse d^T Q d <= s(o) (as tiles_geometry.tile_rects, plus one pixel of slack; empty when
    culled, not positive definite, or too faint to pass the alpha test anywhere). Parameters are laid out
    as rows (params [6, M]: m_x, m_y, a, b, c, o; colours [C, M]; rects [4, M]: tx0, tx1, ty0, ty1, ends
    exclusive) so that a kernel loads one Gaussian's values as scalars and a chunk's rectangles as vectors.

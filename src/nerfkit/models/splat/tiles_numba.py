@@ -1,5 +1,5 @@
 """The CPU tile rasteriser's passes, on the host: binning, the forward blend and the backward pass, each
-running tiles_kernels.py's numba kernels over the tiles in parallel threads.
+running tiles_kernels.py's numba kernels (and tiles_geometry.py's) over the tiles in parallel threads.
 
 Same image as reference.py (see its docstring for the blending rules), computed per 16 x 16
 pixel tile over only the Gaussians that can reach the tile. A Gaussian of opacity o passes
@@ -52,16 +52,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from nerfkit.models.splat.tiles_kernels import (
-    TILE,
-    backward_tiles,
-    bin_tiles,
-    forward_tiles,
-    gaussian_table,
-    row_spans,
-    span_starts,
-    tile_rects,
-)
+from nerfkit.models.splat.tiles_geometry import TILE, bin_tiles, gaussian_table, row_spans, span_starts, tile_rects
+from nerfkit.models.splat.tiles_kernels import backward_tiles, forward_tiles
 from nerfkit.models.splat.depth_kernels import median_tiles
 
 THREADS: int | None = None  # worker threads; None: every CPU in os.sched_getaffinity
@@ -83,8 +75,8 @@ def depth_order(depths, live) -> np.ndarray:
 
 
 def gaussian_rows(means2d, conics, opacities, radii, width: int, height: int, threads: int | None = None):
-    """(table, start, spans): tiles_kernels.gaussian_table (float64 inputs) and each Gaussian's image rows with
-    their columns (tiles_kernels.row_spans, on the worker threads), what the blend kernels read instead of
+    """(table, start, spans): tiles_geometry.gaussian_table (float64 inputs) and each Gaussian's image rows with
+    their columns (tiles_geometry.row_spans, on the worker threads), what the blend kernels read instead of
     solving every scanline once per tile it crosses."""
     table = gaussian_table(means2d, conics, opacities, radii, height)
     start = span_starts(table)
