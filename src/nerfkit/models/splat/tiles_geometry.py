@@ -50,7 +50,7 @@ _A_RECUR = 25.0  # conic a (px^-2) up to which e^{-sigma} is advanced by product
 WALK = 4  # a scanline start at most this many steps (rows down + columns across) from the last is walked to
 
 # gaussian_table's columns
-_MX, _MY, _A, _B, _C, _O, _DET, _SPAN, _OK, _INV_A, _EA, _EB, _EC, _Y0, _NROWS = range(15)
+_MX, _MY, _A, _B, _C, _O, _DET, _SPAN, _OK, _INV_A, _EA, _EB, _EC, _Y0, _NROWS, _TAME = range(16)
 
 
 @njit(cache=True, inline="always")
@@ -64,12 +64,13 @@ def _span(o):
 
 @njit(cache=True, nogil=True)
 def gaussian_table(means2d, conics, opacities, radii, height):
-    """[N, 15] float64, a row per Gaussian: m_x, m_y, the conic Q = [[a, b], [b, c]], opacity o, det Q, the alpha
+    """[N, 16] float64, a row per Gaussian: m_x, m_y, the conic Q = [[a, b], [b, c]], opacity o, det Q, the alpha
     test's bound _span(o), ok (1: Q positive definite and span > 0; 0: it shows nowhere), and where ok 1 / a, the
-    ratios e^{-a}, e^{-b}, e^{-c} of _row_start, and the image rows its ellipse reaches (_rows): the first and
-    how many (0 where not ok or culled, radii <= 0). Once a pass, rather than once per tile a Gaussian lands in."""
+    ratios e^{-a}, e^{-b}, e^{-c} of _row_start, the image rows its ellipse reaches (_rows): the first and how
+    many (0 where not ok or culled, radii <= 0), and tame (1: a, |b|, c <= _A_RECUR, so _row_start may walk).
+    Once a pass, rather than once per tile a Gaussian lands in."""
     n = means2d.shape[0]
-    gt = np.zeros((n, 15))
+    gt = np.zeros((n, 16))
     for g in range(n):
         a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
         o = float(opacities[g])
@@ -81,6 +82,7 @@ def gaussian_table(means2d, conics, opacities, radii, height):
         if a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(mx) and math.isfinite(my):
             gt[g, _OK], gt[g, _INV_A] = 1.0, 1.0 / a
             gt[g, _EA], gt[g, _EB], gt[g, _EC] = math.exp(-a), math.exp(-b), math.exp(-c)
+            gt[g, _TAME] = 1.0 if max(a, abs(b), c) <= _A_RECUR else 0.0
             ys, ye = _rows(my, a, det, span, 0, height)
             if radii[g] > 0 and ye >= ys:
                 gt[g, _Y0], gt[g, _NROWS] = ys, ye - ys + 1
@@ -155,10 +157,12 @@ def _row_start(gt, g, dx, dy, xs, y, xa, ya, e, r, v):
     Walked by products from (e, r, v) at the Gaussian's previous scanline start (xa, ya) in the tile when
     (y - ya) + |xs - xa| <= WALK: a step down is e <- e v, r <- r e^{-b}, v <- v e^{-c}; one to the right
     e <- e r, v <- v e^{-b}, r <- r e^{-a}; one to the left r <- r e^{a}, e <- e / r, v <- v e^{b}. Exact (three
-    exps) when there is none (ya < 0) or it is further. Row starts lie in or beside the ellipse, so the values
-    walked through stay far from overflow; each product adds an ulp of relative error (~1e-15 over a tile).
+    exps) when there is none (ya < 0), it is further, or the conic is not tame (gaussian_table: a, |b|, c <=
+    _A_RECUR; project.py's are, with Sigma' >= 0.3 I). Row starts lie in or beside the ellipse, so for a tame
+    conic every ratio and value walked through stays within e^{+-200}, far from overflow and underflow. Each
+    product adds an ulp of relative error (~1e-15 over a tile).
     Along the row, e <- e r, r <- r e^{-a} (two products a pixel). Forward and backward walk the same sequence."""
-    if ya < 0 or (y - ya) + abs(xs - xa) > WALK:
+    if ya < 0 or gt[g, _TAME] == 0.0 or (y - ya) + abs(xs - xa) > WALK:
         a, b, c = gt[g, _A], gt[g, _B], gt[g, _C]
         return (math.exp(-(0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy)), math.exp(a * dx + b * dy - 0.5 * a),
                 math.exp(b * dx + c * dy - 0.5 * c))
