@@ -38,9 +38,10 @@ Gaussians with others are skipped.
    sums over a tile's pixels go into one float64 buffer per worker (no races); the worker
    buffers are added at the end.
 
-The kernels (tiles_kernels.py) take float64 arrays (the host functions here convert: one compiled
-variant, and the float32 and float64 paths are the same code); outputs take the input dtype. Kernels
-are compiled on first use and cached on disk (cache=True).
+The kernels (tiles_kernels.py, tiles_geometry.py) take float64 inputs (the host functions here convert:
+the float32 and float64 paths are the same code) and write the forward's image and T in the colours'
+dtype (a compiled variant per output dtype, no copy after). Kernels are compiled on first use and cached
+on disk (cache=True).
 """
 
 from __future__ import annotations
