@@ -62,6 +62,13 @@ def _span(o):
     return 2.0 * min(SIGMA_MAX, math.log(o) - _LOG_ALPHA_MIN) * (1.0 + 1e-6) + 1e-9
 
 
+@njit(cache=True, inline="always")
+def _shows(a, det, span, mx, my):
+    """Whether a Gaussian can show anywhere: its conic positive definite (a > 0, det Q > 0), its opacity able to
+    pass the alpha test (span > 0, _span) and its mean finite."""
+    return a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(mx) and math.isfinite(my)
+
+
 @njit(cache=True, nogil=True)
 def gaussian_table(means2d, conics, opacities, radii, height):
     """[N, 16] float64, a row per Gaussian: m_x, m_y, the conic Q = [[a, b], [b, c]], opacity o, det Q, the alpha
@@ -79,7 +86,7 @@ def gaussian_table(means2d, conics, opacities, radii, height):
         mx, my = float(means2d[g, 0]), float(means2d[g, 1])
         gt[g, _MX], gt[g, _MY] = mx, my
         gt[g, _A], gt[g, _B], gt[g, _C], gt[g, _O], gt[g, _DET], gt[g, _SPAN] = a, b, c, o, det, span
-        if a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(mx) and math.isfinite(my):
+        if _shows(a, det, span, mx, my):
             gt[g, _OK], gt[g, _INV_A] = 1.0, 1.0 / a
             gt[g, _EA], gt[g, _EB], gt[g, _EC] = math.exp(-a), math.exp(-b), math.exp(-c)
             gt[g, _TAME] = 1.0 if max(a, abs(b), c) <= _A_RECUR else 0.0
@@ -199,7 +206,7 @@ def tile_rects(means2d, conics, opacities, radii, width, height):
         mx, my = float(means2d[g, 0]), float(means2d[g, 1])
         det = a * c - b * b
         span = _span(float(opacities[g]))
-        if radii[g] <= 0 or not (a > 0.0 and det > 0.0 and span > 0.0 and math.isfinite(mx) and math.isfinite(my)):
+        if radii[g] <= 0 or not _shows(a, det, span, mx, my):
             continue
         hx = min(radii[g] + 1.0, math.sqrt(span * c / det))  # Sigma'_xx = c / det
         hy = min(radii[g] + 1.0, math.sqrt(span * a / det))
