@@ -29,7 +29,7 @@ from nerfkit.core.viz import save_png
 from nerfkit.export.files import check_out, write_atomic
 from nerfkit.export.registry import Exporter, check_accepts
 from nerfkit.models.splat.formats import FORMATS, read_gaussians, splat_format
-from nerfkit.models.splat.gaussians import held_out_gaussians, render
+from nerfkit.models.splat.gaussians import held_out_gaussians, render_frame
 from nerfkit.models.splat.transform import invert_similarity, transform_gaussians
 from nerfkit.rays.cameras import Camera
 from nerfkit.run.folder import RunFolder
@@ -62,8 +62,8 @@ def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False
     back = transform_gaussians(read_gaussians(out)[0], run.transform)
     pose = np.asarray(run.scene["train_poses"][0], np.float64)
     camera, background = Camera.from_json(run.scene["camera"]), run.model.background
-    shown = np.clip(render(back, pose, camera, background, degree)["rgb"], 0, 1)
-    own = np.clip(render(gaussians, pose, camera, background, run.cfg.splat.sh_degree)["rgb"], 0, 1)
+    shown = render_frame(back, pose, camera, background, degree, depth=False)["rgb"]
+    own = render_frame(gaussians, pose, camera, background, run.cfg.splat.sh_degree, depth=False)["rgb"]
     picture = folder.exports / "splat.png"
     save_png(picture, shown)
     log(f"splat: {len(gaussians['means'])} Gaussians, SH degree {degree}, {fmt.name}, capture coordinates")

@@ -57,14 +57,14 @@ def write_orbit_capture(g: dict, degree: int, root: Path) -> Path:
     from imageio.v3 import imwrite
 
     from nerfkit.data.formats.nerfstudio import write_nerfstudio
-    from nerfkit.models.splat.gaussians import render
+    from nerfkit.models.splat.gaussians import render_frame
 
     focal = 0.5 * ORBIT_SIZE / math.tan(math.radians(ORBIT_FOV_DEG) / 2)
     camera = Camera.pinhole(ORBIT_SIZE, ORBIT_SIZE, focal)
     (root / "images").mkdir(parents=True, exist_ok=True)
     frames = []
     for k, pose in enumerate(orbit_poses(g["means"])):
-        rgb = np.clip(np.asarray(render(g, pose, camera, (1.0, 1.0, 1.0), degree)["rgb"]), 0, 1)
+        rgb = render_frame(g, pose, camera, (1.0, 1.0, 1.0), degree, depth=False)["rgb"]
         name = f"images/orbit_{k:03d}.png"
         imwrite(root / name, np.round(255 * rgb).astype(np.uint8))
         frames.append({"file_path": name, "transform_matrix": pose})

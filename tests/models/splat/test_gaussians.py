@@ -11,6 +11,7 @@ from nerfkit.models.splat.gaussians import (
     init_random,
     knn_log_scales,
     render,
+    render_frame,
 )
 from nerfkit.models.splat.project import sh_colors
 from nerfkit.rays.cameras import Camera, look_at
@@ -58,6 +59,31 @@ def test_render_outputs_and_depth():
     np.testing.assert_allclose(out["depth"], 4.0 * out["alpha"], atol=1e-5)  # sum_k w_k z_k, z = 4
     assert out["alpha"][0, 0] == 0.0 and np.allclose(out["rgb"][0, 0], 1.0)
     assert "depth" not in render(p, C2W, CAM, depth=False)
+
+
+@pytest.mark.parametrize("backend", ["numba", "reference"])
+def test_render_frame_is_render_clipped(backend, monkeypatch):
+    """render_frame (the renderer's path: a view only looked at) gives render()'s outputs with rgb clipped to
+    [0, 1], through the backend's host `frame` where it has one (numba: called, counted here) and render()
+    where it has none (reference)."""
+    from nerfkit.models.splat import backends, gaussians
+
+    p = init_random(60, box=1.0, seed=4, opacity=0.8)
+    p["sh_dc"] = (np.random.default_rng(4).normal(size=p["sh_dc"].shape) * 6.0).astype(np.float32)  # colours past 1
+    calls = []
+    b = backends.backend(backend)
+    if b.frame is not None:
+        counted = backends.Backend(b.name, b.summary, b.rasterize, b.contrib,
+                                   lambda *a: calls.append(1) or b.frame(*a))
+        monkeypatch.setattr(gaussians, "backend_named", lambda name: counted)
+    want = render(p, C2W, CAM, background=(0.2, 0.5, 1.0), backend=backend)
+    got = render_frame(p, C2W, CAM, background=(0.2, 0.5, 1.0), backend=backend)
+    assert len(calls) == (b.frame is not None)
+    assert (want["rgb"] > 1).any()  # the clip is exercised (SH colours are clamped at 0, so none is below)
+    np.testing.assert_allclose(got["rgb"], np.clip(want["rgb"], 0, 1), atol=1e-6)
+    for k in ("depth", "alpha"):
+        np.testing.assert_allclose(got[k], want[k], atol=1e-5)
+    assert "depth" not in render_frame(p, C2W, CAM, depth=False, backend=backend)
 
 
 def test_distorted_camera_refused():

@@ -313,6 +313,23 @@ def test_auto_picks_the_host_kernels_off_a_gpu():
     assert int(n_contrib.max()) > 0
 
 
+@pytest.mark.parametrize("channels", [3, 4])
+def test_frame_writes_the_forward_image_at_every_tile_size(channels):
+    """tiles_numba.frame (the numba backend's `frame`: a view only looked at) writes forward()'s pixels: rgb clipped
+    to [0, 1], the channels after the third unclipped, alpha = 1 - T_final; at tiles of 16 (forward's), 32 and 64
+    px (larger than the image: one partial tile)."""
+    scene = list(random_scene(seed=5, channels=channels))
+    scene[2] = scene[2] * 1.6 - 0.3  # colours past 0 and 1
+    image, t_final, _ = tiles_numba.forward(*scene, W, H)
+    assert (image[..., :3] > 1).any() and (image[..., :3] < 0).any()  # the clip is exercised
+    for tile in (16, 32, 64):
+        rgb, extra, alpha = tiles_numba.frame(*scene, W, H, tile=tile)
+        assert rgb.shape == (H, W, 3) and extra.shape == (H, W, channels - 3) and alpha.shape == (H, W)
+        np.testing.assert_array_equal(rgb, np.clip(image[..., :3], 0, 1))
+        np.testing.assert_array_equal(extra, image[..., 3:])
+        np.testing.assert_allclose(alpha, 1 - t_final, atol=1e-7)
+
+
 def test_depth_order_is_a_stable_argsort():
     rng = np.random.default_rng(11)
     depths = rng.choice(np.array([-2.5, -0.0, 0.0, 1e-30, 0.7, 0.7, 3.0, np.inf], np.float32), 300)

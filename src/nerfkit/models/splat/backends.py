@@ -15,7 +15,13 @@ piecewise constant).
     contrib(...same arguments) -> (image, alpha, n_contrib [H, W] int32)   optional
 
 also returns each pixel's contributor count (1 + the tile-list position of the last Gaussian it
-blended, 0: none), for backends that bin Gaussians into tiles. A kernel backend is built in three
+blended, 0: none), for backends that bin Gaussians into tiles.
+
+    frame(...same arguments, numpy) -> (rgb [H, W, 3] clipped to [0, 1], extra [H, W, C - 3], alpha [H, W])
+                                                                        optional
+
+renders a view that is only looked at, outside jit and with no gradient to follow, for backends that
+render on the host (gaussians.render_frame calls it, and the jitted rasterize where it is None). A kernel backend is built in three
 parts (tiles_numba.py is the model): bin (the Gaussians each tile may see, in depth order), forward
 (image, T_final and n_contrib per pixel) and backward (from T_final and n_contrib, the gradients
 above), joined by a custom VJP (rasterize_numba.py).
@@ -48,6 +54,7 @@ class Backend:
     summary: str
     rasterize: Callable
     contrib: Callable | None = None
+    frame: Callable | None = None
 
 
 def backend(name: str) -> Backend:

@@ -66,7 +66,7 @@ def median_tiles(gt, start, spans, planes, offsets, ids, width, height, t_final,
     after which 1 - T reaches A / 2 (the median). 0 where the pixel has no opacity."""
     tiles_x = (width + TILE - 1) // TILE
     for t in range(first, offsets.size - 1, stride):
-        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
+        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height, TILE)
         trans, acc, wsum = np.ones((TILE, TILE)), np.zeros((TILE, TILE)), np.zeros((TILE, TILE))
         done = np.zeros((TILE, TILE), np.bool_)
         out[y0:y0 + ny, x0:x0 + nx] = 0.0

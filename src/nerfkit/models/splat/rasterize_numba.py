@@ -100,4 +100,4 @@ def rasterize_numba(means2d, conics, colors, opacities, depths, radii, backgroun
 
 BACKEND = Backend(
     name="numba", summary="CPU tile kernels (numba) through a host callback, custom VJP",
-    rasterize=lambda *a: rasterize_numba(*a)[:2], contrib=rasterize_numba)
+    rasterize=lambda *a: rasterize_numba(*a)[:2], contrib=rasterize_numba, frame=tiles_numba.frame)

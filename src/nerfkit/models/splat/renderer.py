@@ -7,7 +7,7 @@ import numpy as np
 
 from nerfkit.core.errors import DataError
 from nerfkit.models.splat.depth import median_depth
-from nerfkit.models.splat.gaussians import PARAM_NAMES, held_out_gaussians, intrinsics_of, render, to_device
+from nerfkit.models.splat.gaussians import PARAM_NAMES, held_out_gaussians, intrinsics_of, render_frame, to_device
 from nerfkit.rays.cameras import Camera
 
 
@@ -37,10 +37,10 @@ class SplatRenderer:
             intr = intrinsics_of(camera)
         except ValueError as e:
             raise DataError(str(e)) from None
-        r = render(on_device, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree,
-                   self.model.cfg.splat.backend)
+        r = render_frame(on_device, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree,
+                         self.model.cfg.splat.backend)
         opacity = r["alpha"]
-        out = {"rgb": np.clip(r["rgb"], 0.0, 1.0), "depth": r["depth"], "opacity": opacity,
+        out = {"rgb": r["rgb"], "depth": r["depth"], "opacity": opacity,
                "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
         if median:
             out["depth_median"] = median_depth(p, c2w, intr, camera.width, camera.height, opacity)

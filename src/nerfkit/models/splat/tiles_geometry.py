@@ -23,7 +23,7 @@ from nerfkit.models.splat.reference import ALPHA_MIN, SIGMA_MAX
 TILE = 16
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bin_tiles(rects, order, n_tiles, tiles_x):
     """offsets [n_tiles + 1], ids [M]: tile t's Gaussians are ids[offsets[t]:offsets[t + 1]],
     in the order of `order` (depth order)."""
@@ -193,13 +193,18 @@ def _row_start(gt, g, dx, dy, xs, y, xa, ya, e, r, v):
     return e, r, v
 
 
-@njit(cache=True)
-def tile_rects(means2d, conics, opacities, radii, width, height):
+@njit(cache=True, nogil=True)
+def tile_rects(means2d, conics, opacities, radii, width, height, tile):
     """Tile rectangles [N, 4] (tx0, tx1, ty0, ty1), ends exclusive, of the pixel boxes that hold each
-    Gaussian's ellipse d^T Q d <= _span(o) (at most its radius square); empty when it cannot show."""
+    Gaussian's ellipse d^T Q d <= _span(o) (at most its radius square), for tiles of tile x tile pixels (tile a
+    power of two: pixels to tiles by a shift, a fifth of this pass against a division); empty when it cannot
+    show."""
     n = means2d.shape[0]
-    tiles_x = (width + TILE - 1) // TILE
-    tiles_y = (height + TILE - 1) // TILE
+    shift = 0
+    while (1 << shift) < tile:
+        shift += 1
+    tiles_x = (width + tile - 1) // tile
+    tiles_y = (height + tile - 1) // tile
     rects = np.zeros((n, 4), np.int32)
     for g in range(n):
         a, b, c = float(conics[g, 0]), float(conics[g, 1]), float(conics[g, 2])
@@ -217,20 +222,20 @@ def tile_rects(means2d, conics, opacities, radii, width, height):
         i1 = min(height - 1.0, math.floor(my + hy - 0.5))
         if j0 > j1 or i0 > i1:
             continue
-        rects[g, 0] = int(j0) // TILE
-        rects[g, 1] = min(tiles_x, int(j1) // TILE + 1)
-        rects[g, 2] = int(i0) // TILE
-        rects[g, 3] = min(tiles_y, int(i1) // TILE + 1)
+        rects[g, 0] = int(j0) >> shift
+        rects[g, 1] = min(tiles_x, (int(j1) >> shift) + 1)
+        rects[g, 2] = int(i0) >> shift
+        rects[g, 3] = min(tiles_y, (int(i1) >> shift) + 1)
     return rects
 
 
 @njit(cache=True, inline="always")
-def _tile_box(t, tiles_x, width, height):
-    """(x0, y0, nx, ny): the first pixel column and row of tile t (row-major, tiles_x tiles per row) and its
-    width and height in pixels (edge tiles are cut by the image)."""
-    x0 = (t % tiles_x) * TILE
-    y0 = (t // tiles_x) * TILE
-    return x0, y0, min(TILE, width - x0), min(TILE, height - y0)
+def _tile_box(t, tiles_x, width, height, tile):
+    """(x0, y0, nx, ny): the first pixel column and row of tile t (row-major, tiles_x tiles of tile x tile pixels
+    per row) and its width and height in pixels (edge tiles are cut by the image)."""
+    x0 = (t % tiles_x) * tile
+    y0 = (t // tiles_x) * tile
+    return x0, y0, min(tile, width - x0), min(tile, height - y0)
 
 
 @njit(cache=True, inline="always")

@@ -3,6 +3,7 @@ binning, the blend and the gradients they compute). Where each Gaussian reaches 
 rows, the binning, the walk of e^{-sigma} from one scanline to the next) is tiles_geometry.py's.
 
     forward_tiles           per tile: _blend_tile (front to back), _store_tile
+    frame_tiles             the same for a view only looked at: _blend_tile, _store_frame
     backward_tiles          per tile: _load_tile, _unblend_tile (back to front)
 
 depth_kernels.py holds the exports' depth kernel (median_tiles), built on the same helpers.
@@ -113,7 +114,7 @@ def forward_tiles(gt, start, spans, colors, background, offsets, ids, width, hei
     n_ch = colors.shape[1]
     tiles_x = (width + TILE - 1) // TILE
     for t in range(first, offsets.size - 1, stride):
-        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
+        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height, TILE)
         trans = np.ones((TILE, TILE))
         done = np.zeros((TILE, TILE), np.bool_)
         last = np.zeros((TILE, TILE), np.int32)
@@ -121,6 +122,38 @@ def forward_tiles(gt, start, spans, colors, background, offsets, ids, width, hei
         _blend_tile(ids, offsets[t], offsets[t + 1] - offsets[t], gt, start, spans, colors, x0, y0, nx, ny, trans,
                     done, last, acc)
         _store_tile(acc, trans, last, background, n_ch, x0, y0, nx, ny, image, t_final, n_contrib)
+
+
+@njit(cache=True, inline="always")
+def _store_frame(acc, trans, background, n_ch, x0, y0, nx, ny, rgb, extra, alpha):
+    """Write a blended tile out as a view: rgb = acc + T background in the first three channels, clipped to
+    [0, 1]; extra = the same unclipped in the others (a depth channel); alpha = 1 - T."""
+    for y in range(ny):
+        for x in range(nx):
+            t = trans[y, x]
+            for ch in range(3):
+                rgb[y0 + y, x0 + x, ch] = min(1.0, max(0.0, acc[y, x, ch] + t * background[ch]))
+            for ch in range(3, n_ch):
+                extra[y0 + y, x0 + x, ch - 3] = acc[y, x, ch] + t * background[ch]
+            alpha[y0 + y, x0 + x] = 1.0 - t
+
+
+@njit(cache=True, nogil=True)
+def frame_tiles(gt, start, spans, colors, background, offsets, ids, width, height, tile, rgb, extra, alpha, first,
+                stride):
+    """forward_tiles for a view that is only looked at (no gradients follow): tiles of tile x tile pixels, and
+    the outputs _store_frame writes in place of the image, T_final and n_contrib."""
+    n_ch = colors.shape[1]
+    tiles_x = (width + tile - 1) // tile
+    for t in range(first, offsets.size - 1, stride):
+        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height, tile)
+        trans = np.ones((tile, tile))
+        done = np.zeros((tile, tile), np.bool_)
+        last = np.zeros((tile, tile), np.int32)
+        acc = np.zeros((tile, tile, n_ch))
+        _blend_tile(ids, offsets[t], offsets[t + 1] - offsets[t], gt, start, spans, colors, x0, y0, nx, ny, trans,
+                    done, last, acc)
+        _store_frame(acc, trans, background, n_ch, x0, y0, nx, ny, rgb, extra, alpha)
 
 
 @njit(cache=True, inline="always")
@@ -228,7 +261,7 @@ def backward_tiles(gt, start, spans, colors, background, offsets, ids, width, he
     n_ch = colors.shape[1]
     tiles_x = (width + TILE - 1) // TILE
     for t in range(first, offsets.size - 1, stride):
-        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
+        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height, TILE)
         trans, g_end, g_img, n_blend, rec = _load_tile(t_final, n_contrib, grad_image, grad_t, background, n_ch,
                                                        x0, y0, nx, ny)
         _unblend_tile(ids, offsets[t], gt, start, spans, colors, n_ch, x0, y0, nx, ny, trans, g_end, g_img, n_blend,

@@ -54,11 +54,12 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from nerfkit.models.splat.tiles_geometry import TILE, bin_tiles, gaussian_table, row_spans, span_starts, tile_rects
-from nerfkit.models.splat.tiles_kernels import backward_tiles, forward_tiles
+from nerfkit.models.splat.tiles_kernels import backward_tiles, forward_tiles, frame_tiles
 from nerfkit.models.splat.depth_kernels import median_tiles
 
 THREADS: int | None = None  # worker threads; None: every CPU in os.sched_getaffinity
 CHUNKS_PER_WORKER = 8
+FRAME_TILE = 64  # frame()'s tiles, in pixels (a power of two)
 _POOL: ThreadPoolExecutor | None = None
 
 
@@ -86,23 +87,24 @@ def gaussian_rows(means2d, conics, opacities, radii, width: int, height: int, th
     return table, start, spans
 
 
-def _bins_and_rows(means2d, conics, opacities, depths, radii, width: int, height: int, threads: int | None):
+def _bins_and_rows(means2d, conics, opacities, depths, radii, width: int, height: int, threads: int | None,
+                   tile: int = TILE):
     """(offsets, ids, rows): bin_gaussians, and gaussian_rows on a worker thread meanwhile (its kernels release
     the GIL) when there is more than one."""
     if worker_count(threads) == 1:
-        return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height),
+        return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height, tile),
                 gaussian_rows(means2d, conics, opacities, radii, width, height, 1))
     rows = _pool(worker_count(threads)).submit(gaussian_rows, means2d, conics, opacities, radii, width, height, 1)
-    return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height), rows.result())
+    return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height, tile), rows.result())
 
 
-def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height: int):
+def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height: int, tile: int = TILE):
     """Tile lists of Gaussians, each sorted front to back: (offsets [n_tiles + 1] int64, ids [M] int32).
 
-    Tiles are numbered row-major, tiles_x = ceil(width / 16) per row."""
-    tiles_x = -(-width // TILE)
-    tiles_y = -(-height // TILE)
-    rects = tile_rects(means2d, conics, opacities, radii, width, height)
+    Tiles of tile x tile pixels are numbered row-major, tiles_x = ceil(width / tile) per row."""
+    tiles_x = -(-width // tile)
+    tiles_y = -(-height // tile)
+    rects = tile_rects(means2d, conics, opacities, radii, width, height, tile)
     order = depth_order(depths, np.flatnonzero(radii > 0))
     return bin_tiles(rects, order, tiles_x * tiles_y, tiles_x)
 
@@ -228,6 +230,23 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
                                             n_contrib))
     out = image, t_final, n_contrib
     return out + (token,) if keep_bins else out
+
+
+def frame(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int,
+          threads: int | None = None, tile: int = FRAME_TILE):
+    """Render a view that is only looked at (numpy in, numpy out; no backward follows): rgb [H, W, 3] clipped to
+    [0, 1], extra [H, W, C - 3] (the channels after the third, unclipped: a depth channel), alpha [H, W] = 1 -
+    T_final, all float32; the pixels of forward()'s image. Tiles of tile x tile pixels (FRAME_TILE: fewer tile
+    entries at a viewer's sizes; the training passes keep 16, where a backward tile of 32 outgrows L1)."""
+    means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
+    radii = np.ascontiguousarray(radii, np.int32)
+    offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads, tile)
+    rgb = np.empty((height, width, 3), np.float32)
+    extra = np.empty((height, width, colors.shape[1] - 3), np.float32)
+    alpha = np.empty((height, width), np.float32)
+    _run(frame_tiles, threads, lambda w: (*rows, colors, background, offsets, ids, width, height, tile, rgb, extra,
+                                          alpha))
+    return rgb, extra, alpha
 
 
 def backward(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int, t_final,
