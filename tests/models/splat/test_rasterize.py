@@ -317,13 +317,15 @@ def test_auto_picks_the_host_kernels_off_a_gpu():
 def test_frame_writes_the_forward_image_at_every_tile_size(channels):
     """tiles_numba.frame (the numba backend's `frame`: a view only looked at) writes forward()'s pixels: rgb clipped
     to [0, 1], the channels after the third unclipped, alpha = 1 - T_final; at tiles of 16 (forward's), 32 and 64
-    px (larger than the image: one partial tile)."""
-    scene = list(random_scene(seed=5, channels=channels))
+    px (larger than the image: one partial tile), and with one in three Gaussians at the same depth (the blend takes
+    ties in index order, whatever order frame keeps its arrays in: tiles_numba.local_order; threads 1 and 2)."""
+    scene = list(random_scene(n=60, seed=5, channels=channels))
     scene[2] = scene[2] * 1.6 - 0.3  # colours past 0 and 1
+    scene[4][::3] = scene[4][1]
     image, t_final, _ = tiles_numba.forward(*scene, W, H)
     assert (image[..., :3] > 1).any() and (image[..., :3] < 0).any()  # the clip is exercised
-    for tile in (16, 32, 64):
-        rgb, extra, alpha = tiles_numba.frame(*scene, W, H, tile=tile)
+    for tile, threads in ((16, 1), (16, 2), (32, 2), (64, 2)):
+        rgb, extra, alpha = tiles_numba.frame(*scene, W, H, threads=threads, tile=tile)
         assert rgb.shape == (H, W, 3) and extra.shape == (H, W, channels - 3) and alpha.shape == (H, W)
         np.testing.assert_array_equal(rgb, np.clip(image[..., :3], 0, 1))
         np.testing.assert_array_equal(extra, image[..., 3:])

@@ -232,15 +232,41 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
     return out + (token,) if keep_bins else out
 
 
+def local_order(means2d, depths, radii, width: int, height: int, tile: int) -> tuple[np.ndarray, np.ndarray]:
+    """(perm [L], order [L]) int32 for the L live Gaussians (radii > 0): perm groups them by the tile their mean
+    falls in (row-major, tiles of tile x tile pixels; a mean off the image counts in the nearest tile), each group
+    in depth order; order is depth_order's sequence (ties by index, the blend's order) as positions in perm. The
+    kernels then read a Gaussian's table row, spans and colours from a few runs of nearby rows per tile instead of
+    from all over the arrays: the per-entry cache misses are most of the blend's time (lego at 800 px, 64-px tiles:
+    a quarter off the blend, measured)."""
+    by_depth = depth_order(depths, np.flatnonzero(radii > 0))
+    tiles_x, tiles_y = -(-width // tile), -(-height // tile)
+    centre = np.nan_to_num(np.take(means2d, by_depth, axis=0)) // tile
+    key = np.clip(centre[:, 1], 0, tiles_y - 1) * tiles_x + np.clip(centre[:, 0], 0, tiles_x - 1)
+    by_tile = np.argsort(key.astype(np.int16 if tiles_x * tiles_y < 2**15 else np.int32), kind="stable")  # radix
+    order = np.empty(len(by_tile), np.int32)
+    order[by_tile] = np.arange(len(by_tile), dtype=np.int32)
+    return by_depth[by_tile], order
+
+
 def frame(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int,
           threads: int | None = None, tile: int = FRAME_TILE):
     """Render a view that is only looked at (numpy in, numpy out; no backward follows): rgb [H, W, 3] clipped to
     [0, 1], extra [H, W, C - 3] (the channels after the third, unclipped: a depth channel), alpha [H, W] = 1 -
     T_final, all float32; the pixels of forward()'s image. Tiles of tile x tile pixels (FRAME_TILE: fewer tile
-    entries at a viewer's sizes; the training passes keep 16, where a backward tile of 32 outgrows L1)."""
+    entries at a viewer's sizes; the training passes keep 16, where a backward tile of 32 outgrows L1), the
+    Gaussians taken in local_order."""
+    perm, order = local_order(means2d, depths, radii, width, height, tile)
+    means2d, conics, colors, opacities, radii = (np.take(a, perm, axis=0) for a in (means2d, conics, colors,
+                                                                                   opacities, radii))
     means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
     radii = np.ascontiguousarray(radii, np.int32)
-    offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads, tile)
+    pool = _pool(worker_count(threads)) if worker_count(threads) > 1 else None
+    rows = pool.submit(gaussian_rows, means2d, conics, opacities, radii, width, height, 1) if pool else None
+    tiles_x, tiles_y = -(-width // tile), -(-height // tile)
+    offsets, ids = bin_tiles(tile_rects(means2d, conics, opacities, radii, width, height, tile), order,
+                             tiles_x * tiles_y, tiles_x)
+    rows = rows.result() if pool else gaussian_rows(means2d, conics, opacities, radii, width, height, 1)
     rgb = np.empty((height, width, 3), np.float32)
     extra = np.empty((height, width, colors.shape[1] - 3), np.float32)
     alpha = np.empty((height, width), np.float32)
