@@ -349,8 +349,8 @@ def test_backward_takes_the_forwards_tile_lists(monkeypatch):
     scene = random_scene(seed=12)
     g_img, g_alpha = loss_weights(12, 3, np.float32)
     calls = []
-    binner = tiles_numba.bin_gaussians
-    monkeypatch.setattr(tiles_numba, "bin_gaussians", lambda *a: calls.append(1) or binner(*a))
+    binner = tiles_numba.bin_local
+    monkeypatch.setattr(tiles_numba, "bin_local", lambda *a: calls.append(1) or binner(*a))
     image, t_final, n_contrib, token = tiles_numba.forward(*scene, W, H, keep_bins=True)
     kept = tiles_numba.backward(*scene, W, H, t_final, n_contrib, g_img, -g_alpha, bins=token)
     assert len(calls) == 1

@@ -50,6 +50,7 @@ import os
 import queue
 import threading
 from concurrent.futures import ThreadPoolExecutor
+from typing import NamedTuple
 
 import numpy as np
 
@@ -78,24 +79,60 @@ def depth_order(depths, live) -> np.ndarray:
 
 def gaussian_rows(means2d, conics, opacities, radii, width: int, height: int, threads: int | None = None):
     """(table, start, spans): tiles_geometry.gaussian_table (float64 inputs) and each Gaussian's image rows with
-    their columns (tiles_geometry.row_spans, on the worker threads), what the blend kernels read instead of
-    solving every scanline once per tile it crosses."""
+    their columns (table_spans), what the blend kernels read instead of solving every scanline once per tile it
+    crosses."""
     table = gaussian_table(means2d, conics, opacities, radii, height)
+    return (table, *table_spans(table, width, threads))
+
+
+def table_spans(table, width: int, threads: int | None = None):
+    """(start, spans): tiles_geometry.span_starts and row_spans (on the worker threads) of a gaussian_table."""
     start = span_starts(table)
     spans = np.empty((start[-1], 2), np.int16 if width < 2**15 else np.int32)  # half the bytes to read
     _run(row_spans, threads, lambda w: (table, start, width, spans))
-    return table, start, spans
+    return start, spans
 
 
-def _bins_and_rows(means2d, conics, opacities, depths, radii, width: int, height: int, threads: int | None,
-                   tile: int = TILE):
-    """(offsets, ids, rows): bin_gaussians, and gaussian_rows on a worker thread meanwhile (its kernels release
-    the GIL) when there is more than one."""
-    if worker_count(threads) == 1:
-        return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height, tile),
-                gaussian_rows(means2d, conics, opacities, radii, width, height, 1))
-    rows = _pool(worker_count(threads)).submit(gaussian_rows, means2d, conics, opacities, radii, width, height, 1)
-    return (*bin_gaussians(means2d, conics, opacities, depths, radii, width, height, tile), rows.result())
+class Bins(NamedTuple):
+    """A pass's geometry (bin_local). The kernels number the live Gaussians in local_order: their index k is
+    Gaussian perm[k] (the table's row k, the colours taken in that order), and ids lists those indices."""
+
+    width: int
+    height: int
+    tile: int
+    perm: np.ndarray  # [L] int32
+    offsets: np.ndarray  # [n_tiles + 1] int64: tile t's list is ids[offsets[t]:offsets[t + 1]]
+    ids: np.ndarray  # [M] int32, front to back within each tile
+    rows: tuple  # (table, start, spans) of the Gaussians in perm's order
+
+    def local(self, values: np.ndarray) -> np.ndarray:
+        """values [N, ...] per Gaussian, in the kernels' order [L, ...]."""
+        return np.take(values, self.perm, axis=0)
+
+    def scattered(self, values: np.ndarray, n: int) -> np.ndarray:
+        """values [L + 1, ...] in the kernels' order with a zero row at L, per Gaussian [n, ...] (zero where not
+        live)."""
+        where = np.full(n, len(self.perm), np.int64)
+        where[self.perm] = np.arange(len(self.perm))
+        return np.take(values, where, axis=0)
+
+
+def bin_local(means2d, conics, opacities, depths, radii, width: int, height: int, threads: int | None,
+              tile: int = TILE) -> Bins:
+    """The Bins of a pass (float64 inputs): local_order, the tile lists and the rows' spans. With more than one
+    worker thread (the kernels release the GIL), one builds the gaussian_table while this thread orders the
+    Gaussians, then the spans of its rows while this one bins."""
+    pool = _pool(worker_count(threads)) if worker_count(threads) > 1 else None
+    table = pool.submit(gaussian_table, means2d, conics, opacities, radii, height) if pool else None
+    perm, order = local_order(means2d, depths, radii, width, height, tile)
+    table = np.take(table.result() if pool else gaussian_table(means2d, conics, opacities, radii, height), perm,
+                    axis=0)
+    spans = pool.submit(table_spans, table, width, 1) if pool else None
+    tiles_x, tiles_y = -(-width // tile), -(-height // tile)
+    rects = tile_rects(*(np.take(a, perm, axis=0) for a in (means2d, conics, opacities, radii)), width, height, tile)
+    offsets, ids = bin_tiles(rects, order, tiles_x * tiles_y, tiles_x)
+    spans = spans.result() if pool else table_spans(table, width, 1)
+    return Bins(width, height, tile, perm, offsets, ids, (table, *spans))
 
 
 def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height: int, tile: int = TILE):
@@ -221,13 +258,14 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
     dtype = np.result_type(colors.dtype, np.float32)
     means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
     radii = np.ascontiguousarray(radii, np.int32)
-    offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads)
-    token = KEPT_BINS.put((width, height, offsets, ids, rows)) if keep_bins else None
+    bins = bin_local(means2d, conics, opacities, depths, radii, width, height, threads)
+    token = KEPT_BINS.put(bins) if keep_bins else None
     image = np.empty((height, width, colors.shape[1]), dtype)  # the kernel writes the output dtype: no copy
     t_final = np.empty((height, width), dtype)
     n_contrib = np.empty((height, width), np.int32)
-    _run(forward_tiles, threads, lambda w: (*rows, colors, background, offsets, ids, width, height, image, t_final,
-                                            n_contrib))
+    local = bins.local(colors)
+    _run(forward_tiles, threads, lambda w: (*bins.rows, local, background, bins.offsets, bins.ids, width, height,
+                                            image, t_final, n_contrib))
     out = image, t_final, n_contrib
     return out + (token,) if keep_bins else out
 
@@ -256,22 +294,15 @@ def frame(means2d, conics, colors, opacities, depths, radii, background, width: 
     T_final, all float32; the pixels of forward()'s image. Tiles of tile x tile pixels (FRAME_TILE: fewer tile
     entries at a viewer's sizes; the training passes keep 16, where a backward tile of 32 outgrows L1), the
     Gaussians taken in local_order."""
-    perm, order = local_order(means2d, depths, radii, width, height, tile)
-    means2d, conics, colors, opacities, radii = (np.take(a, perm, axis=0) for a in (means2d, conics, colors,
-                                                                                   opacities, radii))
     means2d, conics, colors, opacities, background = _f64(means2d, conics, colors, opacities, background)
-    radii = np.ascontiguousarray(radii, np.int32)
-    pool = _pool(worker_count(threads)) if worker_count(threads) > 1 else None
-    rows = pool.submit(gaussian_rows, means2d, conics, opacities, radii, width, height, 1) if pool else None
-    tiles_x, tiles_y = -(-width // tile), -(-height // tile)
-    offsets, ids = bin_tiles(tile_rects(means2d, conics, opacities, radii, width, height, tile), order,
-                             tiles_x * tiles_y, tiles_x)
-    rows = rows.result() if pool else gaussian_rows(means2d, conics, opacities, radii, width, height, 1)
+    bins = bin_local(means2d, conics, opacities, depths, np.ascontiguousarray(radii, np.int32), width, height,
+                     threads, tile)
     rgb = np.empty((height, width, 3), np.float32)
     extra = np.empty((height, width, colors.shape[1] - 3), np.float32)
     alpha = np.empty((height, width), np.float32)
-    _run(frame_tiles, threads, lambda w: (*rows, colors, background, offsets, ids, width, height, tile, rgb, extra,
-                                          alpha))
+    local = bins.local(colors)
+    _run(frame_tiles, threads, lambda w: (*bins.rows, local, background, bins.offsets, bins.ids, width, height, tile,
+                                          rgb, extra, alpha))
     return rgb, extra, alpha
 
 
@@ -288,22 +319,22 @@ def backward(means2d, conics, colors, opacities, depths, radii, background, widt
     radii = np.ascontiguousarray(radii, np.int32)
     n_contrib = np.ascontiguousarray(n_contrib, np.int32)
     kept = KEPT_BINS.take(bins) if bins is not None else None
-    if kept is not None and kept[:2] == (width, height):
-        offsets, ids, rows = kept[2:]
-    else:
-        offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads)
+    if kept is None or (kept.width, kept.height, kept.tile) != (width, height, TILE):
+        kept = bin_local(means2d, conics, opacities, depths, radii, width, height, threads)
     n, n_ch = colors.shape
     workers = worker_count(threads)
-    out = _SUMS.take((workers, n, 6 + n_ch))
+    out = _SUMS.take((workers, n + 1, 6 + n_ch))  # rows in the kernels' order; those from len(perm) on stay 0
+    local = kept.local(colors)
     try:
-        _run(backward_tiles, workers, lambda w: (*rows, colors, background, offsets, ids, width, height, t_final,
-                                                 n_contrib, grad_image, grad_t, out[w]))
+        _run(backward_tiles, workers, lambda w: (*kept.rows, local, background, kept.offsets, kept.ids, width, height,
+                                                 t_final, n_contrib, grad_image, grad_t, out[w]))
         total = out[0]
         for w in range(1, workers):
             total += out[w]
+        total = kept.scattered(total, n)  # a copy: the buffer goes back
         g_bg = np.einsum("hw,hwc->c", t_final, grad_image)
         grads = (total[:, 0:2], total[:, 2:5], total[:, 6:], total[:, 5], g_bg)
-        return tuple(g.astype(dt) for g, dt in zip(grads, dtypes))  # copies: the buffer goes back
+        return tuple(g.astype(dt) for g, dt in zip(grads, dtypes))
     finally:
         _SUMS.give(out)
 
@@ -316,7 +347,9 @@ def median_depth(means2d, conics, opacities, depths, radii, planes, width: int, 
     median_tiles); 0 where t_final = 1. Forward only (the exports read it)."""
     means2d, conics, opacities, planes, t_final = _f64(means2d, conics, opacities, planes, t_final)
     radii = np.ascontiguousarray(radii, np.int32)
-    offsets, ids, rows = _bins_and_rows(means2d, conics, opacities, depths, radii, width, height, threads)
+    bins = bin_local(means2d, conics, opacities, depths, radii, width, height, threads)
     out = np.empty((height, width))
-    _run(median_tiles, threads, lambda w: (*rows, planes, offsets, ids, width, height, t_final, float(band), out))
+    local = bins.local(planes)
+    _run(median_tiles, threads, lambda w: (*bins.rows, local, bins.offsets, bins.ids, width, height, t_final,
+                                           float(band), out))
     return out
