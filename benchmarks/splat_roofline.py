@@ -85,7 +85,7 @@ def count_pairs(gt, offsets, ids, n_contrib, width, height):
     tiles_x = (width + TILE - 1) // TILE
     f_test = f_blend = b_test = b_blend = f_entries = b_entries = 0
     for t in range(offsets.size - 1):
-        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height)
+        x0, y0, nx, ny = _tile_box(t, tiles_x, width, height, TILE)
         start, count = offsets[t], offsets[t + 1] - offsets[t]
         trans = np.ones((TILE, TILE))
         done = np.zeros((TILE, TILE), np.bool_)
@@ -204,7 +204,7 @@ def measure_view(inputs, size: tuple[int, int], view: int, reps: int) -> dict:
              "forward_1thread_s": _median(lambda: tiles_numba.forward(*args, w, h, threads=1), reps),
              "backward_1thread_s": _median(lambda: tiles_numba.backward(*args, w, h, t_final, n_contrib, g_img, g_t,
                                                                         threads=1), reps),
-             "binning_s": _median(lambda: tiles_numba.bin_gaussians(m64, c64, o64, depths, radii, w, h), reps)}
+             "binning_s": _median(lambda: tiles_numba.bin_local(m64, c64, o64, depths, radii, w, h, None), reps)}
     return {"view": view, "width": w, "height": h, "gaussians_live": int((radii > 0).sum()),
             "tile_entries": int(ids.size), "entries_visited": {"forward": int(f_entries), "backward": int(b_entries)},
             "pairs": {"forward_tested": int(f_test), "forward_blended": int(f_blend),

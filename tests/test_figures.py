@@ -89,7 +89,7 @@ BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
 CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
-SPLAT_NOW, RS_NOW = "lego_cli_splat_adb5a57.json", "render_speed_splat_adb5a57.json"  # today's kernels: a run, its frame
+SPLAT_NOW, RS_NOW = "lego_cli_splat_eabdd28.json", "render_speed_splat_008d33e.json"  # today's kernels: a run, its frame
 BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 VIDEO = "own_photos_procedural_video.json"
 ROOF = "splat_roofline.json"  # the CPU rasteriser against the machine's peaks
@@ -514,7 +514,7 @@ CHECKS = [
     ("docs/splats.md", "On a real capture: maryrose", "splats win photos 1, 4 and 5 (by {}, {} and {} dB)",
      [((lambda: _mary_diff()[1]), f1), ((lambda: _mary_diff()[4]), f1), ((lambda: _mary_diff()[5]), f1)]),
     ("docs/splats.md", "| one 800x800 lego frame, compiled",
-     "(splat {} steps, trained at commit {h}, `lego_cli_splat_adb5a57.json`; ngp {} steps, at {h}, `lego_cli_ngp_3f13384.json`) "
+     "(splat {} steps, trained at commit {h}, `lego_cli_splat_eabdd28.json`; ngp {} steps, at {h}, `lego_cli_ngp_3f13384.json`) "
      "| **{} s** | {} s |",
      [((RS_NOW, "step"), d), commit(SPLAT_NOW), (("render_speed.json", "step"), d), commit(NGP_3F),
       ((RS_NOW, "seconds_per_frame", "800x800"), f3), (("render_speed.json", "seconds_per_frame", "800x800"), f2)]),
