@@ -21,10 +21,11 @@ blended, 0: none), for backends that bin Gaussians into tiles.
                                                                         optional
 
 renders a view that is only looked at, outside jit and with no gradient to follow, for backends that
-render on the host (gaussians.render_frame calls it, and the jitted rasterize where it is None). A kernel backend is built in three
-parts (tiles_numba.py is the model): bin (the Gaussians each tile may see, in depth order), forward
-(image, T_final and n_contrib per pixel) and backward (from T_final and n_contrib, the gradients
-above), joined by a custom VJP (rasterize_numba.py).
+render on the host (gaussians.render_frame calls it, and the jitted rasterize where it is None).
+
+A kernel backend is built in three parts (tiles_numba.py is the model): bin (the Gaussians each
+tile may see, in depth order), forward (image, T_final and n_contrib per pixel) and backward (from
+T_final and n_contrib, the gradients above), joined by a custom VJP (rasterize_numba.py).
 
 tests/models/splat/test_rasterize.py holds every backend to the reference, image and gradients.
 """

@@ -28,8 +28,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.metrics import psnr, ssim
-from nerfkit.models.splat.project import LOWPASS_DILATION, SH_C0, project_gaussians, sh_colors
 from nerfkit.models.splat.backends import backend as backend_named
+from nerfkit.models.splat.project import LOWPASS_DILATION, SH_C0, project_gaussians, sh_colors
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.rays.correction import mean_color
 

@@ -13,7 +13,9 @@ Gaussians with others are skipped.
    millionth of slack for rounding. Live Gaussians (r_k > 0)
    are visited in depth order (stable argsort) and appended to every tile their box
    touches, so each tile's list comes out already sorted by depth (a counting sort by tile,
-   stable in depth: the order a sort on (tile, depth) keys gives, as in the 3DGS code).
+   stable in depth: the order a sort on (tile, depth) keys gives, as in the 3DGS code). The
+   kernels see the live Gaussians renumbered in local_order (grouped by the tile their mean
+   falls in; bin_local), so that a tile's list reads nearby rows of the per-Gaussian arrays.
 2. Forward, tiles spread over worker threads (the kernels release the GIL). Within a tile,
    the Gaussians are taken front to back and each visits only the pixels of its ellipse,
    scanline by scanline (the rows within sqrt(s Sigma'_yy), in each row the d_x between the
