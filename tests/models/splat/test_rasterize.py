@@ -339,6 +339,11 @@ def test_depth_order_is_a_stable_argsort():
     live = np.flatnonzero(rng.uniform(size=300) < 0.8)
     want = live[np.argsort(depths[live], kind="stable")]
     np.testing.assert_array_equal(tiles_numba.depth_order(depths, live), want)
+    big = rng.normal(size=70_000).astype(np.float32)  # every byte of the radix sort's keys in use
+    big[::5] = big[3]
+    live_big = np.flatnonzero(rng.uniform(size=big.size) < 0.9)
+    np.testing.assert_array_equal(tiles_numba.depth_order(big, live_big),
+                                  live_big[np.argsort(big[live_big], kind="stable")])
     d64 = depths.astype(np.float64) + rng.normal(size=300) * 1e-12  # other dtypes: numpy's stable argsort
     np.testing.assert_array_equal(tiles_numba.depth_order(d64, live), live[np.argsort(d64[live], kind="stable")])
 

@@ -44,6 +44,30 @@ def bin_tiles(rects, order, n_tiles, tiles_x):
     return offsets, ids
 
 
+@njit(cache=True, nogil=True)
+def radix_order(keys, values):
+    """values [L] (int32) sorted by keys [L] (uint32), ascending, ties in their given order: a stable
+    least-significant-digit radix sort, four passes of 8 bits carrying the keys along. A fifth of numpy's sort
+    of 50k uint64 (key, index) pairs on this machine, which is what it replaces."""
+    n = keys.size
+    k_src, k_dst = keys.copy(), np.empty_like(keys)
+    v_src, v_dst = values.copy(), np.empty_like(values)
+    for shift in range(0, 32, 8):
+        start = np.zeros(257, np.int64)
+        for i in range(n):
+            start[((k_src[i] >> shift) & 255) + 1] += 1
+        for b in range(256):
+            start[b + 1] += start[b]
+        for i in range(n):
+            b = (k_src[i] >> shift) & 255
+            k_dst[start[b]] = k_src[i]
+            v_dst[start[b]] = v_src[i]
+            start[b] += 1
+        k_src, k_dst = k_dst, k_src
+        v_src, v_dst = v_dst, v_src
+    return v_src
+
+
 _LOG_ALPHA_MIN = math.log(ALPHA_MIN)
 E_MIN = math.exp(-SIGMA_MAX)  # the 3-sigma cut sigma <= SIGMA_MAX, read on e^{-sigma}
 _A_RECUR = 25.0  # conic a (px^-2) up to which e^{-sigma} is advanced by products (else an exp a pixel)

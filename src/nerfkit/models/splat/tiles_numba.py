@@ -56,7 +56,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nerfkit.models.splat.tiles_geometry import TILE, bin_tiles, gaussian_table, row_spans, span_starts, tile_rects
+from nerfkit.models.splat.tiles_geometry import (
+    TILE,
+    bin_tiles,
+    gaussian_table,
+    radix_order,
+    row_spans,
+    span_starts,
+    tile_rects,
+)
 from nerfkit.models.splat.tiles_kernels import backward_tiles, forward_tiles, frame_tiles
 from nerfkit.models.splat.depth_kernels import median_tiles
 
@@ -68,15 +76,14 @@ _POOL: ThreadPoolExecutor | None = None
 
 def depth_order(depths, live) -> np.ndarray:
     """Indices [L] int32 of the Gaussians `live` (indices) sorted by depth, ties in index order: what a
-    stable argsort gives. For float32 depths (training's), as one sort of unique uint64 keys (the depth's
-    bits made order-preserving as an unsigned integer, above the index): several times faster than
-    numpy's stable argsort, which other dtypes take."""
+    stable argsort gives. For float32 depths (training's), a stable radix sort (tiles_geometry.radix_order)
+    of the depths' bits made order-preserving as unsigned integers: several times faster than numpy's stable
+    argsort, which other dtypes take."""
     if depths.dtype != np.float32:
         return live[np.argsort(depths[live], kind="stable")].astype(np.int32)
     bits = np.ascontiguousarray(depths[live] + np.float32(0.0)).view(np.uint32)  # -0 + 0 = +0: one zero
     bits = bits ^ np.where(bits >> 31 == 1, np.uint32(0xFFFFFFFF), np.uint32(0x80000000))  # negatives reversed
-    keys = (bits.astype(np.uint64) << np.uint64(32)) | live.astype(np.uint64)
-    return (np.sort(keys) & np.uint64(0xFFFFFFFF)).astype(np.int32)
+    return radix_order(bits, np.ascontiguousarray(live, np.int32))
 
 
 def gaussian_rows(means2d, conics, opacities, radii, width: int, height: int, threads: int | None = None):
