@@ -102,6 +102,23 @@ def table_spans(table, width: int, threads: int | None = None):
     return start, spans
 
 
+def local_order(means2d, depths, radii, width: int, height: int, tile: int) -> tuple[np.ndarray, np.ndarray]:
+    """(perm [L], order [L]) int32 for the L live Gaussians (radii > 0): perm groups them by the tile their mean
+    falls in (row-major, tiles of tile x tile pixels; a mean off the image counts in the nearest tile), each group
+    in depth order; order is depth_order's sequence (ties by index, the blend's order) as positions in perm. The
+    kernels then read a Gaussian's table row, spans and colours from a few runs of nearby rows per tile instead of
+    from all over the arrays: the per-entry cache misses are most of the blend's time (lego at 800 px, 64-px tiles:
+    a quarter off the blend, measured)."""
+    by_depth = depth_order(depths, np.flatnonzero(radii > 0))
+    tiles_x, tiles_y = -(-width // tile), -(-height // tile)
+    centre = np.nan_to_num(np.take(means2d, by_depth, axis=0)) // tile
+    key = np.clip(centre[:, 1], 0, tiles_y - 1) * tiles_x + np.clip(centre[:, 0], 0, tiles_x - 1)
+    by_tile = np.argsort(key.astype(np.int16 if tiles_x * tiles_y < 2**15 else np.int32), kind="stable")  # radix
+    order = np.empty(len(by_tile), np.int32)
+    order[by_tile] = np.arange(len(by_tile), dtype=np.int32)
+    return by_depth[by_tile], order
+
+
 class Bins(NamedTuple):
     """A pass's geometry (bin_local). The kernels number the live Gaussians in local_order: their index k is
     Gaussian perm[k] (the table's row k, the colours taken in that order), and ids lists those indices."""
@@ -145,7 +162,9 @@ def bin_local(means2d, conics, opacities, depths, radii, width: int, height: int
 
 
 def bin_gaussians(means2d, conics, opacities, depths, radii, width: int, height: int, tile: int = TILE):
-    """Tile lists of Gaussians, each sorted front to back: (offsets [n_tiles + 1] int64, ids [M] int32).
+    """Tile lists of Gaussians, each sorted front to back: (offsets [n_tiles + 1] int64, ids [M] int32), ids the
+    Gaussians' own indices: what the benchmarks count and time. The passes bin with bin_local (the same lists,
+    numbered in local_order).
 
     Tiles of tile x tile pixels are numbered row-major, tiles_x = ceil(width / tile) per row."""
     tiles_x = -(-width // tile)
@@ -277,23 +296,6 @@ def forward(means2d, conics, colors, opacities, depths, radii, background, width
                                             image, t_final, n_contrib))
     out = image, t_final, n_contrib
     return out + (token,) if keep_bins else out
-
-
-def local_order(means2d, depths, radii, width: int, height: int, tile: int) -> tuple[np.ndarray, np.ndarray]:
-    """(perm [L], order [L]) int32 for the L live Gaussians (radii > 0): perm groups them by the tile their mean
-    falls in (row-major, tiles of tile x tile pixels; a mean off the image counts in the nearest tile), each group
-    in depth order; order is depth_order's sequence (ties by index, the blend's order) as positions in perm. The
-    kernels then read a Gaussian's table row, spans and colours from a few runs of nearby rows per tile instead of
-    from all over the arrays: the per-entry cache misses are most of the blend's time (lego at 800 px, 64-px tiles:
-    a quarter off the blend, measured)."""
-    by_depth = depth_order(depths, np.flatnonzero(radii > 0))
-    tiles_x, tiles_y = -(-width // tile), -(-height // tile)
-    centre = np.nan_to_num(np.take(means2d, by_depth, axis=0)) // tile
-    key = np.clip(centre[:, 1], 0, tiles_y - 1) * tiles_x + np.clip(centre[:, 0], 0, tiles_x - 1)
-    by_tile = np.argsort(key.astype(np.int16 if tiles_x * tiles_y < 2**15 else np.int32), kind="stable")  # radix
-    order = np.empty(len(by_tile), np.int32)
-    order[by_tile] = np.arange(len(by_tile), dtype=np.int32)
-    return by_depth[by_tile], order
 
 
 def frame(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int,
