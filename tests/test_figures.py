@@ -99,7 +99,7 @@ SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
 
 
 RB, MLS, MMS = "splat_random_background_cli.json", "mesh_lego_splat.json", "mesh_maryrose_splat_watertight.json"
-NC_E9 = "splat_normal_consistency_e952e3f.json"
+NC_E9, MMW_E9 = "splat_normal_consistency_e952e3f.json", "mesh_maryrose_splat_watertight_e952e3f_nc01.json"
 NC, MLP, MMP = "splat_normal_consistency_cli.json", "mesh_lego_splat_plain.json", "mesh_maryrose_splat_watertight_plain.json"
 
 
@@ -581,8 +581,10 @@ CHECKS = [
      + splat_mesh_cells(MLS)),
     *[("docs/verbs/export.md", f"| `--normal-consistency {w}` |", f"| `--normal-consistency {w}` | {{}} | {{}} dB | "
        "{} ({}) | {} / {} | {} / {} | {} deg | {} deg | {}k | {} s |",
-       [((NC_E9, "runs", f"lego_normal_consistency_{w}", "step"), d), ((NC_E9, "runs", f"lego_normal_consistency_{w}", "psnr"), f1)]
-       + splat_mesh_cells(f"mesh_lego_splat_e952e3f_{tag}.json")) for w, tag in (("0.05", "nc005"), ("0.1", "nc01"), ("0.15", "nc015"))],
+       [((NC_E9, "runs", f"lego_normal_consistency_{w}", "step"), d),
+        ((NC_E9, "runs", f"lego_normal_consistency_{w}", "psnr"), f1)]
+       + splat_mesh_cells(f"mesh_lego_splat_e952e3f_{tag}.json"))
+      for w, tag in (("0.05", "nc005"), ("0.1", "nc01"), ("0.15", "nc015"))],
     ("docs/verbs/export.md", "0.1 keeps the silhouettes of 0.05", "0.15 agrees with the depth on {}% of pixels, smooths further "
      "and loses some silhouette (precision {}) and {} dB",
      [(("mesh_lego_splat_e952e3f_nc015.json", "methods", "tsdf", "depth_within_tol_median_mean"), pct0),
@@ -591,15 +593,16 @@ CHECKS = [
     ("docs/verbs/export.md", "0.1 keeps the silhouettes of 0.05", "brings the depth closer to the renders' at {} dB of PSNR",
      [((lambda: R(NC_E9, "runs", "lego_normal_consistency_0.05", "psnr") - R(NC_E9, "runs", "lego_normal_consistency_0.1", "psnr")), f0)]),
     ("docs/verbs/export.md", "maryrose the same way, `--watertight`", "`--normal-consistency 0.1` ({} steps, {} dB on its "
-     "{} held-out photos", [(("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "step"), d),
-                            (("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "psnr"), f1),
-                            (("mesh_maryrose_splat_watertight_e952e3f_nc01.json", "views"), d)]),
+     "{} held-out photos",
+     [(("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "step"), d),
+      (("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "psnr"), f1),
+      ((MMW_E9, "views"), d)]),
     ("docs/verbs/export.md", "maryrose the same way, `--watertight`", "IoU {} (its worst photo {}: IMG_9733, whose mask leaves "
      "out the tankard's open mouth), depth within 1% on {}% of covered pixels, the normals a median {} degrees from its "
      "depth's, faces meeting at a median {} degrees, one closed piece",
-     [(("mesh_maryrose_splat_watertight_e952e3f_nc01.json", "methods", "tsdf", "iou_mean"), f3), (("mesh_maryrose_splat_watertight_e952e3f_nc01.json", "methods", "tsdf", "views", 8, "iou"), f3),
-      (("mesh_maryrose_splat_watertight_e952e3f_nc01.json", "methods", "tsdf", "depth_within_tol_median_mean"), pct1),
-      (("mesh_maryrose_splat_watertight_e952e3f_nc01.json", "methods", "tsdf", "normal_median_deg_mean"), f1), (("mesh_maryrose_splat_watertight_e952e3f_nc01.json", "methods", "tsdf", "dihedral_median_deg"), f1)]),
+     [((MMW_E9, "methods", "tsdf", "iou_mean"), f3), ((MMW_E9, "methods", "tsdf", "views", 8, "iou"), f3),
+      ((MMW_E9, "methods", "tsdf", "depth_within_tol_median_mean"), pct1),
+      ((MMW_E9, "methods", "tsdf", "normal_median_deg_mean"), f1), ((MMW_E9, "methods", "tsdf", "dihedral_median_deg"), f1)]),
     ("docs/verbs/export.md", "| maryrose `--watertight` (1523", "| maryrose `--watertight` ({} steps, {} dB), the {} "
      "held-out photos | {} ({}) | {} / {}, closed 2-manifold | {} / {} | {} deg | {} deg | {}k | {} s |",
      [((RB, "runs", "maryrose_random_background", "step"), d), ((RB, "runs", "maryrose_random_background", "psnr"), f1),
