@@ -377,14 +377,14 @@ def test_backward_takes_the_forwards_tile_lists(monkeypatch):
 
 
 def test_an_image_wider_than_int16_columns_matches_reference():
-    # the rows' spans are int16 below 2^15 columns and int32 from there (tiles_numba.gaussian_rows)
+    # the rows' spans are int16 below 2^15 columns and int32 from there (tiles_numba.table_spans)
     wide, high = 2**15 + 40, 20
     with enable_x64(True):
         scene = list(random_scene(seed=4, dtype=np.float64))
         scene[0][:, 0] += wide - W - 20  # the Gaussians straddle column 2^15
         scene[0][:, 1] *= high / H
         m64, c64, o64 = tiles_numba._f64(scene[0], scene[1], scene[3])
-        spans = tiles_numba.gaussian_rows(m64, c64, o64, scene[5], wide, high)[2]
+        spans = tiles_numba.bin_local(m64, c64, o64, scene[4], scene[5].astype(np.int32), wide, high, None).rows[2]
         assert spans.dtype == np.int32 and spans.max() >= 2**15  # the int32 path, reached
         image, _, _ = tiles_numba.forward(*scene, wide, high)
         ref_image, _ = _reference_forward(*as_jax(scene), wide, high)

@@ -36,7 +36,7 @@ from nerfkit.models.splat.tiles_geometry import (
 @njit(cache=True, inline="always")
 def _blend_tile(ids, first, count, gt, start, spans, colors, x0, y0, nx, ny, trans, done, last, acc, track):
     """Blend the tile's list ids[first:first + count] front to back into its pixels (gt, start, spans:
-    tiles_numba.gaussian_rows): at each pixel of a Gaussian's ellipse not yet done, acc += alpha T c, T *= 1 -
+    tiles_numba.Bins.rows): at each pixel of a Gaussian's ellipse not yet done, acc += alpha T c, T *= 1 -
     alpha, if track last = k + 1 (k its list position); a pixel whose T would drop below T_MIN is done instead.
     Stops when every pixel is done. Three and four channels (colour, colour and depth) are written out, not
     looped over (with the 3-sigma cut read on e^{-sigma}: a seventh of the forward pass at 800 px, measured)."""

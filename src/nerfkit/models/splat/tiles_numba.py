@@ -86,16 +86,10 @@ def depth_order(depths, live) -> np.ndarray:
     return radix_order(bits, np.ascontiguousarray(live, np.int32))
 
 
-def gaussian_rows(means2d, conics, opacities, radii, width: int, height: int, threads: int | None = None):
-    """(table, start, spans): tiles_geometry.gaussian_table (float64 inputs) and each Gaussian's image rows with
-    their columns (table_spans), what the blend kernels read instead of solving every scanline once per tile it
-    crosses."""
-    table = gaussian_table(means2d, conics, opacities, radii, height)
-    return (table, *table_spans(table, width, threads))
-
-
 def table_spans(table, width: int, threads: int | None = None):
-    """(start, spans): tiles_geometry.span_starts and row_spans (on the worker threads) of a gaussian_table."""
+    """(start, spans): each Gaussian's image rows with their columns (tiles_geometry.span_starts and row_spans, on
+    the worker threads) of a gaussian_table, what the blend kernels read instead of solving every scanline once per
+    tile it crosses."""
     start = span_starts(table)
     spans = np.empty((start[-1], 2), np.int16 if width < 2**15 else np.int32)  # half the bytes to read
     _run(row_spans, threads, lambda w: (table, start, width, spans))
