@@ -12,6 +12,10 @@
 #   part 3 (~8 min): the same with --preset ngp, and that run's 800x800 frame time (the wavefront renderer
 #          with all rays in flight on a GPU; 1.40 s in 205 rounds when it had 8192 slots, gpu_h200/)
 #
+#   part all (one call of under 10 minutes, for a lease of 15 minutes of device time): part 1 with the backends
+#          at 200 px and 800 px / 50k only, then parts 2 and 3 side by side (two processes sharing the GPU, each
+#          with 45% of its memory) for as many minutes as are left of BUDGET_S (default 540 s), at most 5
+#
 #     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [PART=1]
 set -euo pipefail
 data=$1; results=$2; part=${3:-1}
@@ -35,5 +39,26 @@ case "$part" in
   3) python3 "$here/lego_cli.py" --data "$data" --preset ngp --minutes 5 --target-width 400 --out runs/gpu_lego \
        --results "$results"
      python3 "$here/render_speed.py" runs/gpu_lego/ngp_400_5min --data "$data" --results "$results/render_speed_ngp.json" ;;
-  *) echo "gpu_lego.sh: PART must be 1, 2 or 3 (got $part)" >&2; exit 1 ;;
+  all)
+    t0=$SECONDS
+    { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
+      python3 -c "import jax; print('jax', jax.__version__, jax.devices())"; } | tee "$results/device.txt"
+    python3 "$here/splat_raster_gpu.py" --reps 3 --configs 200:50000 800:50000 --out "$results/splat_raster_gpu.json"
+    backend=$(python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rows'][0]; print('numba' if 'error' in r['pallas'] else 'auto')" "$results/splat_raster_gpu.json")
+    echo "splat backend for the lego runs: $backend" | tee -a "$results/device.txt"
+    python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results" \
+      --train-args "--backend $backend"
+    python3 "$here/render_speed.py" runs/gpu_lego/splat_2min --data "$data" --results "$results/render_speed_splat.json"
+    left=$(( ${BUDGET_S:-540} - (SECONDS - t0) ))
+    minutes=$(python3 -c "print(f'{round(max(1.0, min(5.0, ($left - 100) / 60)), 1):g}')")
+    echo "400x400, both presets side by side: $minutes minutes each ($left s of the budget left)" | tee -a "$results/device.txt"
+    export XLA_PYTHON_CLIENT_MEM_FRACTION=0.45
+    python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes "$minutes" --target-width 400 \
+      --out runs/gpu_lego --results "$results" --train-args "--backend $backend" &
+    python3 "$here/lego_cli.py" --data "$data" --preset ngp --minutes "$minutes" --target-width 400 \
+      --out runs/gpu_lego --results "$results"
+    wait
+    python3 "$here/render_speed.py" "runs/gpu_lego/ngp_400_${minutes}min" --data "$data" \
+      --results "$results/render_speed_ngp.json" ;;
+  *) echo "gpu_lego.sh: PART must be 1, 2, 3 or all (got $part)" >&2; exit 1 ;;
 esac
