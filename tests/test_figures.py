@@ -41,7 +41,7 @@ def _curve_psnr(run: str, step: int) -> float:
 
 
 # formats: how the pages round
-f0, f1, f2, f3 = "{:.0f}".format, "{:.1f}".format, "{:.2f}".format, "{:.3f}".format
+f0, f1, f2, f3, f4 = "{:.0f}".format, "{:.1f}".format, "{:.2f}".format, "{:.3f}".format, "{:.4f}".format
 d = "{:d}".format
 thousands = "{:,}".format
 
@@ -94,6 +94,10 @@ BUDDHA, MARY = "own_photos_buddha.json", "own_photos_maryrose.json"
 VIDEO = "own_photos_procedural_video.json"
 ROOF = "splat_roofline.json"  # the CPU rasteriser against the machine's peaks
 REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/lego_cli_ngp.json"
+# the lent H200's records of gpu_lego.sh's part "all": splat 200 px, both presets at 400 px, the ngp frame, the
+# backends alone, a step's parts
+GSPLAT, GSPLAT4, GNGP4 = "gpu_h200/lego_cli_splat.json", "gpu_h200/lego_cli_splat_400.json", "gpu_h200/lego_cli_ngp_400.json"
+GRS, GRAST, GPROF = "gpu_h200/render_speed_ngp.json", "gpu_h200/splat_raster_gpu.json", "gpu_h200/splat_step_profile.json"
 ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.json"
 SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
 
@@ -189,6 +193,9 @@ CHECKS = [
     ("README.md", "on a lent GPU (one H200)", "`ngp` **{} dB / SSIM {}** (its {} default steps in {} min)",
      [((GPU, "runs", 0, "psnr"), f1), ((GPU, "runs", 0, "ssim"), f3), ((GPU, "runs", 0, "steps"), thousands),
       ((GPU, "runs", 0, "train_wall_s"), minutes2)]),
+    ("README.md", "on a lent GPU (one H200)", "**{} dB / SSIM {}** ({} steps), an 800x800 splat frame in {} s",
+     [((GSPLAT, "runs", 0, "psnr"), f1), ((GSPLAT, "runs", 0, "ssim"), f3), ((GSPLAT, "runs", 0, "steps"), d),
+      (("gpu_h200/render_speed_splat.json", "seconds_per_frame", "800x800"), f3)]),
     ("README.md", "lego mesh (`export mesh`, TSDF fusion)",
      "({} steps, commit {h}) | silhouette IoU {} (precision {}, recall {}) on the {} held-out views, depth within 1% on "
      "{}% of the pixels, {} s; maryrose's `--watertight` mesh: IoU {}, closed",
@@ -272,21 +279,44 @@ CHECKS = [
       ((lambda: R("render_speed.json", "samples_shaded_800") / 800 ** 2), f1)]),
     ("docs/measurements.md", "One 800x800 lego frame", "kernels, {} s and {} s, the packing gathers {} s",
      [((lambda i=i: R("render_speed.json", "profile_800_ms", i, 1) / 1000), f2) for i in range(3)]),
-    ("docs/measurements.md", "| `--preset ngp` | **",
+    ("docs/measurements.md", "| `--preset ngp`, 200x200, 2 min",
      "**{} dB / SSIM {}** on all {} views: the {}-step default `--max-steps` reached in {} min of wall clock ({} steps/s; "
-     "{} dB at step {}, after {} s; `lego_cli_ngp.json`); an 800x800 frame of that run in {} s, 256x256 in {} s",
+     "{} dB at step {}, after {} s; `lego_cli_ngp.json`)",
      [((GPU, "runs", 0, "psnr"), f1), ((GPU, "runs", 0, "ssim"), f3), ((GPU, "runs", 0, "views"), d),
       ((GPU, "runs", 0, "steps"), thousands), ((GPU, "runs", 0, "train_wall_s"), minutes2),
       ((GPU, "runs", 0, "steps_per_second_cli"), f0), ((GPU, "runs", 0, "validation_curve", 0, "psnr"), f1),
-      ((GPU, "runs", 0, "validation_curve", 0, "step"), d), ((GPU, "runs", 0, "validation_curve", 0, "elapsed_s"), f0),
-      (("gpu_h200/render_speed_ngp.json", "seconds_per_frame", "800x800"), f2),
-      (("gpu_h200/render_speed_ngp.json", "seconds_per_frame", "256x256"), f2)]),
-    ("docs/measurements.md", "| `--preset splat`, the pure-JAX reference rasteriser",
-     "| {} steps ({} steps/s), {} dB; evaluation {} s per 200x200 view",
-     [(("gpu_h200/lego_cli_splat.json", "runs", 0, "steps"), d),
-      (("gpu_h200/lego_cli_splat.json", "runs", 0, "steps_per_second_cli"), f1),
-      (("gpu_h200/lego_cli_splat.json", "runs", 0, "psnr"), f1),
-      ((lambda: R("gpu_h200/lego_cli_splat.json", "runs", 0, "eval_wall_s") / R("gpu_h200/lego_cli_splat.json", "runs", 0, "views")), f1)]),
+      ((GPU, "runs", 0, "validation_curve", 0, "step"), d), ((GPU, "runs", 0, "validation_curve", 0, "elapsed_s"), f0)]),
+    ("docs/measurements.md", "| `--preset splat`, 200x200, 2 min",
+     "| {} steps ({} steps/s), **{} dB / SSIM {}** on all {} views (`lego_cli_splat.json`); an 800x800 frame of that run "
+     "in {} s", [((GSPLAT, "runs", 0, "steps"), d), ((GSPLAT, "runs", 0, "steps_per_second_cli"), f1),
+                 ((GSPLAT, "runs", 0, "psnr"), f1), ((GSPLAT, "runs", 0, "ssim"), f3), ((GSPLAT, "runs", 0, "views"), d),
+                 (("gpu_h200/render_speed_splat.json", "seconds_per_frame", "800x800"), f3)]),
+    ("docs/measurements.md", "| 400x400 (the data's own size)",
+     "both presets for {} min, side by side on the one GPU (two processes) | `ngp`: its {} steps in {} min, **{} dB / SSIM "
+     "{}**; an 800x800 frame in {} s, {} rounds with {} ray slots (`lego_cli_ngp_400.json`, `render_speed_ngp.json`). "
+     "`splat`: {} steps, **{} dB / SSIM {}**",
+     [((GNGP4, "runs", 0, "budget_minutes"), f1), ((GNGP4, "runs", 0, "steps"), thousands),
+      ((GNGP4, "runs", 0, "train_wall_s"), minutes2), ((GNGP4, "runs", 0, "psnr"), f1), ((GNGP4, "runs", 0, "ssim"), f3),
+      ((GRS, "seconds_per_frame", "800x800"), f2), ((GRS, "rounds_800"), d), ((GRS, "slots_800"), thousands),
+      ((GSPLAT4, "runs", 0, "steps"), d), ((GSPLAT4, "runs", 0, "psnr"), f1), ((GSPLAT4, "runs", 0, "ssim"), f3)]),
+    ("docs/measurements.md", "| the rasteriser alone, 50,000 random",
+     "`pallas` forward {} ms, forward + backward {} ms at 200x200; {} and {} ms at 800x800. The numba kernels on the "
+     "machine's {} host cores: {} / {} ms and {} / {} ms. The two backends' images differ by at most {} (200 px) and {} (800 px) of an 8-bit grey level",
+     [((GRAST, "rows", i, "pallas", k, 0), f1) for i in (0, 1) for k in ("forward_ms_best_median", "forward_plus_backward_ms_best_median")]
+     + [((GRAST, "provenance", "cpus"), d)]
+     + [((GRAST, "rows", i, "numba", k, 0), f1) for i in (0, 1) for k in ("forward_ms_best_median", "forward_plus_backward_ms_best_median")]
+     + [((lambda: 255 * R(GRAST, "rows", 0, "max_abs_image_difference")), f4),
+        ((lambda: 255 * R(GRAST, "rows", 1, "max_abs_image_difference")), f2)]),
+    ("docs/measurements.md", "| one training step of the 2-minute splat run",
+     "| {} ms: the rasteriser's forward {} ms and its forward, loss and gradient {} ms; projection, loss and Adam {} ms "
+     "together (`splat_step_profile.json`). On the 2 CPU cores the same step takes {} ms, its rasteriser {} ms",
+     [((GPROF, "parts", p, "median_ms"), f1) for p in ("whole_step", "rasterise_forward", "rasterise_forward_loss_grad")]
+     + [((lambda: sum(R(GPROF, "parts", p, "median_ms") for p in ("project_sh_forward_grad", "loss_grad", "adam"))), f1),
+        (("splat_step_profile.json", "parts", "whole_step", "median_ms"), f1),
+        (("splat_step_profile.json", "parts", "rasterise_forward_loss_grad", "median_ms"), f1)]),
+    ("docs/measurements.md", "**What bounds splats on a GPU",
+     "2 CPU cores ({} against {} ms)", [((GPROF, "parts", "whole_step", "median_ms"), f1),
+                                        (("splat_step_profile.json", "parts", "whole_step", "median_ms"), f1)]),
     ("docs/measurements.md", "| `nerfkit process-data images .../images --masks .../masks` |",
      "| {}/{} photos registered in {} min (SIFT {} s, exhaustive matching {} s, mapping {} s); against the shipped COLMAP "
      "poses (similarity-aligned): camera centres within {}% (median) / {}% (max) of the orbit radius, rotations within {} / {} degrees",
@@ -555,8 +585,8 @@ CHECKS = [
      "lego ({} steps, commit {h}) and maryrose: {} / {} dB and {} / {} dB",
      [((SPLAT_3F, "runs", 2, "steps"), d), commit(SPLAT_3F)]
      + [((rec, "views", i, "psnr_viser_vs_nerfkit"), f1) for rec in ("splat_lego_viser.json", "splat_maryrose_viser.json") for i in (0, 1)]),
-    ("docs/splats.md", "- **Limits.**", "trained lego at {} steps/s on an H200", [(("gpu_h200/lego_cli_splat.json", "runs", 0, "steps_per_second_cli"), f1)]),
-    ("docs/splats.md", "- **Limits.**", "ngp reached {} dB in 2 minutes", [((GPU, "runs", 0, "psnr"), f1)]),
+    ("docs/splats.md", "- **On a GPU.**", "they trained lego at 200x200 at {} steps/s, {} dB in 2 minutes, where ngp reaches {} dB",
+     [((GSPLAT, "runs", 0, "steps_per_second_cli"), f1), ((GSPLAT, "runs", 0, "psnr"), f1), ((GPU, "runs", 0, "psnr"), f1)]),
     # ---- docs/verbs/export.md
     ("docs/verbs/export.md", "| lego, the 10-min CLI run",
      "trained at commit {h} ({} steps, {} dB; `lego_cli_ngp_3f13384.json`), {} views of",
