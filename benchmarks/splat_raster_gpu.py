@@ -1,5 +1,7 @@
 """The splat rasteriser backends on the machine's default JAX device: the pallas kernels (Triton on a GPU)
-against the numba host kernels, image for image, and their times.
+against the numba host kernels, image for image, and their times; "pallas_s1" is the pallas kernels with the
+backward unsegmented (one program per tile, as if rasterize_pallas.segment_count gave 1), to time what the
+segments give at small images.
 
     python benchmarks/splat_raster_gpu.py [--configs 200:50000 800:50000 800:200000] [--reps 5]
                                           [--out benchmarks/results/splat_raster_gpu.json]
@@ -26,6 +28,7 @@ from provenance import provenance
 from splat_raster import lego_scene
 
 from nerfkit.models.splat.rasterize import rasterize
+from nerfkit.models.splat.rasterize_pallas import rasterize_pallas
 
 
 def _timed(fn, args, reps: int) -> tuple[float, float, object]:
@@ -41,16 +44,24 @@ def _timed(fn, args, reps: int) -> tuple[float, float, object]:
     return first, [round(min(times), 3), round(float(np.median(times)), 3)], out
 
 
+def _raster(name: str, size: int):
+    """The rasteriser `name` at size x size: a backend, or "pallas_s1" (pallas, one backward segment per tile)."""
+    if name == "pallas_s1":
+        return lambda m, q, c, o, d, r, bg: rasterize_pallas(m, q, c, o, d, r, bg, size, size, segments=1)
+    return lambda m, q, c, o, d, r, bg: rasterize(m, q, c, o, d, r, bg, size, size, backend=name)
+
+
 def measure(size: int, n: int, reps: int) -> dict:
     scene = tuple(jnp.asarray(a) for a in lego_scene(n, size, 0))
     target = jnp.asarray(np.random.default_rng(1).uniform(0, 1, (size, size, 3)), jnp.float32)
     row = {"size": size, "gaussians": n, "visible": int((scene[5] > 0).sum())}
     images = {}
-    for name in ("pallas", "numba"):
-        fwd = jax.jit(lambda *a, name=name: rasterize(*a, size, size, backend=name))
+    for name in ("pallas", "pallas_s1", "numba"):
+        raster = _raster(name, size)
+        fwd = jax.jit(raster)
 
-        def loss(m, q, c, o, bg, d, r, name=name):
-            image, alpha = rasterize(m, q, c, o, d, r, bg, size, size, backend=name)
+        def loss(m, q, c, o, bg, d, r, raster=raster):
+            image, alpha = raster(m, q, c, o, d, r, bg)
             return jnp.mean((image - target) ** 2) + 0.1 * jnp.mean(alpha)
 
         grad = jax.jit(jax.grad(loss, argnums=(0, 1, 2, 3, 4)))
@@ -67,7 +78,7 @@ def measure(size: int, n: int, reps: int) -> dict:
                      "grad_norms": [float(jnp.linalg.norm(g)) for g in grads]}
         print(f"{size}px {n} Gaussians, {name}: forward {fwd_ms[0]:.2f} ms, forward + backward {grad_ms[0]:.2f} ms "
               f"(best of {reps}; compile + first {first:.1f} s / {gfirst:.1f} s)", flush=True)
-    if len(images) == 2:
+    if "pallas" in images and "numba" in images:
         row["max_abs_image_difference"] = float(np.abs(images["pallas"] - images["numba"]).max())
         print(f"  pallas vs numba image: max |difference| {row['max_abs_image_difference']:.2e}", flush=True)
     return row

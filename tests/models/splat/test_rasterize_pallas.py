@@ -32,7 +32,13 @@ from test_rasterize import (
 from nerfkit.models.splat import backends
 from nerfkit.models.splat.project import project_gaussians
 from nerfkit.models.splat.rasterize import rasterize
-from nerfkit.models.splat.rasterize_pallas import CHUNK, interpret_default, rasterize_pallas
+from nerfkit.models.splat.rasterize_pallas import (
+    CHUNK,
+    MAX_SEGMENTS,
+    interpret_default,
+    rasterize_pallas,
+    segment_count,
+)
 from nerfkit.rays.cameras import look_at
 
 _forward = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True))
@@ -220,3 +226,65 @@ def test_splat_training_runs_with_the_pallas_backend(tmp_path):
         assert rows[-1]["step"] == 40
         psnr[name] = rows[-1]["psnr"]
     assert psnr["pallas"] > 10.0 and abs(psnr["pallas"] - psnr["numba"]) < 0.05, psnr
+
+
+def _segmented(segments: int):
+    """(forward, grads) of the kernels with the backward split into `segments` per tile (interpret mode)."""
+    fwd = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True, segments=segments))
+
+    @jax.jit
+    def grads(m, q, c, o, d, r, bg, g_img, g_alpha):
+        def loss(m, q, c, o, bg):
+            image, alpha = rasterize_pallas(m, q, c, o, d, r, bg, W, H, interpret=True, segments=segments)
+            return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
+
+        return jax.grad(loss, argnums=(0, 1, 2, 3, 4))(m, q, c, o, bg)
+
+    return fwd, lambda scene, g_img, g_alpha: [np.asarray(g) for g in grads(*as_jax(scene), g_img, g_alpha)]
+
+
+def test_segment_count_fills_a_gpu_at_small_images_only():
+    assert segment_count(13 * 13, 1563) == 13  # lego at 200 px, 50,000 Gaussians: 2197 programs
+    assert segment_count(50 * 50, 1563) == 1  # at 800 px the tiles alone are enough
+    assert segment_count(9, 2) == 2 and segment_count(9, 1000) == MAX_SEGMENTS and segment_count(1, 0) == 1
+
+
+@pytest.mark.parametrize("segments", [2, 3, 4])
+def test_segmented_backward_gives_the_same_gradients(segments):
+    """Each (tile, segment) program starts from the forward's checkpoint of that segment: the pixels are the
+    unsegmented kernels' exactly, the gradients the reference's (float64, 4 chunks, the last one part padding)."""
+    with enable_x64(True):
+        scene = random_scene(n=3 * CHUNK + 5, seed=6, dtype=np.float64)
+        fwd, grads = _segmented(segments)
+        one_fwd, one_grads = _segmented(1)
+        image, alpha = fwd(*as_jax(scene))
+        assert np.array_equal(np.asarray(image), np.asarray(one_fwd(*as_jax(scene))[0]))
+        g_img, g_alpha = loss_weights(6, 3, np.float64)
+        got, ref = grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha)
+        assert_grads_close(got, ref, 1e-10)
+        assert_grads_close(one_grads(scene, g_img, g_alpha), ref, 1e-10)
+
+
+def test_the_stop_carries_across_segments():
+    """The opaque front in the first chunk, the small Gaussians it hides two chunks later (culled ones in
+    between): with three segments the hidden ones are another program's, which must start with the front's
+    pixels done, so they get exactly zero gradient."""
+    front = opaque_front_scene()
+    n = len(front[0])
+    fill = 2 * CHUNK
+    scene = []
+    for k, a in enumerate(front):
+        a = np.asarray(a)
+        filler = np.repeat(a[N_FRONT:N_FRONT + 1], fill, axis=0)
+        if k == 4:
+            filler = np.full(fill, 2.0, a.dtype)  # depths between the front (1.0-1.4) and the hidden (3.0, 4.0)
+        if k == 5:
+            filler = np.zeros(fill, a.dtype)  # radius 0: culled
+        scene.append(a if k == 6 else np.concatenate([a[:N_FRONT], filler, a[N_FRONT:n]]))
+    fwd, grads = _segmented(3)
+    g_img, g_alpha = loss_weights(7, 3, np.float32)
+    got = grads(scene, g_img, g_alpha)
+    for g in got[:4]:
+        assert np.all(g[N_FRONT:] == 0.0) and np.any(g[:N_FRONT] != 0.0)
+    assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 2e-5)
+    np.testing.assert_allclose(fwd(*as_jax(scene))[0], _reference_forward(*as_jax(scene), W, H)[0], rtol=0, atol=5e-6)

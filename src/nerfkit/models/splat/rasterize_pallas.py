@@ -16,9 +16,13 @@ renders the image defined in reference.py. Layout (every array on the device):
    are taken front to back; a chunk none of whose rectangles holds the tile is skipped on one vector
    test, otherwise each Gaussian whose rectangle holds the tile is blended into all 256 pixels by the
    reference's per-pixel rules (alpha test, 3-sigma cut, T_MIN stop). The program stops when every
-   pixel is done or the list ends. Out: colour + T background, T_final, per tile.
-3. Backward kernel, one program per tile, front to back again with the same arithmetic (so the same
-   pixels blend the same Gaussians), using the forward's colour: the colour behind Gaussian k is
+   pixel is done or the list ends. Out: colour + T background, T_final, per tile, and the tile's state
+   (T, done, accumulated colour) at the start of each of S segments of the chunks (checkpoints).
+3. Backward kernel, one program per (tile, segment): from that segment's checkpoint, front to back
+   through its chunks with the same arithmetic (so the same pixels blend the same Gaussians). S is 1
+   for images of many tiles; a small image's few tiles are split into segments so that the GPU has
+   about PROGRAMS programs to run at once (at 200 x 200, 169 tiles alone left most of an H200 idle,
+   each program's serial walk exposed). It uses the forward's colour: the colour behind Gaussian k is
    B_k = colour - A_k, A_k = sum_{j <= k} T_j alpha_j c_j, so no division back through (1 - alpha).
    For a loss with G = dL/dcolour [C] and g_T = dL/dT_final at a pixel:
 
@@ -50,6 +54,8 @@ from nerfkit.models.splat.reference import ALPHA_MAX, ALPHA_MIN, SIGMA_MAX, T_MI
 TILE = 16
 PIX = TILE * TILE  # a tile's pixels, one vector (a power of two, as Triton wants)
 CHUNK = 32  # Gaussians per rectangle test (a power of two)
+PROGRAMS = 2048  # the backward's (tile, segment) programs to aim for when the image has fewer tiles
+MAX_SEGMENTS = 16
 NUM_WARPS = 4  # Triton: 128 threads per tile program, two pixels each
 _LOG_ALPHA_MIN = math.log(ALPHA_MIN)
 # Names that moved between JAX versions (the lowest allowed, 0.4.35, has the older ones)
@@ -154,9 +160,21 @@ def _blend_step(alpha, colour, state):
     return (jnp.where(blend, next_t, trans), jnp.where(stop, 1, done), acc), blend, w
 
 
-def _scan_tile(rects_ref, tx, ty, n_chunks: int, step, state):
-    """Run step(g, state) over the Gaussians whose rectangles hold the tile, front to back, a chunk at a
-    time (a chunk with none is skipped on one vector test); stop early once state[1] (done [PIX]) is all 1."""
+def segment_count(n_tiles: int, n_chunks: int) -> int:
+    """S, the backward's segments per tile: ceil(PROGRAMS / n_tiles), at most MAX_SEGMENTS and n_chunks."""
+    return max(1, min(n_chunks, MAX_SEGMENTS, -(-PROGRAMS // n_tiles)))
+
+
+def _segment_chunks(s, n_chunks: int, segments: int):
+    """(first chunk, end chunk) of segment s: ceil(n_chunks / segments) chunks each, the last one fewer."""
+    size = -(-n_chunks // segments)
+    return s * size, jnp.minimum((s + 1) * size, n_chunks)
+
+
+def _scan_tile(rects_ref, tx, ty, c0, c1, step, state):
+    """Run step(g, state) over the Gaussians of chunks c0 .. c1 - 1 whose rectangles hold the tile, front to
+    back, a chunk at a time (a chunk with none is skipped on one vector test); stop early once state[1]
+    (done [PIX]) is all 1."""
     def chunk(carry):
         ci, st = carry
         base = ci * CHUNK
@@ -172,12 +190,13 @@ def _scan_tile(rects_ref, tx, ty, n_chunks: int, step, state):
 
     def more(carry):
         ci, st = carry
-        return (ci < n_chunks) & (jnp.min(st[1]) == 0)
+        return (ci < c1) & (jnp.min(st[1]) == 0)
 
-    return jax.lax.while_loop(more, chunk, (jnp.int32(0), state))[1]
+    return jax.lax.while_loop(more, chunk, (jnp.int32(c0), state))[1]
 
 
-def _forward_kernel(params_ref, colors_ref, rects_ref, bg_ref, image_ref, tfinal_ref, *, tiles_x, n_chunks, n_ch):
+def _forward_kernel(params_ref, colors_ref, rects_ref, bg_ref, image_ref, tfinal_ref, ckpt_ref, *, tiles_x,
+                    n_chunks, n_ch, segments):
     tx, ty, px, py = _tile_pixels(tiles_x, params_ref.dtype)
     t = pl.program_id(0)
 
@@ -185,17 +204,22 @@ def _forward_kernel(params_ref, colors_ref, rects_ref, bg_ref, image_ref, tfinal
         colour = tuple(colors_ref[ch, g] for ch in range(n_ch))
         return _blend_step(_alpha(params_ref, g, px, py)[0], colour, st)[0]
 
-    trans, _, acc = _scan_tile(rects_ref, tx, ty, n_chunks, step, _start_state(params_ref.dtype, n_ch))
+    def segment(s, st):  # checkpoint [s]: the state before segment s (T, done, acc as rows of one array)
+        for j, row in enumerate((st[0], st[1].astype(st[0].dtype), *st[2])):
+            ckpt_ref[s, j, t, :] = row
+        return _scan_tile(rects_ref, tx, ty, *_segment_chunks(s, n_chunks, segments), step, st)
+
+    trans, _, acc = jax.lax.fori_loop(0, segments, segment, _start_state(params_ref.dtype, n_ch))
     for ch in range(n_ch):
         image_ref[ch, t, :] = acc[ch] + trans * bg_ref[ch]
     tfinal_ref[t, :] = trans
 
 
-def _backward_kernel(params_ref, colors_ref, rects_ref, image_ref, tfinal_ref, gimg_ref, gt_ref, grads_in,
-                     grads_ref, *, tiles_x, n_chunks, n_ch):
+def _backward_kernel(params_ref, colors_ref, rects_ref, image_ref, tfinal_ref, gimg_ref, gt_ref, ckpt_ref, grads_in,
+                     grads_ref, *, tiles_x, n_chunks, n_ch, segments):
     del grads_in  # aliased to grads_ref (zeros in), which the atomic adds accumulate into
     tx, ty, px, py = _tile_pixels(tiles_x, params_ref.dtype)
-    t = pl.program_id(0)
+    t, s = pl.program_id(0), pl.program_id(1)
     colour = tuple(image_ref[ch, t, :] for ch in range(n_ch))
     gimg = tuple(gimg_ref[ch, t, :] for ch in range(n_ch))
     g_end = gt_ref[t, :] * tfinal_ref[t, :]  # g_T T_final
@@ -221,7 +245,9 @@ def _backward_kernel(params_ref, colors_ref, rects_ref, image_ref, tfinal_ref, g
             _atomic_add(grads_ref, (jnp.int32(j), g), jnp.sum(s))
         return after
 
-    _scan_tile(rects_ref, tx, ty, n_chunks, step, _start_state(params_ref.dtype, n_ch))
+    start = (ckpt_ref[s, 0, t, :], ckpt_ref[s, 1, t, :].astype(jnp.int32),
+             tuple(ckpt_ref[s, 2 + ch, t, :] for ch in range(n_ch)))
+    _scan_tile(rects_ref, tx, ty, *_segment_chunks(s, n_chunks, segments), step, start)
 
 
 def _grid(width: int, height: int):
@@ -251,51 +277,62 @@ def _params():
     return _CompilerParams(num_warps=NUM_WARPS, num_stages=1)
 
 
-def _forward(prepared, background, width, height, interpret):
+def _kernel_args(prepared, width: int, height: int, segments: int | None):
+    """(n_tiles, S, the kernels' static arguments) for the prepared Gaussians; segments None: segment_count."""
+    params, colors = prepared[1], prepared[2]
+    tiles_x, _, n_tiles = _grid(width, height)
+    n_chunks = params.shape[1] // CHUNK
+    segments = segment_count(n_tiles, n_chunks) if segments is None else max(1, min(int(segments), n_chunks))
+    return n_tiles, segments, dict(tiles_x=tiles_x, n_chunks=n_chunks, n_ch=colors.shape[0], segments=segments)
+
+
+def _forward(prepared, background, width, height, interpret, segments):
     _, params, colors, rects = prepared
     n_ch, dt = colors.shape[0], params.dtype
-    tiles_x, _, n_tiles = _grid(width, height)
-    kernel = partial(_forward_kernel, tiles_x=tiles_x, n_chunks=params.shape[1] // CHUNK, n_ch=n_ch)
+    n_tiles, segments, static = _kernel_args(prepared, width, height, segments)
     return pl.pallas_call(
-        kernel, grid=(n_tiles,), interpret=interpret, compiler_params=_params(), name="splat_forward",
-        out_shape=(jax.ShapeDtypeStruct((n_ch, n_tiles, PIX), dt), jax.ShapeDtypeStruct((n_tiles, PIX), dt)),
+        partial(_forward_kernel, **static), grid=(n_tiles,), interpret=interpret, compiler_params=_params(),
+        name="splat_forward",
+        out_shape=(jax.ShapeDtypeStruct((n_ch, n_tiles, PIX), dt), jax.ShapeDtypeStruct((n_tiles, PIX), dt),
+                   jax.ShapeDtypeStruct((segments, 2 + n_ch, n_tiles, PIX), dt)),
     )(params, colors, rects, background)
 
 
-def _backward(prepared, image_t, tfinal_t, gimg_t, gt_t, width, height, interpret):
+def _backward(prepared, image_t, tfinal_t, gimg_t, gt_t, ckpt, width, height, interpret, segments):
     _, params, colors, rects = prepared
     n_ch, dt = colors.shape[0], params.dtype
-    tiles_x, _, n_tiles = _grid(width, height)
-    kernel = partial(_backward_kernel, tiles_x=tiles_x, n_chunks=params.shape[1] // CHUNK, n_ch=n_ch)
+    n_tiles, segments, static = _kernel_args(prepared, width, height, segments)
     zeros = jnp.zeros((6 + n_ch, params.shape[1]), dt)
     return pl.pallas_call(
-        kernel, grid=(n_tiles,), interpret=interpret, compiler_params=_params(), name="splat_backward",
-        out_shape=jax.ShapeDtypeStruct(zeros.shape, dt), input_output_aliases={7: 0},
-    )(params, colors, rects, image_t, tfinal_t, gimg_t, gt_t, zeros)
+        partial(_backward_kernel, **static), grid=(n_tiles, segments), interpret=interpret,
+        compiler_params=_params(), name="splat_backward", out_shape=jax.ShapeDtypeStruct(zeros.shape, dt),
+        input_output_aliases={8: 0},
+    )(params, colors, rects, image_t, tfinal_t, gimg_t, gt_t, ckpt, zeros)
 
 
-@partial(jax.custom_vjp, nondiff_argnums=(7, 8, 9))
-def _rasterize(means2d, conics, colors, opacities, depths, radii, background, width, height, interpret):
+@partial(jax.custom_vjp, nondiff_argnums=(7, 8, 9, 10))
+def _rasterize(means2d, conics, colors, opacities, depths, radii, background, width, height, interpret, segments):
     return _rasterize_fwd(means2d, conics, colors, opacities, depths, radii, background, width, height,
-                          interpret)[0]
+                          interpret, segments)[0]
 
 
-def _rasterize_fwd(means2d, conics, colors, opacities, depths, radii, background, width, height, interpret):
+def _rasterize_fwd(means2d, conics, colors, opacities, depths, radii, background, width, height, interpret,
+                   segments):
     prepared = prepare(means2d, conics, colors, opacities, depths, radii, width, height)
-    image_t, tfinal_t = _forward(prepared, background, width, height, interpret)
+    image_t, tfinal_t, ckpt = _forward(prepared, background, width, height, interpret, segments)
     image = jnp.moveaxis(_untile(image_t, width, height), 0, -1)
     t_final = _untile(tfinal_t, width, height)
-    return (image, t_final), (prepared, image_t, tfinal_t, t_final)
+    return (image, t_final), (prepared, image_t, tfinal_t, ckpt, t_final)
 
 
-def _rasterize_bwd(width, height, interpret, res, cotangents):
-    prepared, image_t, tfinal_t, t_final = res
+def _rasterize_bwd(width, height, interpret, segments, res, cotangents):
+    prepared, image_t, tfinal_t, ckpt, t_final = res
     g_img, g_t = cotangents
     n = prepared[0].shape[0]
     dt = image_t.dtype
     gimg_t = _tile(jnp.moveaxis(g_img.astype(dt), -1, 0), width, height)
-    grads = _backward(prepared, image_t, tfinal_t, gimg_t, _tile(g_t.astype(dt), width, height), width, height,
-                      interpret)
+    grads = _backward(prepared, image_t, tfinal_t, gimg_t, _tile(g_t.astype(dt), width, height), ckpt, width,
+                      height, interpret, segments)
     order = prepared[0]
     grads = jnp.zeros((grads.shape[0], n), dt).at[:, order].set(grads[:, :n]).T  # back to the callers' order
     g_bg = jnp.einsum("hw,hwc->c", t_final, g_img.astype(dt))
@@ -306,13 +343,15 @@ _rasterize.defvjp(_rasterize_fwd, _rasterize_bwd)
 
 
 def rasterize_pallas(means2d, conics, colors, opacities, depths, radii, background, width: int, height: int,
-                     interpret: bool | None = None):
-    """(image [H, W, C], alpha [H, W]) in the dtype of `colors`; interpret: None = interpret_default()."""
+                     interpret: bool | None = None, segments: int | None = None):
+    """(image [H, W, C], alpha [H, W]) in the dtype of `colors`; interpret: None = interpret_default();
+    segments: the backward's segments per tile (None: segment_count; at most the number of chunks)."""
     dt = colors.dtype
     interpret = interpret_default() if interpret is None else bool(interpret)
     image, t_final = _rasterize(jnp.asarray(means2d, dt), jnp.asarray(conics, dt), colors,
                                 jnp.asarray(opacities, dt), jnp.asarray(depths, dt), jnp.asarray(radii, jnp.int32),
-                                jnp.asarray(background, dt), int(width), int(height), interpret)
+                                jnp.asarray(background, dt), int(width), int(height), interpret,
+                                None if segments is None else int(segments))
     return image, 1.0 - t_final
 
 
