@@ -17,6 +17,14 @@
 #          with 45% of its memory) for as many minutes as are left of BUDGET_S (default 540 s), at most 5
 #
 #     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [PART=1]
+#
+# On a lent machine (the device tool; 2026-12-01 on an H200): it has jax with CUDA, Triton, numba, optax, flax,
+# scipy, scikit-image, imageio and matplotlib, not tyro and its needs. Here: wheels of tyro, docstring-parser,
+# typeguard and typing-extensions into an excluded .whl/ (pip download --python-version 3.12 ...), lego copied
+# into an excluded .lego/, both carried; there, in one call:
+#   pip install --no-index --no-deps --target /tmp/site .whl/*.whl; export PYTHONPATH=/tmp/site:$PWD/src
+#   NERFKIT_COMMIT=<the commit> BUDGET_S=565 timeout 582 bash benchmarks/gpu_lego.sh .lego /tmp/res all
+#   then tar /tmp/res into $OUT (it holds more files than come back one by one)
 set -euo pipefail
 data=$1; results=$2; part=${3:-1}
 here=$(cd "$(dirname "$0")" && pwd)
