@@ -20,6 +20,7 @@ from test_rasterize import (
     as_jax,
     assert_finite_differences,
     assert_grads_close,
+    conic_of,
     enable_x64,
     loss_weights,
     needle_scene,
@@ -193,14 +194,16 @@ def _cuda_text(fn, *args) -> str:
         return lower()
 
 
-def test_the_gpu_path_lowers_to_triton_kernels():
+@pytest.mark.parametrize("segments", [None, 1])
+def test_the_gpu_path_lowers_to_triton_kernels(segments):
     """What a GPU runs: interpret=False lowers both kernels to Triton (custom calls holding Triton IR), a
-    forward and a backward under value_and_grad, with no host callback."""
+    forward and a backward under value_and_grad, with no host callback; with the backward in segments (here
+    one per chunk) and in one (large images)."""
     scene = as_jax(random_scene(seed=4))
     g_img, g_alpha = loss_weights(4, 3, np.float32)
 
     def loss(m, q, c, o, bg):
-        image, alpha = rasterize_pallas(m, q, c, o, scene[4], scene[5], bg, W, H, interpret=False)
+        image, alpha = rasterize_pallas(m, q, c, o, scene[4], scene[5], bg, W, H, interpret=False, segments=segments)
         return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
 
     text = _cuda_text(jax.value_and_grad(loss, argnums=(0, 1, 2, 3, 4)), *scene[:4], scene[6])
@@ -260,26 +263,41 @@ def test_segment_count_fills_a_gpu_at_small_images_only():
     assert segment_count(9, 2) == 2 and segment_count(9, 1000) == MAX_SEGMENTS and segment_count(1, 0) == 1
 
 
-@pytest.mark.parametrize("segments", [2, 4])
-def test_segmented_backward_gives_the_same_gradients(segments):
-    """Each (tile, segment) program starts from the forward's checkpoint of that segment: the pixels are the
-    unsegmented kernels' exactly, the gradients the reference's (float64, 4 chunks, the last one part padding)."""
+def dense_scene(channels: int, n: int = 3 * CHUNK + 5):
+    """n wide, nearly opaque Gaussians over the whole image (float64, 4 chunks, the last one part padding): most
+    pixels are done (T below T_MIN) within the first chunk, so later segments start with done pixels."""
+    rng = np.random.default_rng(8)
+    sigma = rng.uniform(4.0, 10.0, n)
+    shear = rng.uniform(-3, 3, n)
+    cov = np.einsum("n,ij->nij", sigma ** 2, np.eye(2)) + np.einsum("n,ij->nij", shear, [[0, 1], [1, 0]])
+    conics, radii = conic_of(cov)
+    means = np.stack([rng.uniform(0, W, n), rng.uniform(0, H, n)], -1)
+    return [means, conics, rng.uniform(0, 1, (n, channels)), rng.uniform(0.85, 0.97, n), rng.uniform(1, 5, n),
+            radii, rng.uniform(0, 1, channels)]
+
+
+@pytest.mark.parametrize("segments, channels", [(2, 3), (4, 4)])
+@pytest.mark.parametrize("make", [lambda ch: random_scene(n=3 * CHUNK + 5, channels=ch, seed=6, dtype=np.float64),
+                                  dense_scene], ids=["sparse", "dense"])
+def test_segmented_backward_gives_the_same_gradients(make, segments, channels):
+    """Each (tile, segment) program starts from the forward's checkpoint of that segment: the pixels and the
+    gradients are the unsegmented kernels' exactly (float64), and the reference's gradients to 1e-10. In the
+    dense scene most pixels are done before the second segment starts; in the sparse one none is."""
     with enable_x64(True):
-        scene = random_scene(n=3 * CHUNK + 5, seed=6, dtype=np.float64)
+        scene = [np.asarray(a, np.int32 if k == 5 else np.float64) for k, a in enumerate(make(channels))]
         fwd, grads = _segmented(segments)
         one_fwd, one_grads = _segmented(1)
-        image, alpha = fwd(*as_jax(scene))
-        assert np.array_equal(np.asarray(image), np.asarray(one_fwd(*as_jax(scene))[0]))
-        g_img, g_alpha = loss_weights(6, 3, np.float64)
-        got, ref = grads(scene, g_img, g_alpha), reference_grads(scene, g_img, g_alpha)
-        assert_grads_close(got, ref, 1e-10)
-        assert_grads_close(one_grads(scene, g_img, g_alpha), ref, 1e-10)
+        assert np.array_equal(np.asarray(fwd(*as_jax(scene))[0]), np.asarray(one_fwd(*as_jax(scene))[0]))
+        g_img, g_alpha = loss_weights(6, channels, np.float64)
+        got = grads(scene, g_img, g_alpha)
+        assert all(np.array_equal(a, b) for a, b in zip(got, one_grads(scene, g_img, g_alpha)))
+        assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 1e-10)
 
 
 def test_the_stop_carries_across_segments():
-    """The opaque front in the first chunk, the small Gaussians it hides two chunks later (culled ones in
-    between): with three segments the hidden ones are another program's, which must start with the front's
-    pixels done, so they get exactly zero gradient."""
+    """The opaque front in the first two chunks (padding's culled Gaussians sort among them), the small Gaussians
+    it hides two chunks later (culled ones in between): with three segments the hidden ones are another
+    program's, which must start with the front's pixels done, so they get exactly zero gradient."""
     front = opaque_front_scene()
     n = len(front[0])
     fill = 2 * CHUNK

@@ -15,9 +15,10 @@ renders the image defined in reference.py. Layout (every array on the device):
 2. Forward kernel, one program per 16 x 16 tile, its 256 pixels a vector: chunks of CHUNK Gaussians
    are taken front to back; a chunk none of whose rectangles holds the tile is skipped on one vector
    test, otherwise each Gaussian whose rectangle holds the tile is blended into all 256 pixels by the
-   reference's per-pixel rules (alpha test, 3-sigma cut, T_MIN stop). The program stops when every
-   pixel is done or the list ends. Out: colour + T background, T_final, per tile, and the tile's state
-   (T, done, accumulated colour) at the start of each of S segments of the chunks (checkpoints).
+   reference's per-pixel rules (alpha test, 3-sigma cut, T_MIN stop). The program stops blending when
+   every pixel is done or the list ends. Out: colour + T background, T_final, per tile, and where S > 1
+   the tile's state (T, done, accumulated colour) at the start of each of S segments of the chunks
+   (checkpoints; written for every segment, also after the tile is done).
 3. Backward kernel, one program per (tile, segment): from that segment's checkpoint, front to back
    through its chunks with the same arithmetic (so the same pixels blend the same Gaussians). S is 1
    for images of many tiles; a small image's few tiles are split into segments so that the GPU has
@@ -32,7 +33,7 @@ renders the image defined in reference.py. Layout (every array on the device):
    and from alpha_k on as in tiles_numba.py (unclamped alphas only: dL/do = e^{-sigma} dL/dalpha,
    dL/dsigma = -alpha dL/dalpha, dsigma/dm = (a d_x + b d_y, b d_x + c d_y), dsigma/d(a, b, c) =
    (d_x^2 / 2, d_x d_y, d_y^2 / 2)). Each Gaussian's sums over the tile's pixels are added to its
-   row of the gradient array with atomic adds (tiles run concurrently). dL/dbackground = sum T_final G.
+   row of the gradient array with atomic adds (tiles and segments run concurrently). dL/dbackground = sum T_final G.
 
 Edge tiles are computed whole and cut; their outside pixels get zero cotangents. depths and radii get
 no gradient (the order and the culling are piecewise constant).
@@ -166,9 +167,8 @@ def segment_count(n_tiles: int, n_chunks: int) -> int:
 
 
 def _segment_chunks(s, n_chunks: int, segments: int):
-    """(first chunk, end chunk) of segment s: ceil(n_chunks / segments) chunks each, the last one fewer."""
-    size = -(-n_chunks // segments)
-    return s * size, jnp.minimum((s + 1) * size, n_chunks)
+    """(first chunk, end chunk) of segment s: floor(s n / S) .. floor((s + 1) n / S), never empty for S <= n."""
+    return s * n_chunks // segments, (s + 1) * n_chunks // segments
 
 
 def _scan_tile(rects_ref, tx, ty, c0, c1, step, state):
@@ -205,8 +205,9 @@ def _forward_kernel(params_ref, colors_ref, rects_ref, bg_ref, image_ref, tfinal
         return _blend_step(_alpha(params_ref, g, px, py)[0], colour, st)[0]
 
     def segment(s, st):  # checkpoint [s]: the state before segment s (T, done, acc as rows of one array)
-        for j, row in enumerate((st[0], st[1].astype(st[0].dtype), *st[2])):
-            ckpt_ref[s, j, t, :] = row
+        if segments > 1:  # one segment starts from the empty state: nothing to keep
+            for j, row in enumerate((st[0], st[1].astype(st[0].dtype), *st[2])):
+                ckpt_ref[s, j, t, :] = row
         return _scan_tile(rects_ref, tx, ty, *_segment_chunks(s, n_chunks, segments), step, st)
 
     trans, _, acc = jax.lax.fori_loop(0, segments, segment, _start_state(params_ref.dtype, n_ch))
@@ -241,12 +242,14 @@ def _backward_kernel(params_ref, colors_ref, rects_ref, image_ref, tfinal_ref, g
         sums = (d_sigma * (a * dx + b * dy), d_sigma * (b * dx + c * dy), 0.5 * d_sigma * dx * dx,
                 d_sigma * dx * dy, 0.5 * d_sigma * dy * dy, jnp.where(live, e * d_alpha, 0.0))
         sums = sums + tuple(w * gimg[ch] for ch in range(n_ch))
-        for j, s in enumerate(sums):
-            _atomic_add(grads_ref, (jnp.int32(j), g), jnp.sum(s))
+        for j, total in enumerate(sums):
+            _atomic_add(grads_ref, (jnp.int32(j), g), jnp.sum(total))
         return after
 
-    start = (ckpt_ref[s, 0, t, :], ckpt_ref[s, 1, t, :].astype(jnp.int32),
-             tuple(ckpt_ref[s, 2 + ch, t, :] for ch in range(n_ch)))
+    start = _start_state(params_ref.dtype, n_ch)
+    if segments > 1:
+        start = (ckpt_ref[s, 0, t, :], ckpt_ref[s, 1, t, :].astype(jnp.int32),
+                 tuple(ckpt_ref[s, 2 + ch, t, :] for ch in range(n_ch)))
     _scan_tile(rects_ref, tx, ty, *_segment_chunks(s, n_chunks, segments), step, start)
 
 
@@ -290,11 +293,13 @@ def _forward(prepared, background, width, height, interpret, segments):
     _, params, colors, rects = prepared
     n_ch, dt = colors.shape[0], params.dtype
     n_tiles, segments, static = _kernel_args(prepared, width, height, segments)
+    # the checkpoints [S, T, done, acc..., tile, pixel]; with one segment a placeholder nothing writes or reads
+    ckpt = (segments, 2 + n_ch, n_tiles, PIX) if segments > 1 else (1, 1, 1, PIX)
     return pl.pallas_call(
         partial(_forward_kernel, **static), grid=(n_tiles,), interpret=interpret, compiler_params=_params(),
         name="splat_forward",
         out_shape=(jax.ShapeDtypeStruct((n_ch, n_tiles, PIX), dt), jax.ShapeDtypeStruct((n_tiles, PIX), dt),
-                   jax.ShapeDtypeStruct((segments, 2 + n_ch, n_tiles, PIX), dt)),
+                   jax.ShapeDtypeStruct(ckpt, dt)),
     )(params, colors, rects, background)
 
 
