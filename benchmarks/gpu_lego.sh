@@ -13,7 +13,7 @@
 #          with all rays in flight on a GPU; 1.40 s in 205 rounds when it had 8192 slots, gpu_h200/)
 #
 #   part all (one call of under 10 minutes, for a lease of 15 minutes of device time): part 1 with the backends
-#          at 200 px and 800 px / 50k only, then parts 2 and 3 side by side (two processes sharing the GPU, each
+#          at 200 px and 800 px / 50k only and a splat step's parts (splat_step_profile.py), then parts 2 and 3 side by side (two processes sharing the GPU, each
 #          with 45% of its memory) for as many minutes as are left of BUDGET_S (default 540 s), at most 5
 #
 #     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [PART=1]
@@ -57,6 +57,7 @@ case "$part" in
     python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results" \
       --train-args "--backend $backend"
     python3 "$here/render_speed.py" runs/gpu_lego/splat_2min --data "$data" --results "$results/render_speed_splat.json"
+    python3 "$here/splat_step_profile.py" runs/gpu_lego/splat_2min --results "$results/splat_step_profile.json"
     left=$(( ${BUDGET_S:-540} - (SECONDS - t0) ))
     minutes=$(python3 -c "print(f'{round(max(1.0, min(5.0, ($left - 100) / 60)), 1):g}')")
     echo "400x400, both presets side by side: $minutes minutes each ($left s of the budget left)" | tee -a "$results/device.txt"
