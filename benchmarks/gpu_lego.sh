@@ -13,8 +13,9 @@
 #          with all rays in flight on a GPU; 1.40 s in 205 rounds when it had 8192 slots, gpu_h200/)
 #
 #   part all (one call of under 10 minutes, for a lease of 15 minutes of device time): part 1 with the backends
-#          at 200 px and 800 px / 50k only and a splat step's parts (splat_step_profile.py), then parts 2 and 3 side by side (two processes sharing the GPU, each
-#          with 45% of its memory) for as many minutes as are left of BUDGET_S (default 540 s), at most 5
+#          at 200 px and 800 px / 50k only and a splat step's parts (splat_step_profile.py), then parts 2
+#          and 3 side by side (two processes sharing the GPU, each with 45% of its memory) for as many
+#          minutes as are left of BUDGET_S (default 540 s), at most 5
 #
 #     bash benchmarks/gpu_lego.sh LEGO_DIR RESULTS_DIR [PART=1]
 #
