@@ -10,7 +10,7 @@
 #          that run's 800x800 frame time (render_speed.py)
 #   part 2 (~7 min): lego at its shared 400x400 (--target-width 400), --preset splat, 5 minutes
 #   part 3 (~8 min): the same with --preset ngp, and that run's 800x800 frame time (the wavefront renderer
-#          with all rays in flight on a GPU; 1.40 s in 205 rounds when it had 8192 slots, gpu_h200/)
+#          with all rays in flight on a GPU: 0.57 s in 14 rounds on an H200, gpu_h200/render_speed_ngp.json)
 #
 #   part all (one call of under 10 minutes, for a lease of 15 minutes of device time): part 1 with the backends
 #          at 200 px and 800 px / 50k only and a splat step's parts (splat_step_profile.py), then parts 2
