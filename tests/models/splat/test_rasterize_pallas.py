@@ -42,20 +42,27 @@ from nerfkit.models.splat.rasterize_pallas import (
 )
 from nerfkit.rays.cameras import look_at
 
-_forward = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True))
+def _kernels(segments: int | None = None):
+    """(forward, gradients) of the kernels in interpret mode, jitted, the backward in `segments` per tile
+    (None: segment_count's)."""
+    forward = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True, segments=segments))
+
+    @jax.jit
+    def grads(m, q, c, o, d, r, bg, g_img, g_alpha):
+        def loss(m, q, c, o, bg):
+            image, alpha = rasterize_pallas(m, q, c, o, d, r, bg, W, H, interpret=True, segments=segments)
+            return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
+
+        return jax.grad(loss, argnums=(0, 1, 2, 3, 4))(m, q, c, o, bg)
+
+    return forward, grads
 
 
-@jax.jit
-def _grads(m, q, c, o, d, r, bg, g_img, g_alpha):
-    def loss(m, q, c, o, bg):
-        image, alpha = rasterize_pallas(m, q, c, o, d, r, bg, W, H, interpret=True)
-        return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
-
-    return jax.grad(loss, argnums=(0, 1, 2, 3, 4))(m, q, c, o, bg)
+_forward, _grads = _kernels()
 
 
-def pallas_grads(scene, g_img, g_alpha):
-    return [np.asarray(g) for g in _grads(*as_jax(scene), g_img, g_alpha)]
+def pallas_grads(scene, g_img, g_alpha, grads=_grads):
+    return [np.asarray(g) for g in grads(*as_jax(scene), g_img, g_alpha)]
 
 
 def test_interpret_mode_is_the_default_off_a_gpu():
@@ -242,21 +249,6 @@ def test_splat_training_runs_with_the_pallas_backend(tmp_path):
     assert psnr["pallas"] > 10.0 and abs(psnr["pallas"] - psnr["numba"]) < 0.05, psnr
 
 
-def _segmented(segments: int):
-    """(forward, grads) of the kernels with the backward split into `segments` per tile (interpret mode)."""
-    fwd = jax.jit(lambda *a: rasterize_pallas(*a, W, H, interpret=True, segments=segments))
-
-    @jax.jit
-    def grads(m, q, c, o, d, r, bg, g_img, g_alpha):
-        def loss(m, q, c, o, bg):
-            image, alpha = rasterize_pallas(m, q, c, o, d, r, bg, W, H, interpret=True, segments=segments)
-            return jnp.sum(image * g_img) + jnp.sum(alpha * g_alpha)
-
-        return jax.grad(loss, argnums=(0, 1, 2, 3, 4))(m, q, c, o, bg)
-
-    return fwd, lambda scene, g_img, g_alpha: [np.asarray(g) for g in grads(*as_jax(scene), g_img, g_alpha)]
-
-
 def test_segment_count_fills_a_gpu_at_small_images_only():
     assert segment_count(13 * 13, 1563) == 13  # lego at 200 px, 50,000 Gaussians: 2197 programs
     assert segment_count(50 * 50, 1563) == 1  # at 800 px the tiles alone are enough
@@ -285,12 +277,12 @@ def test_segmented_backward_gives_the_same_gradients(make, segments, channels):
     dense scene most pixels are done before the second segment starts; in the sparse one none is."""
     with enable_x64(True):
         scene = [np.asarray(a, np.int32 if k == 5 else np.float64) for k, a in enumerate(make(channels))]
-        fwd, grads = _segmented(segments)
-        one_fwd, one_grads = _segmented(1)
+        fwd, grads = _kernels(segments)
+        one_fwd, one_grads = _kernels(1)
         assert np.array_equal(np.asarray(fwd(*as_jax(scene))[0]), np.asarray(one_fwd(*as_jax(scene))[0]))
         g_img, g_alpha = loss_weights(6, channels, np.float64)
-        got = grads(scene, g_img, g_alpha)
-        assert all(np.array_equal(a, b) for a, b in zip(got, one_grads(scene, g_img, g_alpha)))
+        got = pallas_grads(scene, g_img, g_alpha, grads)
+        assert all(np.array_equal(a, b) for a, b in zip(got, pallas_grads(scene, g_img, g_alpha, one_grads)))
         assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 1e-10)
 
 
@@ -310,9 +302,9 @@ def test_the_stop_carries_across_segments():
         if k == 5:
             filler = np.zeros(fill, a.dtype)  # radius 0: culled
         scene.append(a if k == 6 else np.concatenate([a[:N_FRONT], filler, a[N_FRONT:n]]))
-    fwd, grads = _segmented(3)
+    fwd, grads = _kernels(3)
     g_img, g_alpha = loss_weights(7, 3, np.float32)
-    got = grads(scene, g_img, g_alpha)
+    got = pallas_grads(scene, g_img, g_alpha, grads)
     for g in got[:4]:
         assert np.all(g[N_FRONT:] == 0.0) and np.any(g[:N_FRONT] != 0.0)
     assert_grads_close(got, reference_grads(scene, g_img, g_alpha), 2e-5)
