@@ -31,18 +31,23 @@ data=$1; results=$2; part=${3:-1}
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$results"
 export PYTHONPATH="$here${PYTHONPATH:+:$PYTHONPATH}"
+
+# Part 1's start, and part all's: device.txt, the backends image for image (splat_raster_gpu.py with the given
+# arguments), then lego 200 px --preset splat for 2 minutes and its 800x800 frame. "auto" is pallas on a GPU; if
+# its kernels failed (the JSON says why), the run trains with numba's instead; $backend keeps the choice.
+splat_200() {
+  { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
+    python3 -c "import jax; print('jax', jax.__version__, jax.devices())"; } | tee "$results/device.txt"
+  python3 "$here/splat_raster_gpu.py" "$@" --out "$results/splat_raster_gpu.json"
+  backend=$(python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rows'][0]; print('numba' if 'error' in r['pallas'] else 'auto')" "$results/splat_raster_gpu.json")
+  echo "splat backend for the lego runs: $backend" | tee -a "$results/device.txt"
+  python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results" \
+    --train-args "--backend $backend"
+  python3 "$here/render_speed.py" runs/gpu_lego/splat_2min --data "$data" --results "$results/render_speed_splat.json"
+}
+
 case "$part" in
-  1)
-    { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
-      python3 -c "import jax; print('jax', jax.__version__, jax.devices())"; } | tee "$results/device.txt"
-    python3 "$here/splat_raster_gpu.py" --reps 5 --out "$results/splat_raster_gpu.json"
-    # "auto" is pallas on a GPU; if its kernels failed above (the JSON says why), train with numba's instead
-    backend=$(python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rows'][0]; print('numba' if 'error' in r['pallas'] else 'auto')" "$results/splat_raster_gpu.json")
-    echo "splat backend for the lego run: $backend" | tee -a "$results/device.txt"
-    python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results" \
-      --train-args "--backend $backend"
-    python3 "$here/render_speed.py" runs/gpu_lego/splat_2min --data "$data" \
-      --results "$results/render_speed_splat.json" ;;
+  1) splat_200 --reps 5 ;;
   2) python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 5 --target-width 400 --out runs/gpu_lego \
        --results "$results" ;;
   3) python3 "$here/lego_cli.py" --data "$data" --preset ngp --minutes 5 --target-width 400 --out runs/gpu_lego \
@@ -50,14 +55,7 @@ case "$part" in
      python3 "$here/render_speed.py" runs/gpu_lego/ngp_400_5min --data "$data" --results "$results/render_speed_ngp.json" ;;
   all)
     t0=$SECONDS
-    { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
-      python3 -c "import jax; print('jax', jax.__version__, jax.devices())"; } | tee "$results/device.txt"
-    python3 "$here/splat_raster_gpu.py" --reps 3 --configs 200:50000 800:50000 --out "$results/splat_raster_gpu.json"
-    backend=$(python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rows'][0]; print('numba' if 'error' in r['pallas'] else 'auto')" "$results/splat_raster_gpu.json")
-    echo "splat backend for the lego runs: $backend" | tee -a "$results/device.txt"
-    python3 "$here/lego_cli.py" --data "$data" --preset splat --minutes 2 --out runs/gpu_lego --results "$results" \
-      --train-args "--backend $backend"
-    python3 "$here/render_speed.py" runs/gpu_lego/splat_2min --data "$data" --results "$results/render_speed_splat.json"
+    splat_200 --reps 3 --configs 200:50000 800:50000
     python3 "$here/splat_step_profile.py" runs/gpu_lego/splat_2min --results "$results/splat_step_profile.json"
     left=$(( ${BUDGET_S:-540} - (SECONDS - t0) ))
     minutes=$(python3 -c "print(f'{round(max(1.0, min(5.0, ($left - 100) / 60)), 1):g}')")
