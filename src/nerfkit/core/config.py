@@ -93,6 +93,17 @@ class FieldConfig:
     scene_type: Literal["auto", "bounded", "unbounded"] = "auto"
     """ngp: bounded (object in a box, background colour behind) or unbounded (mip-NeRF 360 contraction, the
     background is part of the scene). auto: bounded for Blender scenes and masked captures, else unbounded."""
+    warp: Literal["auto", "contract", "ndc"] = "auto"
+    """ngp, unbounded scenes: how space maps into the hash grid. contract: mip-NeRF 360's contraction of all
+    space into a ball (any capture); ndc: the normalised device coordinates of the mean camera, the frustum in
+    front of the cameras evenly in disparity (NeRF's and TensoRF's for LLFF captures; forward-facing captures
+    only, with a near plane from the capture's points). auto: ndc for forward-facing captures, else contract."""
+    ndc_frame: list[float] | None = None
+    """Set from the data (--warp ndc): the reference camera-to-world [R | c], 12 numbers row by row."""
+    ndc_near: float | None = None
+    """Set from the data (--warp ndc): the near plane's depth n in front of the reference camera."""
+    ndc_extent: list[float] | None = None
+    """Set from the data (--warp ndc): the slopes (a_x, a_y) the grid spans, |x / z| <= a_x, |y / z| <= a_y."""
     appearance_dim: int | None = None
     """Per-image appearance embedding size (NeRF-W); absorbs exposure / white balance. Default: 16 for photo
     captures, 0 (off) for Blender scenes and masked object captures. Held-out views use the mean embedding."""
@@ -105,6 +116,10 @@ class FieldConfig:
 
     def unbounded(self) -> bool:
         return self.scene_type == "unbounded"
+
+    def ndc(self) -> bool:
+        """Whether the field's space is a reference camera's NDC (--warp ndc, resolved from the data)."""
+        return self.unbounded() and self.ndc_frame is not None
 
     def n_appearance(self) -> int:
         """Embedding size actually used (0 unless both the size and the image count are set)."""

@@ -39,6 +39,8 @@ def _matches(v: Any, tp: Any) -> bool:
         return isinstance(v, int) and not isinstance(v, bool)
     if tp is float:
         return isinstance(v, (int, float)) and not isinstance(v, bool)
+    if origin is list:
+        return isinstance(v, list) and all(_matches(x, typing.get_args(tp)[0]) for x in v)
     return isinstance(v, tp)
 
 
@@ -47,6 +49,8 @@ def _type_name(tp: Any) -> str:
         return "one of " + ", ".join(map(repr, typing.get_args(tp)))
     if typing.get_origin(tp) in (Union, types.UnionType):
         return " or ".join(_type_name(a) for a in typing.get_args(tp))
+    if typing.get_origin(tp) is list:
+        return f"a list of {_type_name(typing.get_args(tp)[0])}"
     return "null" if tp is type(None) else tp.__name__
 
 

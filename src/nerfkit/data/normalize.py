@@ -154,3 +154,51 @@ def sample_visual_hull(n: int, box: float, poses: np.ndarray, cameras: list[Came
         if total >= n:
             break
     return np.concatenate(kept)[:n] if kept else None
+
+
+NDC_NEAR_PERCENTILE, NDC_NEAR_MARGIN, NDC_EXTENT_MARGIN = 1.0, 0.9, 1.05
+
+
+def mean_camera(poses: np.ndarray) -> np.ndarray:
+    """The reference camera of a forward-facing capture [3, 4] = [R | c] (camera-to-world, looking along -z):
+    c the mean camera centre, -z the mean optical axis, y the mean up vector made orthogonal to it."""
+    poses = np.asarray(poses, np.float64)
+    back = poses[:, :3, 2].mean(0)
+    back /= np.linalg.norm(back)
+    up = poses[:, :3, 1].mean(0)
+    up -= (up @ back) * back
+    up /= np.linalg.norm(up)
+    return np.concatenate([np.stack([np.cross(up, back), up, back], 1), poses[:, :3, 3].mean(0)[:, None]], 1)
+
+
+def ndc_space(poses: np.ndarray, cameras: list[Camera], points: np.ndarray) -> tuple[np.ndarray, float, list]:
+    """(frame [3, 4], near n, slopes [a_x, a_y]) of the NDC of a forward-facing capture (rays/coord.ndc) from its
+    camera-to-world poses [N, 4, 4], cameras and points [P, 3] (normalised coordinates):
+        frame   mean_camera(poses)
+        n       NDC_NEAR_MARGIN (0.9) x the NDC_NEAR_PERCENTILE-th (1st) percentile of the depths z of the points
+                ahead of it (LLFF's and NeRF's near bound: 0.9 x a low percentile of the SfM points' depths)
+        a       NDC_EXTENT_MARGIN (1.05) x the largest |q_x / z|, |q_y / z| on the rays through the photos' corner
+                pixels from where they cross the near plane (or leave their camera, if it is beyond) to infinity:
+                every pixel's ray lies inside the cube past the near plane.
+    ValueError when no point lies ahead of the reference camera."""
+    frame = mean_camera(poses)
+    rot, c = frame[:, :3], frame[:, 3]
+    z = -(np.asarray(points, np.float64) - c) @ rot[:, 2]
+    z = z[z > 0]
+    if z.size == 0:
+        raise ValueError("no point lies in front of the cameras")
+    near = NDC_NEAR_MARGIN * float(np.percentile(z, NDC_NEAR_PERCENTILE))
+    slopes = np.zeros(2)
+    for pose, cam in zip(np.asarray(poses, np.float64), cameras):
+        x, y = cam.normalized_coords(np.array([0.0, cam.width, 0.0, cam.width]),
+                                     np.array([0.0, 0.0, cam.height, cam.height]))
+        d = np.stack([x, -y, -np.ones_like(x)], -1) @ pose[:3, :3].T @ rot  # corner rays in the frame [4, 3]
+        o = (pose[:3, 3] - c) @ rot
+        d = d[d[:, 2] < 0]  # rays that go deeper (a corner ray that does not never reaches the scene)
+        if not len(d):
+            continue
+        t0 = np.maximum(0.0, (-near - o[2]) / d[:, 2])
+        start = o + t0[:, None] * d  # the slope q / z is monotone along a ray: its extremes are at the ends
+        ends = np.concatenate([start[:, :2] / -start[:, 2:], d[:, :2] / -d[:, 2:]])
+        slopes = np.maximum(slopes, np.abs(ends).max(0))
+    return frame, near, (NDC_EXTENT_MARGIN * slopes).tolist()

@@ -2,7 +2,8 @@
 
     y      = x                     (bounded: the box [-B, B]^3)
              contract(x / R)       (unbounded: mip-NeRF 360's contraction, y in the ball of radius 2)
-    h      = HashGrid((y + G) / 2G)                        (L*F features; G = B, or 2 when contracted)
+             ndc(x)                (unbounded, --warp ndc: a reference camera's NDC, y in [-1, 1]^3; R = n)
+    h      = HashGrid((y + G) / 2G)                        (L*F features; G = B, 2 when contracted, 1 in NDC)
     z      = A_2 relu(A_1 h + b_1) + b_2                   (16 outputs, hidden width 64)
     sigma  = exp(min(z_0, 15))                             (truncated exponential)
     c      = sigmoid(MLP_64x64([z, SH_4(d), e_k]))         (degree-4 spherical harmonics)
@@ -11,7 +12,7 @@ With antialias (--antialias), each sample carries the std s of its pixel footpri
 field signature's `footprint`, models/base.py Field) and
 level l's features are scaled by erf(h_l / (sqrt(8) s_y)) (encoding/hashgrid.level_weights; h_l the
 level's cell size, s_y the footprint in grid coordinates: s, or s / R times the contraction's local
-scale when contracted), so levels finer than the footprint fade out instead of aliasing.
+scale when contracted, or ndc_scale in NDC), so levels finer than the footprint fade out instead of aliasing.
 
 e_k is the appearance embedding of training image k (NeRF-W; absent when
 appearance_dim = 0); other views use the mean embedding. Same interface as the NeRF MLP:
@@ -29,7 +30,16 @@ from nerfkit.core.config import FieldConfig
 from nerfkit.encoding.hashgrid import HashGridConfig, encode_hashgrid, init_hashgrid
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.fields.mlp import appearance_embedding, dense_init
-from nerfkit.rays.coord import CONTRACTED_BOUND, contract, contraction_scale
+from nerfkit.rays.coord import (
+    CONTRACTED_BOUND,
+    NDC_BOUND,
+    contract,
+    contraction_scale,
+    ndc,
+    ndc_scale,
+    ndc_stretch,
+    radial_stretch,
+)
 
 GEO_FEATURES = 16  # outputs of the density MLP: log-density + 15 geometry features
 SH_DEGREE = 4
@@ -50,8 +60,13 @@ class HashGridField:
         self.cfg = cfg
         self.grid = hashgrid_config(cfg)
         self.unbounded = cfg.unbounded()
-        self.radius = cfg.resolved_bound()
-        self.grid_bound = CONTRACTED_BOUND if self.unbounded else self.radius
+        self.ndc = None  # (frame [3, 4], near n, slopes (a_x, a_y)) in NDC
+        if cfg.ndc():
+            self.ndc = (jnp.asarray(cfg.ndc_frame, jnp.float32).reshape(3, 4), float(cfg.ndc_near),
+                        tuple(map(float, cfg.ndc_extent)))
+        # The radius R that scales sample spacing and initial densities: the near plane in NDC.
+        self.radius = self.ndc[1] if self.ndc else cfg.resolved_bound()
+        self.grid_bound = NDC_BOUND if self.ndc else CONTRACTED_BOUND if self.unbounded else self.radius
         self.n_appearance = cfg.n_appearance()
 
     def init(self, key) -> dict:
@@ -69,13 +84,34 @@ class HashGridField:
 
     def to_grid(self, x: jnp.ndarray) -> jnp.ndarray:
         """Grid coordinates y [..., 3] of world points x [..., 3]."""
+        if self.ndc:
+            return ndc(x, *self.ndc)
         return contract(x / self.radius) if self.unbounded else x
 
     def grid_scale(self, x: jnp.ndarray, footprint: jnp.ndarray) -> jnp.ndarray:
         """Footprint stds [...] in grid coordinates of footprints of std `footprint` [...] (world) at x [..., 3]."""
+        if self.ndc:
+            return footprint * ndc_scale(x, *self.ndc)
         if self.unbounded:
             return footprint / self.radius * contraction_scale(x / self.radius)
         return footprint
+
+    @property
+    def lipschitz(self) -> float:
+        """A bound on how far grid points move per unit of world distance (render/empty_space.py skips by it):
+        1 in a box, 1 / R contracted; in NDC, at depth z >= n, |J| <= sqrt(1/a_x^2 + 1/a_y^2 + y_1^2 + y_2^2
+        + 4 n^2 / z^2) / z <= sqrt(1/a_x^2 + 1/a_y^2 + 12) / n with the coordinates clipped to [-2, 2]."""
+        if self.ndc:
+            (ax, ay), n = self.ndc[2], self.ndc[1]
+            return float((1.0 / ax**2 + 1.0 / ay**2 + 12.0) ** 0.5 / n)
+        return 1.0 / self.radius if self.unbounded else 1.0
+
+    def stretch(self, y: jnp.ndarray) -> jnp.ndarray:
+        """World length, in units of R, that a unit step of the grid covers at grid points y [..., 3] -> [...]
+        (along the radius when contracted, along the depth axis in NDC; 1 in a box)."""
+        if self.ndc:
+            return ndc_stretch(y)
+        return radial_stretch(y) if self.unbounded else jnp.ones(y.shape[:-1], y.dtype)
 
     def _geometry(self, params, y, scale_y=None):
         u = (y + self.grid_bound) / (2 * self.grid_bound)

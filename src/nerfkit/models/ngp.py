@@ -20,7 +20,6 @@ from nerfkit.models.ray_method import (
     ray_unused,
     weighted_mse,
 )
-from nerfkit.rays.coord import radial_stretch
 from nerfkit.rays.frustum import footprint_std
 from nerfkit.render.volume import packed_composite, packed_compositing_weights
 from nerfkit.sampling import occupancy
@@ -58,6 +57,8 @@ class NGPModel:
         scene = f"{f.scene_type} scene, " if f.scene_type != "auto" else ""
         box = "" if f.bound is None else (f"inner ball {f.bound:g}, " if f.scene_type == "unbounded" else
                                           f"box {f.bound:g}, ")
+        if f.ndc():
+            box = f"NDC of the mean camera from depth {f.ndc_near:.3g}, "
         if s.resolved_sampling(f) == "proposal":
             rays = s.proposal_batch(cfg.train.batch_rays)
             first, second, field = s.proposal_counts()
@@ -97,6 +98,9 @@ class NGPModel:
                 why = (f"the occupancy grid places the samples here (--sampling {s.sampling}"
                        f"{'' if s.sampling != 'auto' else ': a bounded scene'}); --sampling proposal reads it")
                 out["sampler.proposal_samples"] = out["sampler.field_samples"] = why
+        if cfg.field.scene_type == "bounded" or (
+                capture is not None and scene_type(cfg.field.scene_type, capture)[0] == "bounded"):
+            out["field.warp"] = "the scene is bounded (a box); --warp maps unbounded scenes into the grid"
         return out
 
     def surface_field(self, params, aux) -> tuple:
@@ -125,7 +129,7 @@ class NGPModel:
         self.step_size = (2.0 * radius if self.unbounded else 2.0 * 3**0.5 * radius) / s.march_steps
         # A cell is worth sampling if one marching step through it has optical depth
         # sigma * step >= 0.01 (instant-ngp's minimum optical thickness); in contracted space
-        # the grid stores sigma times the stretch of the step there (coord.radial_stretch).
+        # the grid stores sigma times the stretch of the step there (HashGridField.stretch).
         self.occ = occupancy.OccupancyConfig(resolution=s.occ_res, bound=self.field.grid_bound,
                                              threshold=0.01 / self.step_size, warmup_decay=s.occ_warmup_decay)
         self.background = background_color(cfg.data.background)
@@ -143,7 +147,7 @@ class NGPModel:
     def occupancy_density(self, params, y):
         """What the occupancy grid stores at grid points y [M, 3] (see __init__)."""
         sigma = self.field.density_grid(params["field"], y)
-        return sigma * radial_stretch(y) if self.unbounded else sigma
+        return sigma * self.field.stretch(y) if self.unbounded else sigma
 
     def update_aux(self, params, aux, step, key):
         s = self.cfg.sampler

@@ -29,7 +29,8 @@ MLP_SETTINGS = frozenset({"field.depth", "field.width", "field.l_xyz", "field.l_
                           "sampler.n_samples", "sampler.n_importance"})
 NGP_SETTINGS = frozenset({
     "field.hash_levels", "field.hash_features", "field.hash_log2_size", "field.hash_base_res",
-    "field.hash_max_res", "field.hidden", "field.antialias", "field.bound", "field.scene_type", "sampler.occ_res",
+    "field.hash_max_res", "field.hidden", "field.antialias", "field.bound", "field.scene_type", "field.warp",
+    "field.ndc_frame", "field.ndc_near", "field.ndc_extent", "sampler.occ_res",
     "sampler.occ_update_every", "sampler.occ_warmup", "sampler.occ_warmup_decay", "sampler.march_steps",
     "sampler.max_samples", "sampler.sampling", "sampler.proposal_samples", "sampler.field_samples"})
 

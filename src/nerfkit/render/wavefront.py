@@ -74,7 +74,7 @@ class WavefrontRenderer(Renderer):
         steps = jnp.arange(w, dtype=jnp.int32)
 
         field = model.field
-        lipschitz = 1.0 / field.radius if field.unbounded else 1.0
+        lipschitz = field.lipschitz
 
         def window(aux, dist, o, d, k0):
             k0 = skip_empty(model.candidates, field.to_grid, model.occ, dist, lipschitz, o, d, k0)

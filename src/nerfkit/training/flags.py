@@ -46,7 +46,8 @@ def by_kind() -> dict[str, frozenset[str]]:
 
 # Settings filled in from the data (resolve.py; the --init file's SH degree: models/splat/method.py), never from
 # the command line.
-FROM_DATA = frozenset({"field.appearance_count", "data.undistort", "splat.init_sh_degree"})
+FROM_DATA = frozenset({"field.appearance_count", "field.ndc_frame", "field.ndc_near", "field.ndc_extent",
+                       "data.undistort", "splat.init_sh_degree"})
 
 
 def kind_name(kind: str) -> str:

@@ -10,6 +10,8 @@ eval, render and --resume rebuild exactly the trained model.
     near, far     bounded: 0 and past the far side of the box from the farthest camera;
                   unbounded: 0.05 (cameras sit at radius 4) and 1e4
     sampling      ngp: the occupancy march for bounded scenes, proposal sampling for unbounded ones
+    warp          ngp, unbounded scenes: NDC of the mean camera for forward-facing captures (near plane from
+                  the points; data/normalize.ndc_space), else the contraction
     lens          the photos of a lens-distorted camera are undistorted for a method that renders pinhole
                   cameras only (lens_plan; Gaussian splats), the fields model the lens
     appearance    16 per image for photo captures without masks (exposure and white balance
@@ -28,9 +30,11 @@ import math
 import numpy as np
 
 from nerfkit.core.config import Config, validate
+from nerfkit.core.errors import ConfigError
 from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.capture import scene_type as capture_scene_type
-from nerfkit.data.normalize import forward_facing, masked_bound, view_spread
+from nerfkit.data.normalize import FORWARD_DEGREES, forward_facing, masked_bound, ndc_space, view_spread
+from nerfkit.data.points import transform_points
 from nerfkit.models import registry
 
 UNBOUNDED_NEAR, UNBOUNDED_FAR = 0.05, 1e4
@@ -89,6 +93,7 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
         notes.append(f"{'radius' if scene == 'unbounded' else 'box'} {f.bound:g} ({where})")
     if supports.sampling:
         s.sampling = s.resolved_sampling(f)
+    _resolve_warp(cfg, cap, train, notes)
     if s.near is None:
         s.near = UNBOUNDED_NEAR if scene == "unbounded" else 0.0
     if s.far is None:
@@ -105,8 +110,6 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     if cfg.train.pose_refine == "on":
         log(f"pose refinement: a pose correction per training photo ({len(train)}), learned with the scene; "
             f"held-out photos are rendered from their given poses moved with the training rig (--pose-refine off: none)")
-    if forward_facing(train.poses):
-        notes.append(f"forward-facing: every camera within {view_spread(train.poses):.0f} degrees of one direction")
     if supports.unbounded or f.scene_type != "auto":
         log(f"scene: {scene} ({why}){'; ' + '; '.join(notes) if notes else ''}; near {s.near:g}, far {s.far:g}")
     if supports.sampling and scene == "unbounded" and s.sampling == "occupancy":
@@ -120,6 +123,47 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     validate(cfg)
     registry.check(cfg)
     return cfg
+
+
+def wants_ndc(cfg: Config, cap: Capture, train: SceneData) -> bool:
+    """Whether --warp (auto or ndc) would put the field in NDC: a method that reads it, an unbounded scene,
+    a forward-facing capture."""
+    return ("field.warp" in registry.method_class(cfg).reads and cfg.field.warp != "contract"
+            and scene_type(cfg, cap)[0] == "unbounded" and forward_facing(train.poses))
+
+
+def _resolve_warp(cfg: Config, cap: Capture, train: SceneData, notes: list) -> None:
+    """--warp: fill in the NDC space (data/normalize.ndc_space) and its near plane, or contract; a note says
+    which and why. --warp ndc on a capture that is not forward-facing, or without points ahead, is refused."""
+    f, s = cfg.field, cfg.sampler
+    spread = f"every camera within {view_spread(train.poses):.0f} degrees of one direction"
+    if forward_facing(train.poses):
+        notes.append(f"forward-facing: {spread}")
+    if "field.warp" not in registry.method_class(cfg).reads or f.scene_type != "unbounded":
+        return
+    if not wants_ndc(cfg, cap, train):
+        if f.warp == "ndc":
+            raise ConfigError(f"--warp ndc needs a forward-facing capture, but the cameras look up to "
+                              f"{view_spread(train.poses):.0f} degrees apart (NDC holds under {FORWARD_DEGREES:g}); "
+                              f"use --warp contract")
+        f.warp = "contract"
+        return
+    try:
+        if cap.points is None:
+            raise ValueError("the capture has no points")
+        frame, near, extent = ndc_space(train.poses, train.cameras, transform_points(cap.points, train.transform))
+    except ValueError as e:
+        if f.warp == "ndc":
+            raise ConfigError(f"--warp ndc needs points in front of the cameras to place its near plane ({e}); "
+                              f"use --warp contract") from None
+        f.warp = "contract"
+        notes.append(f"contraction: no near plane for NDC ({e})")
+        return
+    f.warp, f.ndc_frame, f.ndc_near, f.ndc_extent = "ndc", frame.ravel().tolist(), near, extent
+    if s.near is None:
+        s.near = near
+    notes.append(f"NDC of the mean camera: near plane {near:.3g} (0.9 x the 1st percentile of the points' depths), "
+                 f"slopes {extent[0]:.2f} x {extent[1]:.2f} (--warp contract: the contraction)")
 
 
 def _round_up(x: float, step: float = 0.05) -> float:

@@ -16,7 +16,7 @@ from nerfkit.data.capture import Capture, SceneData
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.flags import refuse_family_switch, refuse_unused
-from nerfkit.training.resolve import default_splits, lens_plan, resolve_config
+from nerfkit.training.resolve import default_splits, lens_plan, resolve_config, wants_ndc
 
 # What a run folder holds (train.py's docstring; eval, render, export and report add the rest): a fresh
 # run refuses a folder holding any of them unless told to overwrite, and then removes exactly these.
@@ -94,6 +94,8 @@ def load_splits(data_dir: Path, cfg: Config, progress: bool, say) -> tuple[Captu
         f"{', masks on' if td.has_masks else ''}")
     if lens_note:
         say(lens_note + (f" to a {td.width}x{td.height} pinhole camera" if d.undistort else ""))
+    if capture.points is None and wants_ndc(cfg, capture, td):  # the NDC's near plane comes from points
+        capture = with_triangulated_points(capture, spec_train, say)
     cfg = resolve_config(cfg, capture, td, log=say)
     cfg.data.train_split, cfg.data.val_split = spec_train, spec_val
     return capture, train_data, val_data, cfg
