@@ -3,7 +3,7 @@ front of the far textured room, photographed from a grid of positions in one pla
 through the command line, preset against preset in one sitting.
 
     python benchmarks/forward_facing.py [--minutes 2] [--size 96] [--views 24] [--out runs/forward_facing]
-        [--presets P ...] [--name procedural_forward]
+        [--presets P ...] [--name procedural_forward] [--seed 0]
 
 Runs (benchmarks/capture_cli.py; every 8th photo held out), by default: the splat preset (its far points drawn
 through the photos' pixels, as for any forward-facing capture), the splat preset without far points, ngp (its
@@ -30,11 +30,13 @@ def main() -> None:
     ap.add_argument("--presets", nargs="+", default=["splat", "splat-nofar=--preset splat --far-points off", "ngp",
                                                       "ngp-contract=--preset ngp --warp contract"])
     ap.add_argument("--name", default="procedural_forward")
+    ap.add_argument("--seed", type=int, default=0, help="the capture's seed (camera grid jitter and turns)")
     ap.add_argument("--results", type=Path, default=None, help="folder for the JSON (default benchmarks/results)")
     a = ap.parse_args()
     data = a.out / "capture"
     if not (data / "transforms.json").is_file():
-        make_capture(data, "nerfstudio", n_views=a.views, size=a.size, environment=True, rig="forward")
+        make_capture(data, "nerfstudio", n_views=a.views, size=a.size, environment=True, rig="forward",
+                     seed=a.seed)
     capture_cli.main(["--data", str(data), "--name", a.name, "--minutes", f"{a.minutes:g}", "--downscale", "1",
                       "--out", str(a.out / "runs"), *(["--results", str(a.results)] if a.results else []),
                       "--presets", *a.presets])

@@ -71,3 +71,39 @@ def test_forward_facing_captures_are_told_from_all_around_ones():
     back_to_back = np.stack([ring[0], ring[0] @ np.diag([-1.0, 1.0, -1.0, 1.0])])  # one turned half round
     assert view_spread(back_to_back) == 180.0 and not forward_facing(back_to_back)
     assert not forward_facing(ring[:0])
+
+
+def test_the_ndc_space_of_a_forward_facing_capture_holds_every_pixel_ray_past_a_near_plane_below_the_points():
+    """ndc_space on the forward-facing rig: the near plane lies below all but about 1% of the points (and not far
+    below them); every pixel's ray of every photo, from the near plane to 1000 times as deep, lands inside the
+    cube (covering), and the cube is not much wider than the rays need (tight: they reach 0.9 of it)."""
+    import jax.numpy as jnp
+
+    from nerfkit.data.normalize import mean_camera, ndc_space
+    from nerfkit.data.procedural.captures import forward_poses
+    from nerfkit.rays.cameras import camera_rays
+    from nerfkit.rays.coord import ndc
+
+    poses = forward_poses(12, seed=1)
+    cams = [Camera.pinhole(40, 30, 36.0)] * len(poses)
+    rng = np.random.default_rng(0)
+    frame = mean_camera(poses)
+    q = np.stack([rng.uniform(-2, 2, 2000), rng.uniform(-1, 1, 2000), -rng.uniform(2.0, 9.0, 2000)], -1)
+    points = q @ frame[:, :3].T + frame[:, 3]
+    frame, near, extent = ndc_space(poses, cams, points)
+    depth = -(points - frame[:, 3]) @ frame[:, 2]
+    assert np.mean(depth < near) <= 0.011 and near >= 0.85 * depth.min(), (near, depth.min())
+    most = np.array(-1.0)
+    for pose, cam in zip(poses, cams):
+        o, d = (a.reshape(-1, 3).astype(np.float64) for a in camera_rays(pose, cam))
+        d_depth = -d @ frame[:, 2]
+        o_depth = -(o - frame[:, 3]) @ frame[:, 2]
+        for scale in (1.0, 1.5, 10.0, 1e3):  # depths along the reference axis
+            t = (scale * near - o_depth) / d_depth
+            y = np.asarray(ndc(jnp.asarray(o + t[:, None] * d, jnp.float32), frame, near, extent))
+            assert np.all(np.abs(y) <= 1 + 1e-4), (scale, np.abs(y).max(0))
+            most = np.maximum(most, np.abs(y[:, :2]).max(0))
+    assert np.all(most >= 0.9), most
+    behind = frame[:, 3] + 3.0 * frame[:, 2]
+    with np.testing.assert_raises(ValueError):
+        ndc_space(poses, cams, behind[None])

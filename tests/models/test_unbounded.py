@@ -4,8 +4,11 @@ floor, and the same budget in a bounded box (which can only paint the environmen
 background colour) is clearly worse; proposal sampling gets there on half the budget.
 Also: the scene type is picked from the data."""
 
+import numpy as np
 import pytest
 
+from nerfkit.core.config import Config
+from nerfkit.core.errors import ConfigError
 from nerfkit.core.presets import preset
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.data.procedural.captures import make_capture
@@ -67,6 +70,11 @@ def test_scene_type_is_picked_from_the_data(capture, tmp_path):
     assert cfg.sampler.far >= 1e3 and cfg.sampler.near < 0.1
     assert cfg.field.appearance_dim == 16 and cfg.field.appearance_count == len(train)
     assert cfg.sampler.sampling == "proposal"  # resolved, so eval and --resume build the same model
+    assert cfg.field.warp == "contract" and cfg.field.ndc_frame is None  # cameras all around: the contraction
+    ndc = preset("ngp")
+    ndc.field.warp = "ndc"
+    with pytest.raises(ConfigError, match="--warp ndc needs a forward-facing capture.*--warp contract"):
+        resolve_config(ndc, cap, train, log=logs.append)
     assert not any(line.startswith("slow:") for line in logs)
     forced = preset("ngp")
     forced.sampler.sampling = "occupancy"
@@ -82,3 +90,42 @@ def test_scene_type_is_picked_from_the_data(capture, tmp_path):
     # 10 and 50 degrees of elevation cannot see below the ground disc, so the hull reaches down there
     # (measured 2.55-2.8), but it stays well inside the cameras' ball (radius 3.8).
     assert 1.2 <= cfg.field.bound <= 3.0
+
+
+def test_a_forward_facing_capture_puts_the_field_in_the_ndc_of_its_mean_camera(tmp_path):
+    """--warp auto on a forward-facing capture: NDC with the near plane below the nearest surface the photos see
+    (exact surface points here; triangulated ones when the capture has none), the rays starting there; the
+    settings survive config.json, and the field built from them maps the surface points into its cube."""
+    from nerfkit.data.points import transform_points
+    from nerfkit.models.registry import build_model
+    from nerfkit.training.setup import load_splits
+
+    data = make_capture(tmp_path / "f", "nerfstudio", n_views=16, size=32, environment=True, rig="forward",
+                        points=400)
+    cap = read_capture(data, "train")
+    train = load_frames(cap, "train")
+    logs = []
+    cfg = resolve_config(preset("ngp"), cap, train, log=logs.append)
+    f = cfg.field
+    assert f.warp == "ndc" and len(f.ndc_frame) == 12 and len(f.ndc_extent) == 2
+    assert any("NDC of the mean camera: near plane" in line for line in logs), logs
+    pts = transform_points(cap.points, train.transform)
+    frame = np.asarray(f.ndc_frame).reshape(3, 4)
+    depth = -(pts - frame[:, 3]) @ frame[:, 2]
+    assert 0.5 * depth.min() <= f.ndc_near <= depth.min(), (f.ndc_near, depth.min())
+    assert cfg.sampler.near == f.ndc_near and cfg.sampler.far >= 1e3
+    again = Config.from_dict(cfg.to_dict())
+    assert again.field.ndc_frame == f.ndc_frame and again.field.ndc_near == f.ndc_near
+    y = np.asarray(build_model(again).field.to_grid(np.asarray(pts, np.float32)))
+    assert np.mean(np.abs(y).max(-1) <= 1.0) >= 0.99
+    contract = preset("ngp")
+    contract.field.warp = "contract"
+    assert resolve_config(contract, cap, train, log=logs.append).field.ndc_frame is None
+    bare = make_capture(tmp_path / "b", "nerfstudio", n_views=16, size=32, environment=True, rig="forward")
+    cap = read_capture(bare, "train")
+    assert resolve_config(preset("ngp"), cap, load_frames(cap, "train"), log=logs.append).field.warp == "contract"
+    assert "contraction: no near plane for NDC (the capture has no points)" in logs[-2]
+    ngp = preset("ngp")
+    ngp.data.train_split, ngp.data.val_split = "train", "test"
+    capture, _, _, cfg = load_splits(bare, ngp, False, logs.append)  # what nerfkit train does: triangulate
+    assert cfg.field.warp == "ndc" and capture.points is not None and len(capture.points) >= 10

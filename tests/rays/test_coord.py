@@ -64,3 +64,67 @@ def test_contraction_scale_is_the_cube_root_of_the_jacobian_determinant():
     for p in x.astype(np.float32):
         det = abs(float(np.linalg.det(np.asarray(jax.jacfwd(coord.contract)(jnp.asarray(p))))))
         np.testing.assert_allclose(float(coord.contraction_scale(jnp.asarray(p))), det ** (1 / 3), rtol=2e-4)
+
+
+def _ndc_frame(seed: int = 0):
+    """A reference camera [3, 4] turned and moved at random, a near plane and slopes."""
+    import jax
+
+    from nerfkit.rays.cameras import look_at
+
+    rng = np.random.default_rng(seed)
+    eye = rng.normal(size=3)
+    c2w = look_at(eye, eye + rng.normal(size=3))
+    return jnp.asarray(c2w[:3, :4], jnp.float32), 0.7, (0.6, 0.45), jax
+
+
+def _frustum_points(frame, near, extent, n, rng, depth=(1.0, 1e3)):
+    """Points of the frustum in front of `frame` (slopes within extent, depths in near x depth): [n, 3]."""
+    z = near * 10 ** rng.uniform(np.log10(depth[0]), np.log10(depth[1]), n)
+    q = np.stack([rng.uniform(-1, 1, n) * extent[0] * z, rng.uniform(-1, 1, n) * extent[1] * z, -z], -1)
+    f = np.asarray(frame, np.float64)
+    return (q @ f[:, :3].T + f[:, 3]).astype(np.float32), q, z
+
+
+def test_ndc_maps_the_frustum_onto_the_cube_evenly_in_disparity_and_inverts():
+    frame, near, extent, _ = _ndc_frame()
+    rng = np.random.default_rng(1)
+    x, q, z = _frustum_points(frame, near, extent, 500, rng)
+    y = np.asarray(coord.ndc(jnp.asarray(x), frame, near, extent))
+    assert np.all(np.abs(y) <= 1 + 1e-4)
+    np.testing.assert_allclose(y[:, 2], 1 - 2 * near / z, atol=2e-5)  # linear in disparity n / z
+    np.testing.assert_allclose(y[:, :2], q[:, :2] / (np.array(extent) * z[:, None]), atol=1e-4)
+    near_plane = _frustum_points(frame, near, extent, 50, rng, depth=(1.0, 1.0))[0]
+    np.testing.assert_allclose(np.asarray(coord.ndc(jnp.asarray(near_plane), frame, near, extent))[:, 2], -1, atol=1e-5)
+    back = np.asarray(coord.ndc_inverse(jnp.asarray(y), frame, near, extent))
+    close = z < 100 * near  # float32 loses the far points' depth
+    np.testing.assert_allclose(back[close], x[close], rtol=1e-3, atol=1e-3)
+
+
+def test_ndc_puts_what_no_camera_sees_outside_the_cube():
+    frame, near, extent, _ = _ndc_frame(2)
+    rng = np.random.default_rng(3)
+    f = np.asarray(frame, np.float64)
+    nearer = _frustum_points(frame, near, extent, 100, rng, depth=(0.05, 0.99))[0]
+    behind = (_frustum_points(frame, near, extent, 100, rng)[1] * [1, 1, -1]) @ f[:, :3].T + f[:, 3]
+    wide = _frustum_points(frame, near, (extent[0] * 1.5, extent[1]), 400, rng)
+    wide = wide[0][np.abs(wide[1][:, 0] / wide[2]) > extent[0] * 1.01]
+    for pts in (nearer, behind, wide):
+        y = np.asarray(coord.ndc(jnp.asarray(pts, jnp.float32), frame, near, extent))
+        assert np.all(np.isfinite(y)) and np.all(np.abs(y).max(-1) > 1.0)
+    at_camera = jnp.asarray(f[None, :, 3], jnp.float32)
+    assert np.all(np.abs(np.asarray(coord.ndc(at_camera, frame, near, extent))) == 2.0)
+
+
+def test_ndc_scale_is_the_cube_root_of_the_jacobian_determinant_and_stretch_its_depth_derivative():
+    frame, near, extent, jax = _ndc_frame(4)
+    x, _, z = _frustum_points(frame, near, extent, 30, np.random.default_rng(5), depth=(1.0, 50.0))
+    for p in x:
+        jac = np.asarray(jax.jacfwd(lambda v: coord.ndc(v, frame, near, extent))(jnp.asarray(p)), np.float64)
+        np.testing.assert_allclose(float(coord.ndc_scale(jnp.asarray(p), frame, near, extent)),
+                                   abs(np.linalg.det(jac)) ** (1 / 3), rtol=2e-3)
+    for y3 in (-0.9, 0.0, 0.5, 0.9):
+        depth = lambda s: 2 * near / (1 - s)  # noqa: E731
+        h = 1e-4
+        assert float(coord.ndc_stretch(jnp.array([[0.0, 0.0, y3]]))[0]) == pytest.approx(
+            (depth(y3 + h) - depth(y3 - h)) / (2 * h) / near, rel=1e-4)

@@ -68,6 +68,7 @@ def alternative(name: str, cfg) -> list[str]:
         "data.train_split": "train[0:3]", "data.val_split": "test", "data.downscale": "2", "data.target_width": "8",
         "data.background": "black" if v == "white" else "white", "data.format": "nerfstudio",
         "field.kind": "mlp" if v == "ngp" else "ngp", "field.scene_type": "unbounded", "field.bound": "2.5",
+        "field.warp": "ndc" if v != "ndc" else "contract",
         "field.appearance_dim": "4", "field.hash_log2_size": "12", "field.hash_base_res": "4",
         "field.hash_max_res": "64", "sampler.near": "1.0", "sampler.far": "5.5", "sampler.max_samples": "16384",
         "train.devices": "2", "train.precrop_frac": "0.3",

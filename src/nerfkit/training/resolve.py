@@ -160,6 +160,7 @@ def _resolve_warp(cfg: Config, cap: Capture, train: SceneData, notes: list) -> N
         notes.append(f"contraction: no near plane for NDC ({e})")
         return
     f.warp, f.ndc_frame, f.ndc_near, f.ndc_extent = "ndc", frame.ravel().tolist(), near, extent
+    notes[:] = [n for n in notes if not n.startswith("radius ")]  # the inner ball is the contraction's
     if s.near is None:
         s.near = near
     notes.append(f"NDC of the mean camera: near plane {near:.3g} (0.9 x the 1st percentile of the points' depths), "
