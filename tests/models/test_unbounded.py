@@ -128,4 +128,4 @@ def test_a_forward_facing_capture_puts_the_field_in_the_ndc_of_its_mean_camera(t
     ngp = preset("ngp")
     ngp.data.train_split, ngp.data.val_split = "train", "test"
     capture, _, _, cfg = load_splits(bare, ngp, False, logs.append)  # what nerfkit train does: triangulate
-    assert cfg.field.warp == "ndc" and capture.points is not None and len(capture.points) >= 10
+    assert cfg.field.warp == "ndc" and capture.points is not None and len(capture.points) >= 4
