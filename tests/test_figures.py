@@ -40,6 +40,11 @@ def _curve_psnr(run: str, step: int) -> float:
     return next(p["psnr"] for p in R("maryrose_real_capture.json", run, "curve") if p["step"] == step)
 
 
+def _views(name: str) -> int:
+    """The photos of a benchmarks/forward_facing.py capture: its command's --views."""
+    return int(re.search(r"--views (\d+)", R(name, "provenance", "command")).group(1))
+
+
 # formats: how the pages round
 f0, f1, f2, f3, f4 = "{:.0f}".format, "{:.1f}".format, "{:.2f}".format, "{:.3f}".format, "{:.4f}".format
 d = "{:d}".format
@@ -87,6 +92,7 @@ FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats
 START = "procedural_splat_start_cli.json"  # where a splat run starts
 BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
+FWD1, FWD1N = "procedural_forward_seed1_cli.json", "procedural_forward_seed1_nofar_cli.json"  # another, 5 minutes
 CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 SPLAT_NOW, RS_NOW = "lego_cli_splat_eabdd28.json", "render_speed_splat_f85d2a4.json"  # today's kernels: a run, its frame
@@ -431,13 +437,29 @@ CHECKS = [
       ((FAR, "presets", "splat", "psnr"), f2), ((FAR, "presets", "splat", "ssim"), f3),
       ((FAR, "presets", "splat-nofar", "psnr"), f2), ((FAR, "presets", "splat-nofar", "ssim"), f3)]),
     ("docs/splats.md", "A background of its own: on photos without masks",
-     "every 8th held out, {}-minute runs, one sitting; `python benchmarks/forward_facing.py`, "
-     "`procedural_forward_cli.json`: **{} dB / SSIM {}** on the {} held-out photos, {} / {} without far points, "
-     "ngp {} / {})",
-     [((FWD, "minutes"), f0), ((FWD, "presets", "splat", "psnr"), f2), ((FWD, "presets", "splat", "ssim"), f3),
-      ((FWD, "presets", "splat", "views"), d), ((FWD, "presets", "splat-nofar", "psnr"), f2),
-      ((FWD, "presets", "splat-nofar", "ssim"), f3), ((FWD, "presets", "ngp", "psnr"), f2),
-      ((FWD, "presets", "ngp", "ssim"), f3)]),
+     "every 8th photo held out, {}-minute runs, one sitting; `python benchmarks/forward_facing.py --views {}`, "
+     "`procedural_forward_cli.json`) the splat preset scores **{} dB / SSIM {}** on the {} held-out photos and {} / {} "
+     "with `--far-points off` (ngp {} / {}); on the same kind of capture drawn with another seed, {}-minute runs "
+     "(`--seed 1 --minutes {}`, `procedural_forward_seed1_cli.json` and `procedural_forward_seed1_nofar_cli.json`), "
+     "{} / {} against {} / {}.",
+     [((FWD, "minutes"), f0), (lambda: _views(FWD), d), ((FWD, "presets", "splat", "psnr"), f2),
+      ((FWD, "presets", "splat", "ssim"), f3), ((FWD, "presets", "splat", "views"), d),
+      ((FWD, "presets", "splat-nofar", "psnr"), f2), ((FWD, "presets", "splat-nofar", "ssim"), f3),
+      ((FWD, "presets", "ngp", "psnr"), f2), ((FWD, "presets", "ngp", "ssim"), f3),
+      ((FWD1, "minutes"), f0), ((FWD1, "minutes"), f0), ((FWD1, "presets", "splat", "psnr"), f2),
+      ((FWD1, "presets", "splat", "ssim"), f3), ((FWD1N, "presets", "splat-nofar", "psnr"), f2),
+      ((FWD1N, "presets", "splat-nofar", "ssim"), f3)]),
+    ("docs/methods.md", "What it buys, on procedural forward-facing captures",
+     "(`--seed 1 --minutes {}`, `procedural_forward_seed1_cli.json`) **{} dB / SSIM {}** on the {} held-out photos "
+     "in NDC ({} steps) against {} / {} contracted ({} steps); in {} minutes on another capture "
+     "(`procedural_forward_cli.json`) {} / {} ({} steps) against {} / {} ({} steps).",
+     [((FWD1, "minutes"), f0), ((FWD1, "presets", "ngp", "psnr"), f2), ((FWD1, "presets", "ngp", "ssim"), f3),
+      ((FWD1, "presets", "ngp", "views"), d), ((FWD1, "presets", "ngp", "steps"), d),
+      ((FWD1, "presets", "ngp-contract", "psnr"), f2), ((FWD1, "presets", "ngp-contract", "ssim"), f3),
+      ((FWD1, "presets", "ngp-contract", "steps"), d), ((FWD, "minutes"), f0),
+      ((FWD, "presets", "ngp", "psnr"), f2), ((FWD, "presets", "ngp", "ssim"), f3), ((FWD, "presets", "ngp", "steps"), d),
+      ((FWD, "presets", "ngp-contract", "psnr"), f2), ((FWD, "presets", "ngp-contract", "ssim"), f3),
+      ((FWD, "presets", "ngp-contract", "steps"), d)]),
     ("docs/splats.md", "How far triangulated points are from the best possible start",
      "{}-minute runs, one sitting; `python benchmarks/splat_start.py --minutes {}`, `procedural_splat_start_cli.json` "
      "and `.jpg`): **{} dB / SSIM {}** on the {} held-out photos from the points triangulated at the given poses, "
