@@ -123,6 +123,9 @@ def test_a_forward_facing_capture_puts_the_field_in_the_ndc_of_its_mean_camera(t
     contract = preset("ngp")
     contract.field.warp = "contract"
     assert resolve_config(contract, cap, train, log=logs.append).field.ndc_frame is None
+    old = preset("ngp").to_dict()  # a run written before --warp trained contracted; --resume must keep that
+    del old["field"]["warp"]
+    assert resolve_config(Config.from_dict(old), cap, train, log=logs.append).field.ndc_frame is None
     bare = make_capture(tmp_path / "b", "nerfstudio", n_views=16, size=32, environment=True, rig="forward")
     cap = read_capture(bare, "train")
     assert resolve_config(preset("ngp"), cap, load_frames(cap, "train"), log=logs.append).field.warp == "contract"

@@ -347,6 +347,8 @@ class Config:
                 raise KeyError(missing[0])
             # configs written before --sampling existed: their samples came from the occupancy grid
             sections["sampler"].setdefault("sampling", "occupancy")
+            # and before --warp: an unbounded field was contracted (--resume must not move it into NDC)
+            sections["field"].setdefault("warp", "contract")
             if sections["splat"]:  # runs of earlier versions may have no splat section
                 sections["splat"].setdefault("pixel_loss", "l1")
                 sections["splat"].setdefault("appearance", "off")  # written before per-photo corrections existed
