@@ -31,6 +31,7 @@ class BakedField:
         self.bands = int(baked.meta["sh_bands"])
         self.unbounded = False
         self.radius = self.bound
+        self.lipschitz = 1.0  # grid coordinates are world coordinates (render/wavefront.py skips by it)
 
     @staticmethod
     def to_grid(x):
