@@ -92,6 +92,7 @@ FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats
 START = "procedural_splat_start_cli.json"  # where a splat run starts
 BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
+NCORR = "corrections_forward_ngp_ndc_area.json"  # ngp's pose refinement, forward-facing, in NDC
 FWD1, FWD1N = "procedural_forward_seed1_cli.json", "procedural_forward_seed1_nofar_cli.json"  # another, 5 minutes
 CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
@@ -529,14 +530,12 @@ CHECKS = [
       ((FCORR, "runs", "none", "eval_psnr"), f2), ((FCORR, "runs", "colour", "eval_psnr"), f2),
       ((FCORR, "runs", "pose", "eval_psnr"), f2), ((FCORR, "runs", "both", "eval_psnr"), f2),
       ((FCORR, "runs", "both", "refined_pose_error", "degrees"), f2)]),
-    ("docs/methods.md", "`corrections_forward_ngp_area.json`",
-     "(`--rig forward --supersample {} --variants exact none pose`, `corrections_forward_ngp_area.json`) {} dB exact, "
-     "{} imperfect and {} with refinement (poses {} degrees off)",
-     [(("corrections_forward_ngp_area.json", "supersample"), d),
-      (("corrections_forward_ngp_area.json", "runs", "exact", "eval_psnr"), f2),
-      (("corrections_forward_ngp_area.json", "runs", "none", "eval_psnr"), f2),
-      (("corrections_forward_ngp_area.json", "runs", "pose", "eval_psnr"), f2),
-      (("corrections_forward_ngp_area.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
+    ("docs/methods.md", "`corrections_forward_ngp_ndc_area.json`",
+     "the field in NDC (`--rig forward --supersample {} --variants exact none pose`, "
+     "`corrections_forward_ngp_ndc_area.json`) {} dB exact, {} imperfect and {} with refinement (poses {} degrees off)",
+     [((NCORR, "supersample"), d), ((NCORR, "runs", "exact", "eval_psnr"), f2),
+      ((NCORR, "runs", "none", "eval_psnr"), f2), ((NCORR, "runs", "pose", "eval_psnr"), f2),
+      ((NCORR, "runs", "pose", "refined_pose_error", "degrees"), f2)]),
     ("docs/splats.md", "What it is worth, on maryrose with `--no-masks`",
      "3-minute runs at 432 px, one sitting: **{} dB / SSIM {}** on the {} held-out photos from the triangulated points "
      "({} steps), {} dB / SSIM {} from random points ({} steps); the command took {} minutes against {}",
