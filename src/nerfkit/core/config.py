@@ -347,8 +347,8 @@ class Config:
                 raise KeyError(missing[0])
             # configs written before --sampling existed: their samples came from the occupancy grid
             sections["sampler"].setdefault("sampling", "occupancy")
-            # and before --warp: an unbounded field was contracted (--resume must not move it into NDC)
-            sections["field"].setdefault("warp", "contract")
+            for k, v in FIELD_BEFORE.items():
+                sections["field"].setdefault(k, v)
             if sections["splat"]:  # runs of earlier versions may have no splat section
                 sections["splat"].setdefault("pixel_loss", "l1")
                 sections["splat"].setdefault("appearance", "off")  # written before per-photo corrections existed
@@ -360,6 +360,11 @@ class Config:
         except (KeyError, TypeError, AttributeError) as e:
             raise ConfigError(f"config is not a nerfkit config ({e})") from None
         return validate(cfg)
+
+
+# What a field config written before a setting existed trained with, where that differs from today's default:
+# before --warp an unbounded field was contracted (--resume, eval and checkpoints must not move it into NDC).
+FIELD_BEFORE = {"warp": "contract"}
 
 
 @functools.cache

@@ -20,7 +20,7 @@ import jax
 import numpy as np
 from flax import serialization
 
-from nerfkit.core.config import FieldConfig
+from nerfkit.core.config import FIELD_BEFORE, FieldConfig
 from nerfkit.core.errors import CheckpointError
 
 FORMAT = "nerfkit-checkpoint-v1"
@@ -174,8 +174,8 @@ def restore_checkpoint(path: Path, target, field_cfg: dict):
     arrays (names, shapes, dtypes) differ from the model's.
     """
     ckpt = read_checkpoint(path)
-    # Knobs added to FieldConfig after a checkpoint was written take their defaults.
-    saved = {**dataclasses.asdict(FieldConfig()), **ckpt["field"]}
+    # Knobs added to FieldConfig after a checkpoint was written take their defaults, or what such runs trained with.
+    saved = {**dataclasses.asdict(FieldConfig()), **FIELD_BEFORE, **ckpt["field"]}
     diff = [f"{k}: checkpoint {saved.get(k)!r} vs config {field_cfg.get(k)!r}"
             for k in sorted(set(saved) | set(field_cfg)) if saved.get(k) != field_cfg.get(k)]
     if diff:
