@@ -1,5 +1,6 @@
 """Contraction and sample spacing of unbounded scenes (nerfkit.rays.coord)."""
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -57,8 +58,6 @@ def test_contracted_candidates_are_even_in_t_inside_and_in_disparity_outside():
 
 
 def test_contraction_scale_is_the_cube_root_of_the_jacobian_determinant():
-    import jax
-
     rng = np.random.default_rng(5)
     x = rng.normal(size=(40, 3)) * 10 ** rng.uniform(-1, 2, (40, 1))
     for p in x.astype(np.float32):
@@ -68,14 +67,12 @@ def test_contraction_scale_is_the_cube_root_of_the_jacobian_determinant():
 
 def _ndc_frame(seed: int = 0):
     """A reference camera [3, 4] turned and moved at random, a near plane and slopes."""
-    import jax
-
     from nerfkit.rays.cameras import look_at
 
     rng = np.random.default_rng(seed)
     eye = rng.normal(size=3)
     c2w = look_at(eye, eye + rng.normal(size=3))
-    return jnp.asarray(c2w[:3, :4], jnp.float32), 0.7, (0.6, 0.45), jax
+    return jnp.asarray(c2w[:3, :4], jnp.float32), 0.7, (0.6, 0.45)
 
 
 def _frustum_points(frame, near, extent, n, rng, depth=(1.0, 1e3)):
@@ -87,7 +84,7 @@ def _frustum_points(frame, near, extent, n, rng, depth=(1.0, 1e3)):
 
 
 def test_ndc_maps_the_frustum_onto_the_cube_evenly_in_disparity_and_inverts():
-    frame, near, extent, _ = _ndc_frame()
+    frame, near, extent = _ndc_frame()
     rng = np.random.default_rng(1)
     x, q, z = _frustum_points(frame, near, extent, 500, rng)
     y = np.asarray(coord.ndc(jnp.asarray(x), frame, near, extent))
@@ -102,7 +99,7 @@ def test_ndc_maps_the_frustum_onto_the_cube_evenly_in_disparity_and_inverts():
 
 
 def test_ndc_puts_what_no_camera_sees_outside_the_cube():
-    frame, near, extent, _ = _ndc_frame(2)
+    frame, near, extent = _ndc_frame(2)
     rng = np.random.default_rng(3)
     f = np.asarray(frame, np.float64)
     nearer = _frustum_points(frame, near, extent, 100, rng, depth=(0.05, 0.99))[0]
@@ -117,7 +114,7 @@ def test_ndc_puts_what_no_camera_sees_outside_the_cube():
 
 
 def test_ndc_scale_is_the_cube_root_of_the_jacobian_determinant_and_stretch_its_depth_derivative():
-    frame, near, extent, jax = _ndc_frame(4)
+    frame, near, extent = _ndc_frame(4)
     x, _, z = _frustum_points(frame, near, extent, 30, np.random.default_rng(5), depth=(1.0, 50.0))
     for p in x:
         jac = np.asarray(jax.jacfwd(lambda v: coord.ndc(v, frame, near, extent))(jnp.asarray(p)), np.float64)

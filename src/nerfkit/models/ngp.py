@@ -147,7 +147,7 @@ class NGPModel:
     def occupancy_density(self, params, y):
         """What the occupancy grid stores at grid points y [M, 3] (see __init__)."""
         sigma = self.field.density_grid(params["field"], y)
-        return sigma * self.field.stretch(y) if self.unbounded else sigma
+        return sigma * self.field.stretch(y)
 
     def update_aux(self, params, aux, step, key):
         s = self.cfg.sampler

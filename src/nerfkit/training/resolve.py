@@ -78,6 +78,7 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
     notes = []
     if supports.unbounded or f.scene_type != "auto":
         f.scene_type = scene
+    warp_notes = _resolve_warp(cfg, cap, train)
     dist = np.linalg.norm(train.poses[:, :3, 3], axis=-1)
     if f.bound is None:
         if scene == "unbounded":
@@ -90,10 +91,11 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
         else:
             f.bound = 1.5
             where = "the Blender scenes' box"
-        notes.append(f"{'radius' if scene == 'unbounded' else 'box'} {f.bound:g} ({where})")
+        if not f.ndc():  # the inner ball is the contraction's
+            notes.append(f"{'radius' if scene == 'unbounded' else 'box'} {f.bound:g} ({where})")
+    notes += warp_notes
     if supports.sampling:
         s.sampling = s.resolved_sampling(f)
-    _resolve_warp(cfg, cap, train, notes)
     if s.near is None:
         s.near = UNBOUNDED_NEAR if scene == "unbounded" else 0.0
     if s.far is None:
@@ -132,22 +134,22 @@ def wants_ndc(cfg: Config, cap: Capture, train: SceneData) -> bool:
             and scene_type(cfg, cap)[0] == "unbounded" and forward_facing(train.poses))
 
 
-def _resolve_warp(cfg: Config, cap: Capture, train: SceneData, notes: list) -> None:
-    """--warp: fill in the NDC space (data/normalize.ndc_space) and its near plane, or contract; a note says
-    which and why. --warp ndc on a capture that is not forward-facing, or without points ahead, is refused."""
+def _resolve_warp(cfg: Config, cap: Capture, train: SceneData) -> list[str]:
+    """--warp: fill in the NDC space (data/normalize.ndc_space) and its near plane, or contract; returns the
+    scene line's notes saying which and why. --warp ndc on a capture that is not forward-facing, or without
+    points ahead, is refused."""
     f, s = cfg.field, cfg.sampler
-    spread = f"every camera within {view_spread(train.poses):.0f} degrees of one direction"
-    if forward_facing(train.poses):
-        notes.append(f"forward-facing: {spread}")
+    spread = view_spread(train.poses)
+    notes = [f"forward-facing: every camera within {spread:.0f} degrees of one direction"] \
+        if forward_facing(train.poses) else []
     if "field.warp" not in registry.method_class(cfg).reads or f.scene_type != "unbounded":
-        return
+        return notes
     if not wants_ndc(cfg, cap, train):
         if f.warp == "ndc":
             raise ConfigError(f"--warp ndc needs a forward-facing capture, but the cameras look up to "
-                              f"{view_spread(train.poses):.0f} degrees apart (NDC holds under {FORWARD_DEGREES:g}); "
-                              f"use --warp contract")
+                              f"{spread:.0f} degrees apart (NDC holds under {FORWARD_DEGREES:g}); use --warp contract")
         f.warp = "contract"
-        return
+        return notes
     try:
         if cap.points is None:
             raise ValueError("the capture has no points")
@@ -157,14 +159,13 @@ def _resolve_warp(cfg: Config, cap: Capture, train: SceneData, notes: list) -> N
             raise ConfigError(f"--warp ndc needs points in front of the cameras to place its near plane ({e}); "
                               f"use --warp contract") from None
         f.warp = "contract"
-        notes.append(f"contraction: no near plane for NDC ({e})")
-        return
+        return notes + [f"contraction: no near plane for NDC ({e})"]
     f.warp, f.ndc_frame, f.ndc_near, f.ndc_extent = "ndc", frame.ravel().tolist(), near, extent
-    notes[:] = [n for n in notes if not n.startswith("radius ")]  # the inner ball is the contraction's
     if s.near is None:
         s.near = near
     notes.append(f"NDC of the mean camera: near plane {near:.3g} (0.9 x the 1st percentile of the points' depths), "
                  f"slopes {extent[0]:.2f} x {extent[1]:.2f} (--warp contract: the contraction)")
+    return notes
 
 
 def _round_up(x: float, step: float = 0.05) -> float:
