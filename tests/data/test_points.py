@@ -1,6 +1,7 @@
 """Reading SfM points (data/points.py) and moving them by a similarity."""
 
 import numpy as np
+import pytest
 import trimesh
 
 from nerfkit.data.points import read_points, transform_points
@@ -62,3 +63,22 @@ def test_far_points_through_photos_lie_where_their_pixels_look():
         np.testing.assert_allclose(np.floor(v) / 24, colours[which == k, 1], atol=1e-6)
     kept, _ = far_sphere_points(3000, 12.0, poses, [cam] * 6, images, seed=2)
     assert len(kept) < 0.2 * 3000  # measured 359
+
+
+def test_far_radius_lies_beyond_the_cameras_and_beyond_most_of_what_sfm_saw():
+    """3 x the farthest camera's distance while the points lie inside it; the 95th percentile of the points'
+    distances where a far wall lies beyond it (not the few outliers past the wall, not the near objects)."""
+    from nerfkit.data.points import far_radius
+
+    poses = np.tile(np.eye(4), (5, 1, 1))
+    poses[:, :3, 3] = [[4, 0, 0], [0, 4, 0], [0, 0, 4], [-4, 0, 0], [0, -2, 0]]
+    rng = np.random.default_rng(0)
+    unit = rng.normal(size=(1000, 3))
+    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+    near = unit[:600] * rng.uniform(0, 2, (600, 1))  # objects inside the ring of cameras
+    assert far_radius(poses) == far_radius(poses, near) == far_radius(poses, np.zeros((0, 3))) == 12.0
+    wall = unit[600:980] * 40.0  # a far wall beyond the sphere of 12
+    outliers = unit[980:] * 500.0  # 2% badly triangulated
+    r = far_radius(poses, np.concatenate([near, wall, outliers]))
+    assert r == pytest.approx(40.0)
+    assert far_radius(poses, np.concatenate([near, wall, outliers]), quantile=0.5) == 12.0  # the median is near

@@ -44,6 +44,20 @@ def read_points(path: str | Path, transform: np.ndarray | None = None) -> tuple[
     return (pts if transform is None else transform_points(pts, transform)), cols
 
 
+def far_radius(poses: np.ndarray, points: np.ndarray | None = None, factor: float = 3.0,
+               quantile: float = 0.95) -> float:
+    """The far sphere's radius in the normalised frame: factor x the farthest camera's distance from the origin
+    (poses [V, 4, 4]), or, where the SfM points [N, 3] reach further, the `quantile` of their distances from it,
+    so that a background drawn on the sphere lies at or beyond what SfM saw, not in front of it. A forward-facing
+    capture's far wall can lie many camera distances away (the procedural one at 96 px: the cameras within 6
+    units, the wall's points at 47-68, the sphere of 3 x 6 a third of the way to it); a ring of cameras in a room
+    keeps factor x its radius unless SfM saw beyond it."""
+    r = factor * float(np.linalg.norm(np.asarray(poses)[:, :3, 3], axis=1).max())
+    if points is None or len(points) == 0:
+        return r
+    return max(r, float(np.quantile(np.linalg.norm(np.asarray(points, np.float64), axis=1), quantile)))
+
+
 def far_sphere_points(n: int, radius: float, poses: np.ndarray, cameras: list, images: np.ndarray,
                       seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(points [M, 3], colours [M, 3] in [0, 1]), M <= n: points uniform on the sphere |x| = radius (the

@@ -29,7 +29,7 @@ import numpy as np
 
 from nerfkit.core.errors import ConfigError, DataError
 from nerfkit.data.normalize import forward_facing, sample_visual_hull
-from nerfkit.data.points import far_points_through_photos, far_sphere_points, transform_points
+from nerfkit.data.points import far_points_through_photos, far_radius, far_sphere_points, transform_points
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
@@ -69,9 +69,11 @@ HULL_INIT_SHARE = 0.5
 # projection and Adam over every Gaussian cost as much as the pixels, and loses 0.8 dB (34.61 -> 33.84 dB).
 COARSE_AUTO = 0.5
 COARSE_MIN_PIXELS = 100_000
-# --far-points: FAR_SHARE of --capacity on a sphere FAR_RADIUS x the farthest camera's distance from the centre.
+# --far-points: FAR_SHARE of --capacity on a sphere FAR_RADIUS x the farthest camera's distance from the centre, or
+# beyond the FAR_QUANTILE of the SfM points' distances where they reach further (data/points.far_radius).
 FAR_SHARE = 0.1
 FAR_RADIUS = 3.0
+FAR_QUANTILE = 0.95
 
 
 def coarse_share(coarse: float | None, pixels: int | None) -> float:
@@ -228,9 +230,11 @@ class SplatModel:
         if choice == "hull" and data.alphas is None:
             raise DataError(f"{capture.root}: --init-points hull, but the capture has neither masks nor an alpha "
                             f"channel; use --init-points random")
+        sfm = None
         if has_points and len(capture.points) >= 4:  # the capture's SfM points (data/capture.py), normalised
             pts = transform_points(capture.points, data.transform)
             self.init_gaussians = init_from_points(pts, capture.point_colors)
+            sfm = pts
             self.init_note = f"{len(pts)} SfM points of {Path(capture.points_file).name}"
         if self.init_gaussians is None and choice in ("auto", "hull") and data.alphas is not None:
             self._init_in_hull(data)
@@ -242,7 +246,7 @@ class SplatModel:
                              f"[-{self.sc.init_box:g}, {self.sc.init_box:g}]^3"
         far = self.cfg.splat.far_points
         if far == "on" or (far == "auto" and not (capture.has_masks or capture.alpha)):
-            self._add_far_points(data)
+            self._add_far_points(data, sfm)
         log(f"splat init: {self.init_note}; scene extent {self.extent:.3g}; {self._coarse_note(data)}")
 
     def _init_from_file(self, data) -> None:
@@ -276,12 +280,13 @@ class SplatModel:
             return what
         return f"{what} (photos of {px:,} pixels {'>=' if share else '<'} {COARSE_MIN_PIXELS:,}; set --coarse)"
 
-    def _add_far_points(self, data) -> None:
-        """Add FAR_SHARE x capacity Gaussians on the far sphere, coloured by the training photos, to the initial
+    def _add_far_points(self, data, sfm: np.ndarray | None) -> None:
+        """Add FAR_SHARE x capacity Gaussians on the far sphere (data/points.far_radius: beyond the cameras, and
+        beyond the SfM points sfm [N, 3] where they reach further), coloured by the training photos, to the initial
         ones (random ones in the box first, where there are none yet): uniform over the sphere, the ones a photo
         sees (data/points.far_sphere_points); for a forward-facing capture (data/normalize.forward_facing),
         where the rays of pixels drawn over the photos leave it (far_points_through_photos)."""
-        radius = FAR_RADIUS * float(np.linalg.norm(np.asarray(data.poses)[:, :3, 3], axis=1).max())
+        radius = far_radius(data.poses, sfm, FAR_RADIUS, FAR_QUANTILE)
         ahead = forward_facing(np.asarray(data.poses))
         draw = far_points_through_photos if ahead else far_sphere_points
         pts, colours = draw(int(FAR_SHARE * self.sc.capacity), radius, data.poses, data.cameras, data.images,
