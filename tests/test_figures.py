@@ -93,7 +93,9 @@ START = "procedural_splat_start_cli.json"  # where a splat run starts
 BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
 NCORR = "corrections_forward_ngp_ndc_area.json"  # ngp's pose refinement, forward-facing, in NDC
-FWD1, FWD1N = "procedural_forward_seed1_cli.json", "procedural_forward_seed1_nofar_cli.json"  # another, 5 minutes
+FWD1 = "procedural_forward_seed1_cli.json"  # another, 5 minutes
+FFAR, FFARB = "procedural_forward_far_cli.json", "procedural_forward_far_before_cli.json"  # the far sphere there
+FFAR1, FFAR1B = "procedural_forward_far_seed1_cli.json", "procedural_forward_far_seed1_before_cli.json"
 CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 SPLAT_NOW, RS_NOW = "lego_cli_splat_eabdd28.json", "render_speed_splat_f85d2a4.json"  # today's kernels: a run, its frame
@@ -438,18 +440,21 @@ CHECKS = [
       ((FAR, "presets", "splat", "psnr"), f2), ((FAR, "presets", "splat", "ssim"), f3),
       ((FAR, "presets", "splat-nofar", "psnr"), f2), ((FAR, "presets", "splat-nofar", "ssim"), f3)]),
     ("docs/splats.md", "A background of its own: on photos without masks",
-     "every 8th photo held out, {}-minute runs, one sitting; `python benchmarks/forward_facing.py --views {}`, "
-     "`procedural_forward_cli.json`) the splat preset scores **{} dB / SSIM {}** on the {} held-out photos and {} / {} "
-     "with `--far-points off` (ngp {} / {}); on the same kind of capture drawn with another seed, {}-minute runs "
-     "(`--seed 1 --minutes {}`, `procedural_forward_seed1_cli.json` and `procedural_forward_seed1_nofar_cli.json`), "
-     "{} / {} against {} / {}.",
-     [((FWD, "minutes"), f0), (lambda: _views(FWD), d), ((FWD, "presets", "splat", "psnr"), f2),
-      ((FWD, "presets", "splat", "ssim"), f3), ((FWD, "presets", "splat", "views"), d),
-      ((FWD, "presets", "splat-nofar", "psnr"), f2), ((FWD, "presets", "splat-nofar", "ssim"), f3),
-      ((FWD, "presets", "ngp", "psnr"), f2), ((FWD, "presets", "ngp", "ssim"), f3),
-      ((FWD1, "minutes"), f0), ((FWD1, "minutes"), f0), ((FWD1, "presets", "splat", "psnr"), f2),
-      ((FWD1, "presets", "splat", "ssim"), f3), ((FWD1N, "presets", "splat-nofar", "psnr"), f2),
-      ((FWD1N, "presets", "splat-nofar", "ssim"), f3)]),
+     "every 8th photo held out, {}-minute runs, one sitting; `python benchmarks/forward_facing.py --views {} "
+     "--presets splat \"splat-nofar=--preset splat --far-points off\"`, `procedural_forward_far_cli.json`) the "
+     "splat preset scores **{} dB / SSIM {}** on the {} held-out photos, {} / {} with `--far-points off`, and {} / {} "
+     "with the sphere at three camera distances, a third of the way to the wall "
+     "(`procedural_forward_far_before_cli.json`); on the same kind of capture drawn with another seed, {}-minute "
+     "runs (`--seed 1 --minutes {}`, `procedural_forward_far_seed1_cli.json` and "
+     "`procedural_forward_far_seed1_before_cli.json`), {} / {}, {} / {} and {} / {}.",
+     [((FFAR, "minutes"), f0), (lambda: _views(FFAR), d), ((FFAR, "presets", "splat", "psnr"), f2),
+      ((FFAR, "presets", "splat", "ssim"), f3), ((FFAR, "presets", "splat", "views"), d),
+      ((FFAR, "presets", "splat-nofar", "psnr"), f2), ((FFAR, "presets", "splat-nofar", "ssim"), f3),
+      ((FFARB, "presets", "splat", "psnr"), f2), ((FFARB, "presets", "splat", "ssim"), f3),
+      ((FFAR1, "minutes"), f0), ((FFAR1, "minutes"), f0), ((FFAR1, "presets", "splat", "psnr"), f2),
+      ((FFAR1, "presets", "splat", "ssim"), f3), ((FFAR1, "presets", "splat-nofar", "psnr"), f2),
+      ((FFAR1, "presets", "splat-nofar", "ssim"), f3), ((FFAR1B, "presets", "splat", "psnr"), f2),
+      ((FFAR1B, "presets", "splat", "ssim"), f3)]),
     ("docs/methods.md", "What it buys, on procedural forward-facing captures",
      "(`--seed 1 --minutes {}`, `procedural_forward_seed1_cli.json`) **{} dB / SSIM {}** on the {} held-out photos "
      "in NDC ({} steps) against {} / {} contracted ({} steps); in {} minutes on another capture "

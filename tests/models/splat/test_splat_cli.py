@@ -212,6 +212,17 @@ def test_init_from_sfm_points(tmp_path):
     assert aux["active"].sum() == 200
     colour = 0.28209479 * params["sh_dc"][:200, 0] + 0.5
     np.testing.assert_allclose(colour, 200 / 255, atol=1e-5)
+    # SfM points far beyond that sphere (a far wall, as a forward-facing capture's): it moves out behind them
+    wall = np.random.default_rng(1).normal(size=(300, 3))
+    wall *= 5.0 * radius / np.linalg.norm(wall, axis=1, keepdims=True)  # normalised frame, 5 x the sphere
+    wall = (wall - m[:3, 3]) @ np.linalg.inv(m[:3, :3]).T  # capture coordinates
+    trimesh.PointCloud(np.concatenate([pts, wall]), colors=np.tile(rgba, (3, 1))[:500]).export(scene / "sparse_pc.ply")
+    walled = SplatModel(cfg)
+    walled.bind_data(read_capture(scene, "train", "nerfstudio"), data, log=lambda *_: None)
+    wp, wa = walled.init()
+    far_means = np.asarray(wp["means"])[500:int(np.asarray(wa["active"]).sum())]
+    assert len(far_means) > 100 and f"far sphere of radius {5 * radius:.3g}" in walled.init_note, walled.init_note
+    np.testing.assert_allclose(np.linalg.norm(far_means, axis=1), 5.0 * radius, rtol=1e-4)
 
 
 def test_sfm_init_refused_without_points(run, tmp_path, capsys):
