@@ -282,7 +282,8 @@ class SplatSettings:
     takes the Gaussians from the run's checkpoint and this degree from its config, so the file may be gone."""
     far_points: Literal["auto", "on", "off"] = "auto"
     """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre
-    as the farthest camera, each coloured by a training photo that sees it (on a forward-facing capture, where the
+    as the farthest camera, or behind 95% of the SfM points where they reach further (a forward-facing capture's
+    far wall), each coloured by a training photo that sees it (on a forward-facing capture, where the
     rays of pixels drawn over the photos meet that sphere), so that what lies far away (walls, sky) has Gaussians
     of its own instead of being smeared over the near ones. auto: on for photos without masks (unbounded scenes),
     off for masked objects and Blender scenes."""
