@@ -40,9 +40,9 @@ def _curve_psnr(run: str, step: int) -> float:
     return next(p["psnr"] for p in R("maryrose_real_capture.json", run, "curve") if p["step"] == step)
 
 
-def _views(name: str) -> int:
-    """The photos of a benchmarks/forward_facing.py capture: its command's --views."""
-    return int(re.search(r"--views (\d+)", R(name, "provenance", "command")).group(1))
+def _views(name: str, flag: str = "views") -> int:
+    """The photos of a benchmarks/forward_facing.py capture: its command's --views (or another flag's number)."""
+    return int(re.search(rf"--{flag} (\d+)", R(name, "provenance", "command")).group(1))
 
 
 # formats: how the pages round
@@ -96,6 +96,7 @@ NCORR = "corrections_forward_ngp_ndc_area.json"  # ngp's pose refinement, forwar
 FWD1 = "procedural_forward_seed1_cli.json"  # another, 5 minutes
 FFAR, FFARB = "procedural_forward_far_cli.json", "procedural_forward_far_before_cli.json"  # the far sphere there
 FFAR1, FFAR1B = "procedural_forward_far_seed1_cli.json", "procedural_forward_far_seed1_before_cli.json"
+FFAR2, FFAR2B = "procedural_forward_far_seed2_cli.json", "procedural_forward_far_seed2_before_cli.json"  # 24 at 128 px
 CAP = "buddha_capacity_cli.json"  # what --capacity costs on a scene
 NGP_3F, SPLAT_3F = "lego_cli_ngp_3f13384.json", "lego_cli_splat_3f13384.json"  # the runs of render_speed*.json, mesh_lego.json
 SPLAT_NOW, RS_NOW = "lego_cli_splat_eabdd28.json", "render_speed_splat_f85d2a4.json"  # today's kernels: a run, its frame
@@ -446,7 +447,7 @@ CHECKS = [
      "with the sphere at three camera distances, a third of the way to the wall "
      "(`procedural_forward_far_before_cli.json`); on the same kind of capture drawn with another seed, {}-minute "
      "runs (`--seed 1 --minutes {}`, `procedural_forward_far_seed1_cli.json` and "
-     "`procedural_forward_far_seed1_before_cli.json`), {} / {}, {} / {} and {} / {}.",
+     "`procedural_forward_far_seed1_before_cli.json`), {} / {}, {} / {} and {} / {};",
      [((FFAR, "minutes"), f0), (lambda: _views(FFAR), d), ((FFAR, "presets", "splat", "psnr"), f2),
       ((FFAR, "presets", "splat", "ssim"), f3), ((FFAR, "presets", "splat", "views"), d),
       ((FFAR, "presets", "splat-nofar", "psnr"), f2), ((FFAR, "presets", "splat-nofar", "ssim"), f3),
@@ -455,6 +456,15 @@ CHECKS = [
       ((FFAR1, "presets", "splat", "ssim"), f3), ((FFAR1, "presets", "splat-nofar", "psnr"), f2),
       ((FFAR1, "presets", "splat-nofar", "ssim"), f3), ((FFAR1B, "presets", "splat", "psnr"), f2),
       ((FFAR1B, "presets", "splat", "ssim"), f3)]),
+    ("docs/splats.md", "A background of its own: on photos without masks",
+     "on {} photos at {} px, {}-minute runs (`--views {} --size {} --seed 2 --minutes {}`, "
+     "`procedural_forward_far_seed2_cli.json` and `procedural_forward_far_seed2_before_cli.json`, {} held-out "
+     "photos), {} / {}, {} / {} and {} / {}.",
+     [(lambda: _views(FFAR2), d), (lambda: _views(FFAR2, "size"), d), ((FFAR2, "minutes"), f0),
+      (lambda: _views(FFAR2), d), (lambda: _views(FFAR2, "size"), d), ((FFAR2, "minutes"), f0), ((FFAR2, "presets", "splat", "views"), d),
+      ((FFAR2, "presets", "splat", "psnr"), f2), ((FFAR2, "presets", "splat", "ssim"), f3),
+      ((FFAR2, "presets", "splat-nofar", "psnr"), f2), ((FFAR2, "presets", "splat-nofar", "ssim"), f3),
+      ((FFAR2B, "presets", "splat", "psnr"), f2), ((FFAR2B, "presets", "splat", "ssim"), f3)]),
     ("docs/methods.md", "What it buys, on procedural forward-facing captures",
      "(`--seed 1 --minutes {}`, `procedural_forward_seed1_cli.json`) **{} dB / SSIM {}** on the {} held-out photos "
      "in NDC ({} steps) against {} / {} contracted ({} steps); in {} minutes on another capture "
