@@ -76,9 +76,10 @@ def test_far_radius_lies_beyond_the_cameras_and_beyond_most_of_what_sfm_saw():
     unit = rng.normal(size=(1000, 3))
     unit /= np.linalg.norm(unit, axis=1, keepdims=True)
     near = unit[:600] * rng.uniform(0, 2, (600, 1))  # objects inside the ring of cameras
-    assert far_radius(poses) == far_radius(poses, near) == far_radius(poses, np.zeros((0, 3))) == 12.0
+    assert far_radius(poses, None, 3.0, 0.95) == far_radius(poses, near, 3.0, 0.95) == 12.0
+    assert far_radius(poses, np.zeros((0, 3)), 3.0, 0.95) == 12.0
     wall = unit[600:980] * 40.0  # a far wall beyond the sphere of 12
     outliers = unit[980:] * 500.0  # 2% badly triangulated
-    r = far_radius(poses, np.concatenate([near, wall, outliers]))
+    r = far_radius(poses, np.concatenate([near, wall, outliers]), 3.0, 0.95)
     assert r == pytest.approx(40.0)
-    assert far_radius(poses, np.concatenate([near, wall, outliers]), quantile=0.5) == 12.0  # the median is near
+    assert far_radius(poses, np.concatenate([near, wall, outliers]), 3.0, 0.5) == 12.0  # the median is near

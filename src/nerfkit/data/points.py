@@ -44,8 +44,7 @@ def read_points(path: str | Path, transform: np.ndarray | None = None) -> tuple[
     return (pts if transform is None else transform_points(pts, transform)), cols
 
 
-def far_radius(poses: np.ndarray, points: np.ndarray | None = None, factor: float = 3.0,
-               quantile: float = 0.95) -> float:
+def far_radius(poses: np.ndarray, points: np.ndarray | None, factor: float, quantile: float) -> float:
     """The far sphere's radius in the normalised frame: factor x the farthest camera's distance from the origin
     (poses [V, 4, 4]), or, where the SfM points [N, 3] reach further, the `quantile` of their distances from it,
     so that a background drawn on the sphere lies at or beyond what SfM saw, not in front of it. A forward-facing
