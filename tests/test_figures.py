@@ -40,8 +40,9 @@ def _curve_psnr(run: str, step: int) -> float:
     return next(p["psnr"] for p in R("maryrose_real_capture.json", run, "curve") if p["step"] == step)
 
 
-def _views(name: str, flag: str = "views") -> int:
-    """The photos of a benchmarks/forward_facing.py capture: its command's --views (or another flag's number)."""
+def _command_number(name: str, flag: str = "views") -> int:
+    """The number a record's command gave a flag: a benchmarks/forward_facing.py capture's photos (--views), its
+    photos' size (--size)."""
     return int(re.search(rf"--{flag} (\d+)", R(name, "provenance", "command")).group(1))
 
 
@@ -448,7 +449,7 @@ CHECKS = [
      "(`procedural_forward_far_before_cli.json`); on the same kind of capture drawn with another seed, {}-minute "
      "runs (`--seed 1 --minutes {}`, `procedural_forward_far_seed1_cli.json` and "
      "`procedural_forward_far_seed1_before_cli.json`), {} / {}, {} / {} and {} / {};",
-     [((FFAR, "minutes"), f0), (lambda: _views(FFAR), d), ((FFAR, "presets", "splat", "psnr"), f2),
+     [((FFAR, "minutes"), f0), (lambda: _command_number(FFAR), d), ((FFAR, "presets", "splat", "psnr"), f2),
       ((FFAR, "presets", "splat", "ssim"), f3), ((FFAR, "presets", "splat", "views"), d),
       ((FFAR, "presets", "splat-nofar", "psnr"), f2), ((FFAR, "presets", "splat-nofar", "ssim"), f3),
       ((FFARB, "presets", "splat", "psnr"), f2), ((FFARB, "presets", "splat", "ssim"), f3),
@@ -460,8 +461,9 @@ CHECKS = [
      "on {} photos at {} px, {}-minute runs (`--views {} --size {} --seed 2 --minutes {}`, "
      "`procedural_forward_far_seed2_cli.json` and `procedural_forward_far_seed2_before_cli.json`, {} held-out "
      "photos), {} / {}, {} / {} and {} / {}.",
-     [(lambda: _views(FFAR2), d), (lambda: _views(FFAR2, "size"), d), ((FFAR2, "minutes"), f0),
-      (lambda: _views(FFAR2), d), (lambda: _views(FFAR2, "size"), d), ((FFAR2, "minutes"), f0), ((FFAR2, "presets", "splat", "views"), d),
+     [(lambda: _command_number(FFAR2), d), (lambda: _command_number(FFAR2, "size"), d), ((FFAR2, "minutes"), f0),
+      (lambda: _command_number(FFAR2), d), (lambda: _command_number(FFAR2, "size"), d), ((FFAR2, "minutes"), f0),
+      ((FFAR2, "presets", "splat", "views"), d),
       ((FFAR2, "presets", "splat", "psnr"), f2), ((FFAR2, "presets", "splat", "ssim"), f3),
       ((FFAR2, "presets", "splat-nofar", "psnr"), f2), ((FFAR2, "presets", "splat-nofar", "ssim"), f3),
       ((FFAR2B, "presets", "splat", "psnr"), f2), ((FFAR2B, "presets", "splat", "ssim"), f3)]),
