@@ -43,6 +43,24 @@ def run(splat_run, tmp_path):
     return tmp_path / "run"
 
 
+def test_a_splat_run_fuses_up_to_its_own_number_of_views(run, monkeypatch):
+    """A model that renders whole images fuses up to FUSION_VIEWS_IMAGES training views (its renders are cheap and
+    their depth scatters from view to view, which more views average out); the ray models' FUSION_VIEWS does not
+    bind it. The run has 8 training views."""
+    import json
+
+    from nerfkit.export import tsdf
+
+    monkeypatch.setattr(tsdf, "FUSION_VIEWS", 2)
+    fused = []
+    for images in (tsdf.FUSION_VIEWS_IMAGES, 4):
+        monkeypatch.setattr(tsdf, "FUSION_VIEWS_IMAGES", images)
+        assert main(["export", "mesh", str(run), "--resolution", "32", "--no-progress", "--overwrite"]) == 0
+        record = json.loads((run / "exports" / "export_mesh.json").read_text())
+        fused.append((record["views"], record["every"]))
+    assert fused == [(8, 1), (4, 2)]
+
+
 def test_a_splat_run_meshes_onto_the_scene_with_its_own_colours(run, tmp_path, capsys):
     out = tmp_path / "mesh.ply"
     assert main(["export", "mesh", str(run), "--out", str(out), "--resolution", "64", "--no-progress"]) == 0

@@ -232,7 +232,8 @@ class ExportMeshArgs:
     max_faces: int | None = None
     """Simplify the mesh to at most this many faces (quadric decimation)."""
     every: int | None = None
-    """Render every K-th training view (default: about 64 views for tsdf, 32 for the levelset's visibility)."""
+    """Render every K-th training view (default: about 64 views for tsdf, 160 for a splat run, 32 for the
+    levelset's visibility)."""
     threshold: float | None = None
     """levelset: density level of the surface (default: ln 2 / grid spacing, where one grid cell is half opaque)."""
     visible_only: bool = True
