@@ -97,8 +97,10 @@ def main() -> None:
         scores = mesh_against_views(verts, faces, poses, cams, silhouettes, [f["depth_normalized"] for f in field],
                                     [f["opacity"] for f in field], tol, [f["depth_median"] for f in field])
         scores["closed_manifold"] = bool(mesh.is_watertight and mesh.is_winding_consistent)
+        export_fields = {k: record[k] for k in ("resolution", "views", "every", "level") if k in record}
         results["methods"][method] = {"cli_seconds": round(seconds, 1), "export_seconds": record["seconds"],
-                                      "vertices": len(mesh.vertices), "faces": len(faces), **scores}
+                                      "export": export_fields, "vertices": len(mesh.vertices), "faces": len(faces),
+                                      **scores}
         print(f"{method}: IoU mean {scores['iou_mean']:.4f} (min {scores['iou_min']:.4f}), precision "
               f"{scores['precision_mean']:.4f}, recall {scores['recall_mean']:.4f}; depth within {tol:.3g}: "
               f"{scores['depth_within_tol_median_mean']:.4f} (median depth), {scores['depth_within_tol_mean']:.4f} "
