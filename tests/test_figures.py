@@ -115,6 +115,7 @@ SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
 
 RB, MLS, MMS = "splat_random_background_cli.json", "mesh_lego_splat.json", "mesh_maryrose_splat_watertight.json"
 NC_E9, MMW_E9 = "splat_normal_consistency_e952e3f.json", "mesh_maryrose_splat_watertight_e952e3f_nc01.json"
+NC_B3 = "splat_normal_consistency_4fedcbf.json"  # a lego run exported with a splat run's fused views (b3fb3fe)
 NC, MLP, MMP = "splat_normal_consistency_cli.json", "mesh_lego_splat_plain.json", "mesh_maryrose_splat_watertight_plain.json"
 
 
@@ -660,6 +661,16 @@ CHECKS = [
       ((lambda: R(NC_E9, "runs", "lego_normal_consistency_0.05", "psnr") - R(NC_E9, "runs", "lego_normal_consistency_0.15", "psnr")), f0)]),
     ("docs/verbs/export.md", "0.1 keeps the silhouettes of 0.05", "brings the depth closer to the renders' at {} dB of PSNR",
      [((lambda: R(NC_E9, "runs", "lego_normal_consistency_0.05", "psnr") - R(NC_E9, "runs", "lego_normal_consistency_0.1", "psnr")), f0)]),
+    ("docs/verbs/export.md", "A splat run's export fuses up to 160", "run ({} steps, {} dB on `val[50:100]`",
+     [((NC_B3, "runs", "lego_normal_consistency_0.1", "step"), d),
+      ((NC_B3, "runs", "lego_normal_consistency_0.1", "psnr"), f1)]),
+    *[("docs/verbs/export.md", f"| {row} |", f"| {row} | {{}} | {{}} ({{}}) | {{}} | {{}}k | {{}} s |",
+       [((f"mesh_lego_splat_b3fb3fe_nc01_{tag}.json", "methods", "tsdf", "export", "views"), d)]
+       + [((f"mesh_lego_splat_b3fb3fe_nc01_{tag}.json", "methods", "tsdf", key), fmt) for key, fmt in
+          (("iou_mean", f3), ("iou_min", f3), ("depth_within_tol_median_mean", f3), ("faces", kilo),
+           ("cli_seconds", f0))])
+      for row, tag in (("`--every 3`", "50views"), ("the default", "default"),
+                       ("`--resolution 288 --smooth 0.25`", "288"))],
     ("docs/verbs/export.md", "maryrose the same way, `--watertight`", "`--normal-consistency 0.1` ({} steps, {} dB on its "
      "{} held-out photos",
      [(("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "step"), d),

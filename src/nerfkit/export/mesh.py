@@ -3,10 +3,11 @@ coordinates.
 
 Two ways to find the surface (`--method`):
 
-    tsdf      (default) fuse the run's rendered median depth and opacity from about 64 training views into a
-              truncated signed distance on a grid over the box, blurred by --smooth pixels, marching cubes of
-              its zero (tsdf.py). Every surface some view renders opaque is there, whatever the field's density
-              level there; any run whose renderer gives a median depth (Supports.depth) meshes so.
+    tsdf      (default) fuse the run's rendered median depth and opacity from about 64 training views (up to 160
+              of a model that renders whole images) into a truncated signed distance on a grid over the box,
+              blurred by --smooth pixels, marching cubes of its zero (tsdf.py). Every surface some view renders
+              opaque is there, whatever the field's density level there; any run whose renderer gives a median
+              depth (Supports.depth) meshes so.
     levelset  (a density field only) marching cubes of the density at one level, the faces the views see, moved onto the
               half-opaque surface and into the training silhouettes (levelset.py; the exports of the last
               round): exact where the field's density is high, holes where it is soft.
@@ -199,9 +200,9 @@ def write_coloured(run, out: Path, verts, faces, h: float, texture: bool, textur
 @dataclass
 class ExportMeshArgs:
     """Export the run's surface as a coloured triangle mesh, in the capture's own coordinates; a picture from two
-    sides goes into RUN_DIR/exports/mesh.png. The default fuses the field's rendered depth from about 64
-    training views (TSDF) and closes nothing it did not see; --watertight closes it, --texture bakes a UV
-    texture."""
+    sides goes into RUN_DIR/exports/mesh.png. The default fuses the run's rendered depth from about 64
+    training views (up to 160 of a splat run; TSDF) and closes nothing it did not see; --watertight closes it,
+    --texture bakes a UV texture."""
 
     run_dir: tyro.conf.Positional[Path]
     """A run folder written by `nerfkit train`."""

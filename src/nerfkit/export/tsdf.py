@@ -267,10 +267,9 @@ def fused_surface(bound: float, axis: np.ndarray, c2w: np.ndarray, intr: np.ndar
 def tsdf_surface(run, bound: float, resolution: int, every: int | None, data, watertight: bool, progress: bool,
                  log, smooth: float = SMOOTH_PIXELS) -> tuple[np.ndarray, np.ndarray, dict, Views]:
     """The fused surface in the normalised frame: (verts [V, 3], faces [F, 3], record fields, the rendered
-    views). Renders
-    every `every`-th training view (default: about FUSION_VIEWS, FUSION_VIEWS_IMAGES for a model that renders
-    whole images; PIXELS_PER_CELL x resolution pixels wide), fuses their median depth on the grid of [-bound, bound]^3 and takes the surface F = c at the level c
-    best_level picks."""
+    views). Renders every `every`-th training view (default: about FUSION_VIEWS, FUSION_VIEWS_IMAGES for a model
+    that renders whole images; PIXELS_PER_CELL x resolution pixels wide), fuses their median depth on the grid of
+    [-bound, bound]^3 and takes the surface F = c at the level c best_level picks."""
     t0 = time.perf_counter()
     target = FUSION_VIEWS_IMAGES if run.model.supports.renders_images else FUSION_VIEWS
     views = render_views(run, every=every, data=data, pinhole=True, progress=progress, target=target,
