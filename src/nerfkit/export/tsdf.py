@@ -242,7 +242,7 @@ def best_level(f: np.ndarray, known: np.ndarray, bound: float, c2w, intr, depth,
 FUSION_VIEWS = 64  # default: about this many training views are rendered and fused
 # ... and this many for a model that renders whole images (splats): each view costs a fraction of a ray march,
 # and its depth scatters from view to view (each view sorts and blends its own Gaussians), which more views
-# average out (lego at 200 px, 150 views instead of 50: depth agreement +0.3-0.4%, IoU the same; CHANGELOG)
+# average out (lego at 200 px, 150 views instead of 50: depth agreement +0.3 points, IoU the same; CHANGELOG)
 FUSION_VIEWS_IMAGES = 160
 CALIBRATION_EVERY = 2  # the level is chosen on every other fused view
 PIXELS_PER_CELL = 1  # ... this many pixels across per grid cell (the depth maps resolve what the grid does)
