@@ -665,12 +665,14 @@ CHECKS = [
      [((NC_B3, "runs", "lego_normal_consistency_0.1", "step"), d),
       ((NC_B3, "runs", "lego_normal_consistency_0.1", "psnr"), f1)]),
     *[("docs/verbs/export.md", f"| {row} |", f"| {row} | {{}} | {{}} ({{}}) | {{}} | {{}}k | {{}} s |",
-       [((f"mesh_lego_splat_b3fb3fe_nc01_{tag}.json", "methods", "tsdf", "export", "views"), d)]
-       + [((f"mesh_lego_splat_b3fb3fe_nc01_{tag}.json", "methods", "tsdf", key), fmt) for key, fmt in
+       [((f"mesh_lego_splat_{tag}.json", "methods", "tsdf", "export", "views"), d)]
+       + [((f"mesh_lego_splat_{tag}.json", "methods", "tsdf", key), fmt) for key, fmt in
           (("iou_mean", f3), ("iou_min", f3), ("depth_within_tol_median_mean", f3), ("faces", kilo),
            ("cli_seconds", f0))])
-      for row, tag in (("`--every 3`", "50views"), ("the default", "default"),
-                       ("`--resolution 288 --smooth 0.25`", "288"))],
+      for row, tag in (("`--every 3`", "b3fb3fe_nc01_50views"), ("the default", "b3fb3fe_nc01_default"),
+                       ("`--resolution 288 --smooth 0.25`", "b3fb3fe_nc01_288"),
+                       ("`--resolution 384`", "b8fc1d6_nc01_384"),
+                       ("`--resolution 384 --every 3`", "b8fc1d6_nc01_384_50views"))],
     ("docs/verbs/export.md", "maryrose the same way, `--watertight`", "`--normal-consistency 0.1` ({} steps, {} dB on its "
      "{} held-out photos",
      [(("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "step"), d),
