@@ -1,6 +1,7 @@
 """Export a trained run's geometry and cameras in standard formats (`nerfkit export ...`).
 
-    mesh.py        the mesh export: tsdf.py (fusion of rendered depth, the default) or levelset.py
+    mesh.py        the mesh export: tsdf.py (fusion of rendered depth, the default; its CPU kernel in
+                   fusion_kernel.py) or levelset.py
     pointcloud.py  rendered depth of chosen views -> coloured, fused, voxel-downsampled points
     cameras.py     the training cameras as nerfstudio's transforms.json
     pictures.py    a PNG of each export for the run report

@@ -50,6 +50,7 @@ from tqdm.auto import tqdm
 
 from nerfkit.core.errors import NerfkitError
 from nerfkit.export.carve import pixel_footprint
+from nerfkit.export.fusion_kernel import camera_table, fuse_lines
 from nerfkit.export.grid import grid_axis
 from nerfkit.export.raster import rasterize
 from nerfkit.export.visibility import Views, render_views
@@ -114,22 +115,31 @@ def truncation(h: float, pixel: float) -> float:
 
 
 def fuse_grid(axis: np.ndarray, c2w: np.ndarray, intr: np.ndarray, depth: np.ndarray, opacity: np.ndarray,
-              tau: float, progress=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              tau: float, progress=None, kernel: str = "auto") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(F, W, seen), each float32 [N, N, N], on the grid axis^3 (C order: x, y, z), fused from the
-    views (fuse_points), in slabs of whole x-slices of about SLAB_POINTS points (one compile)."""
+    views, in slabs of whole x-slices of about SLAB_POINTS points. kernel: "numba" (fusion_kernel.py, on the
+    host's cores), "xla" (fuse_points, one compile) or "auto": numba where JAX computes on the CPU."""
     n = len(axis)
     per = max(1, SLAB_POINTS // (n * n))
     f = np.zeros((n, n, n), np.float32)
     w = np.zeros_like(f)
     seen = np.zeros_like(f)
-    views = tuple(jnp.asarray(a, jnp.float32) for a in (c2w, intr, depth, opacity))
-    gy, gz = np.meshgrid(axis, axis, indexing="ij")
+    on_host = kernel == "numba" or (kernel == "auto" and jax.default_backend() == "cpu")
+    if on_host:
+        cams = camera_table(c2w, intr)
+        depth, opacity = (np.ascontiguousarray(a, np.float32) for a in (depth, opacity))
+    else:
+        views = tuple(jnp.asarray(a, jnp.float32) for a in (c2w, intr, depth, opacity))
+        gy, gz = np.meshgrid(axis, axis, indexing="ij")
     slabs = range(0, n, per)
     for i0 in (progress(slabs) if progress else slabs):
+        k = min(per, n - i0)
+        if on_host:
+            fuse_lines(axis, i0, k, cams, depth, opacity, tau, A_FREE, (f[i0:i0 + k], w[i0:i0 + k], seen[i0:i0 + k]))
+            continue
         xs = np.resize(axis[i0:i0 + per], per)  # the last slab repeats points: one compiled shape
         pts = np.stack(np.broadcast_arrays(xs[:, None, None], gy[None], gz[None]), -1).reshape(-1, 3)
         fs, ws, ss = (np.asarray(a).reshape(per, n, n) for a in fuse_points(jnp.asarray(pts), *views, tau))
-        k = min(per, n - i0)
         f[i0:i0 + k], w[i0:i0 + k], seen[i0:i0 + k] = fs[:k], ws[:k], ss[:k]
     return f, w, seen
 
