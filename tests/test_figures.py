@@ -115,7 +115,7 @@ SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
 
 RB, MLS, MMS = "splat_random_background_cli.json", "mesh_lego_splat.json", "mesh_maryrose_splat_watertight.json"
 NC_E9, MMW_E9 = "splat_normal_consistency_e952e3f.json", "mesh_maryrose_splat_watertight_e952e3f_nc01.json"
-NC_B3 = "splat_normal_consistency_4fedcbf.json"  # a lego run exported with a splat run's fused views (b3fb3fe)
+NC_B3 = "splat_normal_consistency_4fedcbf.json"  # a lego run exported with a splat run's fused views (a119677)
 NC, MLP, MMP = "splat_normal_consistency_cli.json", "mesh_lego_splat_plain.json", "mesh_maryrose_splat_watertight_plain.json"
 
 
@@ -669,10 +669,10 @@ CHECKS = [
        + [((f"mesh_lego_splat_{tag}.json", "methods", "tsdf", key), fmt) for key, fmt in
           (("iou_mean", f3), ("iou_min", f3), ("depth_within_tol_median_mean", f3), ("faces", kilo),
            ("cli_seconds", f0))])
-      for row, tag in (("`--every 3`", "b3fb3fe_nc01_50views"), ("the default", "b3fb3fe_nc01_default"),
-                       ("`--resolution 288 --smooth 0.25`", "b3fb3fe_nc01_288"),
-                       ("`--resolution 384`", "b8fc1d6_nc01_384"),
-                       ("`--resolution 384 --every 3`", "b8fc1d6_nc01_384_50views"))],
+      for row, tag in (("`--every 3`", "a119677_nc01_50views"), ("the default", "a119677_nc01_default"),
+                       ("`--resolution 288 --smooth 0.25`", "a119677_nc01_288"),
+                       ("`--resolution 384`", "a119677_nc01_384"),
+                       ("`--resolution 384 --every 3`", "a119677_nc01_384_50views"))],
     ("docs/verbs/export.md", "maryrose the same way, `--watertight`", "`--normal-consistency 0.1` ({} steps, {} dB on its "
      "{} held-out photos",
      [(("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "step"), d),
