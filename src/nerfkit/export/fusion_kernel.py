@@ -76,7 +76,7 @@ def fuse_line_kernel(axis, i0, lines, cams, depth, opacity, tau, a_free, fsum, w
         fsum[a, b], wsum[a, b], seen[a, b] = fs, ws, ss
 
 
-_POOL: ThreadPoolExecutor | None = None
+_POOL: tuple[int, ThreadPoolExecutor] | None = None  # (workers, the pool), made on first use
 
 
 def _workers() -> int:
@@ -95,7 +95,7 @@ def fuse_lines(axis: np.ndarray, i0: int, count: int, cams: np.ndarray, depth: n
     if workers == 1:
         fuse_line_kernel(*args, 0, 1)
         return
-    if _POOL is None or _POOL._max_workers != workers:
-        _POOL = ThreadPoolExecutor(workers, thread_name_prefix="nerfkit-fuse")
-    for job in [_POOL.submit(fuse_line_kernel, *args, t, workers) for t in range(workers)]:
+    if _POOL is None or _POOL[0] != workers:
+        _POOL = (workers, ThreadPoolExecutor(workers, thread_name_prefix="nerfkit-fuse"))
+    for job in [_POOL[1].submit(fuse_line_kernel, *args, t, workers) for t in range(workers)]:
         job.result()
