@@ -27,7 +27,7 @@ def views(noisy: bool):
 @pytest.mark.parametrize("noisy", [False, True])
 def test_the_kernel_sums_what_the_reference_sums(noisy):
     poses, intr, depth, opacity = views(noisy)
-    axis = np.linspace(-1.0, 1.0, 40, dtype=np.float32)  # 64,000 points, 5 slabs of 8 x-slices at SLAB_POINTS / 8
+    axis = np.linspace(-1.0, 1.0, 40, dtype=np.float32)  # 64,000 points
     ref = tsdf.fuse_grid(axis, poses, intr, depth, opacity, 0.05, kernel="xla")
     got = tsdf.fuse_grid(axis, poses, intr, depth, opacity, 0.05, kernel="numba")
     # cases of every kind: points in some views' images and not in others', inside the sphere (W = 0) and not
@@ -35,7 +35,8 @@ def test_the_kernel_sums_what_the_reference_sums(noisy):
     for r, g in zip(ref, got):
         close = np.abs(r - g) <= 1e-4 * (1 + np.abs(r))
         # the same terms in float32, summed in the same order; a point whose projection falls within rounding of a
-        # pixel edge may read the neighbouring pixel (measured: none on exact maps, 3 in 100,000 on noisy random ones)
+        # pixel edge may read the neighbouring pixel (measured here: no point differs, either way; on larger grids
+        # about one in a million, benchmarks/tsdf_fusion.py), so the noisy maps leave a little room
         assert close.mean() >= (1.0 if not noisy else 0.999), (close.mean(), np.abs(r - g).max())
 
 
