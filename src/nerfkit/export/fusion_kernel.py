@@ -37,8 +37,8 @@ def camera_table(c2w: np.ndarray, intr: np.ndarray) -> np.ndarray:
 @njit(cache=True, nogil=True)
 def fuse_line_kernel(axis, i0, lines, cams, depth, opacity, tau, a_free, fsum, wsum, seen, first, stride):
     """Grid lines l = first, first + stride, ... < lines: the points (axis[i0 + l // N], axis[l % N], axis[k]) for
-    every k, their sums written to fsum, wsum, seen [*, N, N] at [l // N, l % N, k] (module docstring). View by
-    view along the line, p moves by axis step x R's last row per point."""
+    every k, their sums written to fsum, wsum, seen [*, N, N] at [l // N, l % N, k] (module docstring), the views
+    taken one after the other over the whole line."""
     n = axis.shape[0]
     views, h, w = depth.shape
     zero, one, eps = np.float32(0.0), np.float32(1.0), np.float32(1e-6)
