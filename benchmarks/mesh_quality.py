@@ -105,7 +105,8 @@ def main() -> None:
               f"{scores['precision_mean']:.4f}, recall {scores['recall_mean']:.4f}; depth within {tol:.3g}: "
               f"{scores['depth_within_tol_median_mean']:.4f} (median depth), {scores['depth_within_tol_mean']:.4f} "
               f"(expected depth) of covered pixels, {scores['depth_within_tol_interior_mean']:.4f} "
-              f"away from edges and depth jumps; {len(faces)} faces, closed "
+              f"away from edges and depth jumps; the run's own silhouettes: IoU {scores['field_iou_mean']:.4f}, of "
+              f"which the mesh covers {scores['recall_of_field_mean']:.4f}; {len(faces)} faces, closed "
               f"{scores['closed_manifold']}; {seconds:.0f} s")
         for col, k in enumerate(show):
             covered = np.isfinite(mesh_depth(verts, faces, poses[k], cams[k]))

@@ -269,28 +269,24 @@ def test_pointcloud_split_every_and_voxel_size(run, tmp_path):
     assert one["views"] == 1 and one["points"] < fine["points"]
 
 
-@pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
-def test_no_progress_hides_the_bars(run, tmp_path):
-    def stderr(*extra):
-        r = subprocess.run([sys.executable, "-m", "nerfkit", "export", "pointcloud", str(run), "--out",
-                            str(tmp_path / f"{len(extra)}.ply"), "--min-opacity", "0.01", *extra],
-                           capture_output=True, text=True, timeout=300)
-        assert r.returncode == 0, r.stderr
-        return r.stderr
+def test_no_progress_hides_the_bars(run, tmp_path, capfd):
+    """The bars (tqdm, on stderr) of an export and of training show by default and not with --no-progress (the
+    verbs in this process: what they write to file descriptor 2 is what a user's terminal shows)."""
+    def stderr(argv):
+        capfd.readouterr()
+        assert main(argv) == 0
+        return capfd.readouterr().err
 
-    assert "%|" in stderr() and "%|" not in stderr("--no-progress")
-    r = subprocess.run([sys.executable, "-m", "nerfkit", "export", "mesh", str(run), "--out", str(tmp_path / "m.ply"),
-                        "--resolution", "24", "--method", "levelset", "--threshold", "0.05", "--no-carve",
-                        "--no-progress"],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0 and "%|" not in r.stderr
+    def pointcloud(*extra):
+        return stderr(["export", "pointcloud", str(run), "--out", str(tmp_path / f"{len(extra)}.ply"),
+                       "--min-opacity", "0.01", *extra])
+
+    assert "%|" in pointcloud() and "%|" not in pointcloud("--no-progress")
+    assert "%|" not in stderr(["export", "mesh", str(run), "--out", str(tmp_path / "m.ply"), "--resolution", "24",
+                               "--method", "levelset", "--threshold", "0.05", "--no-carve", "--no-progress"])
     scene = json.loads((run / "scene.json").read_text())["data_dir"]
-    bars = []
-    for k, extra in enumerate(([], ["--no-progress"])):
-        t = subprocess.run([sys.executable, "-m", "nerfkit", "train", scene, "--out", str(tmp_path / f"t{k}"),
-                            "--preset", "tiny", "--max-steps", "3", *extra], capture_output=True, text=True, timeout=300)
-        assert t.returncode == 0, t.stderr
-        bars.append("%|" in t.stderr)
+    bars = ["%|" in stderr(["train", scene, "--out", str(tmp_path / f"t{k}"), "--preset", "tiny", "--max-steps", "3",
+                            *extra]) for k, extra in enumerate(([], ["--no-progress"]))]
     assert bars == [True, False]
 
 

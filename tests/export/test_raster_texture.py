@@ -89,6 +89,19 @@ def test_sphere_mesh_against_its_own_silhouettes():
     out = mesh_against_views(np.asarray(sphere.vertices), np.asarray(sphere.faces), np.stack(poses), [cam, cam], sils)
     # the polyhedron lies inside the sphere: its silhouette misses a rim thinner than a pixel
     assert out["precision_min"] == 1.0 and out["iou_min"] > 0.95
+    # A field whose silhouette is the sphere's scores its own IoU 1 and the mesh covers nearly all of it; a field
+    # that also covers the left half of the image scores lower itself, and the mesh covers less of it.
+    depth = [np.full((48, 48), 3.0)] * 2
+    wide = [s | (np.arange(48)[None, :] < 24) for s in sils]
+    for opacity, own in ((sils, 1.0), (wide, None)):
+        scored = mesh_against_views(np.asarray(sphere.vertices), np.asarray(sphere.faces), np.stack(poses),
+                                    [cam, cam], sils, depth, [o.astype(np.float32) for o in opacity], 0.01)
+        if own:
+            assert scored["field_iou_min"] == scored["field_recall_min"] == 1.0
+            assert scored["recall_of_field_min"] == pytest.approx(out["recall_min"])
+        else:
+            assert scored["field_iou_mean"] < 0.7 and scored["field_recall_min"] == 1.0
+            assert scored["recall_of_field_mean"] < 0.7
 
 
 @pytest.mark.smoke  # xatlas, trimesh's glTF / OBJ writers and Pillow at their lowest allowed versions

@@ -71,9 +71,10 @@ def interior_pixels(silhouette: np.ndarray, depth: np.ndarray, tol: float) -> np
 def mesh_against_views(verts: np.ndarray, faces: np.ndarray, poses: np.ndarray, cameras: list, silhouettes: list,
                        field_depth: list | None = None, field_opacity: list | None = None,
                        tol: float | None = None, field_median: list | None = None) -> dict:
-    """Per-view IoU / precision / recall (and depth agreement within tol with the field's depth, when
-    given: depth_within_tol, depth_within_tol_interior, and depth_within_tol_median with its median
-    depth) of a mesh (normalised frame: verts [V, 3], faces [F, 3]) in views (poses [V, 4, 4], cameras,
+    """Per-view IoU / precision / recall (and, when the field's depth is given: depth agreement within tol with
+    it, depth_within_tol, depth_within_tol_interior, and depth_within_tol_median with its median depth; the
+    field's own silhouette (opacity >= 1/2) against the view's, field_iou and field_recall; the share of the
+    field's silhouette the mesh covers, recall_of_field) of a mesh (normalised frame: verts [V, 3], faces [F, 3]) in views (poses [V, 4, 4], cameras,
     silhouettes bool [H, W]); with their means and minima."""
     rows = []
     for k, (pose, cam, sil) in enumerate(zip(poses, cameras, silhouettes)):
@@ -81,6 +82,9 @@ def mesh_against_views(verts: np.ndarray, faces: np.ndarray, poses: np.ndarray, 
         row = coverage_scores(np.isfinite(d), sil)
         if field_depth is not None:
             valid = field_opacity[k] >= 0.5
+            own = coverage_scores(valid, sil)  # the field's own silhouette: the most a mesh of it can cover
+            row["field_iou"], row["field_recall"] = own["iou"], own["recall"]
+            row["recall_of_field"] = coverage_scores(np.isfinite(d), valid)["recall"]
             row["depth_within_tol"], row["depth_pixels"] = depth_agreement(d, field_depth[k], valid, tol)
             inner = valid & interior_pixels(sil, field_depth[k], tol)
             row["depth_within_tol_interior"], row["interior_pixels"] = depth_agreement(d, field_depth[k], inner, tol)
