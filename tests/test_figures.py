@@ -115,6 +115,8 @@ SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
 
 RB, MLS, MMS = "splat_random_background_cli.json", "mesh_lego_splat.json", "mesh_maryrose_splat_watertight.json"
 NC_E9, MMW_E9 = "splat_normal_consistency_e952e3f.json", "mesh_maryrose_splat_watertight_e952e3f_nc01.json"
+ML6, MMW6 = "mesh_lego_splat_06cdf7f_nc01.json", "mesh_maryrose_splat_watertight_06cdf7f_nc01.json"
+NCM6 = "splat_normal_consistency_maryrose_06cdf7f.json"
 NC_B3 = "splat_normal_consistency_4fedcbf.json"  # a lego run exported with a splat run's fused views (a119677)
 NC, MLP, MMP = "splat_normal_consistency_cli.json", "mesh_lego_splat_plain.json", "mesh_maryrose_splat_watertight_plain.json"
 
@@ -673,6 +675,17 @@ CHECKS = [
                        ("`--resolution 288 --smooth 0.25`", "a119677_nc01_288"),
                        ("`--resolution 384`", "a119677_nc01_384"),
                        ("`--resolution 384 --every 3`", "a119677_nc01_384_50views"))],
+    ("docs/verbs/export.md", "What bounds a splat mesh's silhouettes", "its renders at the photos' 400 px cover the "
+     "held-out silhouettes at IoU {} and its mesh covers {}% of what they cover, so the mesh's IoU ({}) is the run's",
+     [((ML6, "methods", "tsdf", "field_iou_mean"), f3), ((ML6, "methods", "tsdf", "recall_of_field_mean"), pct1),
+      ((ML6, "methods", "tsdf", "iou_mean"), f3)]),
+    ("docs/verbs/export.md", "What bounds a splat mesh's silhouettes", "({} steps, {} dB on its {} held-out photos; "
+     "`splat_normal_consistency_maryrose_06cdf7f.json`, `mesh_maryrose_splat_watertight_06cdf7f_nc01.json`): its "
+     "renders {}, its `--watertight` mesh {}, covering {}% of them",
+     [((NCM6, "runs", "maryrose_normal_consistency_0.1", "step"), d),
+      ((NCM6, "runs", "maryrose_normal_consistency_0.1", "psnr"), f1), ((MMW6, "views"), d),
+      ((MMW6, "methods", "tsdf", "field_iou_mean"), f3), ((MMW6, "methods", "tsdf", "iou_mean"), f3),
+      ((MMW6, "methods", "tsdf", "recall_of_field_mean"), pct1)]),
     ("docs/verbs/export.md", "maryrose the same way, `--watertight`", "`--normal-consistency 0.1` ({} steps, {} dB on its "
      "{} held-out photos",
      [(("splat_normal_consistency_maryrose_e952e3f.json", "runs", "maryrose_normal_consistency_0.1", "step"), d),
