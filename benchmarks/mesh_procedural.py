@@ -3,13 +3,13 @@ ways against its analytic solids, and for roughness by the normals.
 
     python benchmarks/mesh_procedural.py [--size 128] [--views 48] [--minutes 5] [--resolution 128]
                                          [--runs "splat=--preset splat --random-background on" ngp]
-                                         [--out runs/mesh_procedural] [--skip-train]
+                                         [--out runs/mesh_procedural] [--skip-train] [--export-args "--taubin 0"]
 
 Makes the procedural capture (SIZE px, VIEWS training views around it), then per run LABEL[=ARGS] (ARGS default:
 --preset LABEL; `exact`: see below) what a user types (--skip-train: only the export, of runs already there):
 
     nerfkit train SCENE ARGS --max-minutes M --out OUT/LABEL
-    nerfkit export mesh OUT/LABEL --resolution R
+    nerfkit export mesh OUT/LABEL --resolution R [EXPORT_ARGS]
 
 and measures the mesh (data/procedural/surfaces.py's signed distance and normals; h = the grid cell, 2B / (R - 1)):
 
@@ -22,8 +22,8 @@ and measures the mesh (data/procedural/surfaces.py's signed distance and normals
                    meet), where a mesh on a grid of cell h can have the true normal at all
 
 The run label `exact` (no training) fuses the training views' exact depth maps (ray traced, as wide as the
-export renders them) with the export's own TSDF steps: what the grid and the fusion allow, the ceiling of
-every measure above.
+export renders them) with the export's own TSDF steps and its Taubin smoothing (`--taubin` of EXPORT_ARGS, or the
+export's default): what the grid and the fusion allow, the ceiling of every measure above.
 
 Writes benchmarks/results/mesh_procedural.json (with the commit) and mesh_procedural_<label>.png (the
 export's picture of its mesh from two sides).
@@ -96,15 +96,16 @@ def measure(mesh_file: Path, seen: np.ndarray, h: float) -> dict:
             "off_crease_share": float(off.mean())}
 
 
-def exact_mesh(scene: Path, resolution: int, out: Path) -> float:
+def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int) -> float:
     """Fuses the training views' exact depth maps (PIXELS_PER_CELL x resolution px) with export/tsdf.py's
-    fused_surface, as tsdf_surface does its renders (the same truncation and smoothing), writes the surface to
-    `out`; returns the seconds taken."""
+    fused_surface, as tsdf_surface does its renders (the same truncation and smoothing), smooths it by `taubin` rounds
+    as the export does (surface.taubin_smooth), writes the surface to `out`; returns the seconds taken."""
     import trimesh
 
     from nerfkit.data.procedural import scene as proc
     from nerfkit.export import tsdf
     from nerfkit.export.grid import grid_axis
+    from nerfkit.export.surface import taubin_smooth
 
     t0 = time.perf_counter()
     frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
@@ -123,7 +124,7 @@ def exact_mesh(scene: Path, resolution: int, out: Path) -> float:
     pixel = float(np.linalg.norm(c2w[0, :3, 3])) / focal  # a pixel's footprint at the scene centre
     verts, faces, *_ = tsdf.fused_surface(EXACT_BOUND, axis, c2w, intr, depth, alpha, tsdf.truncation(h, pixel),
                                           tsdf.SMOOTH_PIXELS * pixel / h, False)
-    trimesh.Trimesh(verts, faces, process=False).export(out)
+    trimesh.Trimesh(taubin_smooth(verts, faces, taubin), faces, process=False).export(out)
     return time.perf_counter() - t0
 
 
@@ -138,24 +139,29 @@ def main() -> None:
     ap.add_argument("--skip-train", action="store_true", help="re-export and re-measure runs already in --out")
     ap.add_argument("--name", default="mesh_procedural")
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
+    ap.add_argument("--export-args", default="", help="more flags for nerfkit export mesh, e.g. \"--taubin 0\"")
     a = ap.parse_args()
 
     from nerfkit.data.procedural import scene as proc
     from nerfkit.data.procedural.scene import make_scene
+    from nerfkit.export.mesh import TAUBIN_PAIRS
+
+    extra = shlex.split(a.export_args)
+    taubin = int(extra[extra.index("--taubin") + 1]) if "--taubin" in extra else TAUBIN_PAIRS
 
     scene = a.out / "scene"
     if not (scene / "transforms_train.json").is_file():
         make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
     seen = seen_surface(scene, a.size)
     result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
-              "resolution": a.resolution, "runs": {}}
+              "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "runs": {}}
     a.results.mkdir(parents=True, exist_ok=True)
     for entry in a.runs:
         preset, _, args = entry.partition("=")
         if preset == "exact":
             h = 2 * EXACT_BOUND / (a.resolution - 1)
             mesh = a.out / "exact.ply"
-            export_s = exact_mesh(scene, a.resolution, mesh)
+            export_s = exact_mesh(scene, a.resolution, mesh, taubin)
             scores = measure(mesh, seen, h)
             result["runs"][preset] = {"args": "exact depth maps", "export_wall_s": round(export_s, 1), "cell": h,
                                       **scores}
@@ -168,7 +174,7 @@ def main() -> None:
                                         f"{a.minutes:g}", "--no-progress", "--overwrite"), 1)
             mesh = run / "exports" / "mesh.ply"
             export_s = nerfkit("export", "mesh", str(run), "--resolution", str(a.resolution), "--out", str(mesh),
-                               "--no-progress", "--overwrite")
+                               "--no-progress", "--overwrite", *extra)
             rec = json.loads((run / "exports" / "export_mesh.json").read_text())
             h = 2 * rec["bound"] / (a.resolution - 1)
             val = [json.loads(line) for line in (run / "val_metrics.jsonl").read_text().splitlines() if line.strip()]
