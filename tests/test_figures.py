@@ -117,6 +117,10 @@ RB, MLS, MMS = "splat_random_background_cli.json", "mesh_lego_splat.json", "mesh
 NC_E9, MMW_E9 = "splat_normal_consistency_e952e3f.json", "mesh_maryrose_splat_watertight_e952e3f_nc01.json"
 ML6, MMW6 = "mesh_lego_splat_06cdf7f_nc01.json", "mesh_maryrose_splat_watertight_06cdf7f_nc01.json"
 NCM6 = "splat_normal_consistency_maryrose_06cdf7f.json"
+T0, T20 = "mesh_procedural_taubin0.json", "mesh_procedural_taubin20.json"
+LT0, LT20 = "mesh_lego_splat_d3f8ca1_nc01_taubin0.json", "mesh_lego_splat_d3f8ca1_nc01_taubin20.json"
+MT0 = "mesh_maryrose_splat_watertight_d3f8ca1_nc01_taubin0.json"
+MT20 = "mesh_maryrose_splat_watertight_d3f8ca1_nc01_taubin20.json"
 NC_B3 = "splat_normal_consistency_4fedcbf.json"  # a lego run exported with a splat run's fused views (a119677)
 NC, MLP, MMP = "splat_normal_consistency_cli.json", "mesh_lego_splat_plain.json", "mesh_maryrose_splat_watertight_plain.json"
 
@@ -675,6 +679,32 @@ CHECKS = [
                        ("`--resolution 288 --smooth 0.25`", "a119677_nc01_288"),
                        ("`--resolution 384`", "a119677_nc01_384"),
                        ("`--resolution 384 --every 3`", "a119677_nc01_384_50views"))],
+    ("docs/verbs/export.md", "Then `--taubin` rounds of Taubin's filter", "degrees of the true ones rises from {}% to "
+     "{}% for a splat run (`--normal-consistency 0.05`) and from {}% to {}% for an ngp run, the meshes as close to the "
+     "surfaces as before (the splat run's {} / {} grid cells both ways, then {} / {})",
+     [((T0, "runs", "splat_nc", "normals_within_10deg"), pct0), ((T20, "runs", "splat_nc", "normals_within_10deg"), pct0),
+      ((T0, "runs", "ngp", "normals_within_10deg"), pct0), ((T20, "runs", "ngp", "normals_within_10deg"), pct0),
+      ((T0, "runs", "splat_nc", "accuracy_cells"), f2), ((T0, "runs", "splat_nc", "completeness_cells"), f2),
+      ((T20, "runs", "splat_nc", "accuracy_cells"), f2), ((T20, "runs", "splat_nc", "completeness_cells"), f2)]),
+    ("docs/verbs/export.md", "Then `--taubin` rounds of Taubin's filter", "the IoU stays {} and {}, the depth agreement "
+     "goes from {} to {} and stays {}, and neighbouring faces meet at a median {} degrees instead of {} (lego) and {} "
+     "instead of {} (maryrose)",
+     [((LT20, "methods", "tsdf", "iou_mean"), f3), ((MT20, "methods", "tsdf", "iou_mean"), f3),
+      ((LT0, "methods", "tsdf", "depth_within_tol_median_mean"), f3),
+      ((LT20, "methods", "tsdf", "depth_within_tol_median_mean"), f3),
+      ((MT20, "methods", "tsdf", "depth_within_tol_median_mean"), f3),
+      ((LT20, "methods", "tsdf", "dihedral_median_deg"), f1), ((LT0, "methods", "tsdf", "dihedral_median_deg"), f1),
+      ((MT20, "methods", "tsdf", "dihedral_median_deg"), f1), ((MT0, "methods", "tsdf", "dihedral_median_deg"), f1)]),
+    ("docs/verbs/export.md", "Then `--taubin` rounds of Taubin's filter", "the IoU stays {} and {}",
+     [((LT0, "methods", "tsdf", "iou_mean"), f3), ((MT0, "methods", "tsdf", "iou_mean"), f3)]),
+    ("docs/verbs/export.md", "Then `--taubin` rounds of Taubin's filter", "(lego {} s without, {} s with; maryrose {} s "
+     "and {} s)", [((LT0, "methods", "tsdf", "export_seconds"), f0), ((LT20, "methods", "tsdf", "export_seconds"), f0),
+                   ((MT0, "methods", "tsdf", "export_seconds"), f0), ((MT20, "methods", "tsdf", "export_seconds"), f0)]),
+    ("docs/verbs/export.md", "Against exact surfaces (the procedural scene", "default (`mesh_procedural_taubin20.json`): "
+     "{}% and {}%.", [((T20, "runs", "exact", "normals_within_10deg"), pct1),
+                      ((T20, "runs", "exact", "normals_off_creases_within_10deg"), pct1)]),
+    ("docs/verbs/export.md", "Then `--taubin` rounds of Taubin's filter", "and stays {}, and",
+     [((MT0, "methods", "tsdf", "depth_within_tol_median_mean"), f3)]),
     ("docs/verbs/export.md", "What bounds a splat mesh's silhouettes", "its renders at the photos' 400 px cover the "
      "held-out silhouettes at IoU {} and its mesh covers {}% of what they cover, so the mesh's IoU ({}) is the run's",
      [((ML6, "methods", "tsdf", "field_iou_mean"), f3), ((ML6, "methods", "tsdf", "recall_of_field_mean"), pct1),
