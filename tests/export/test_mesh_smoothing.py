@@ -1,4 +1,4 @@
-"""Taubin smoothing of a mesh (export/surface.py): ripples go, the size stays."""
+"""Taubin smoothing of a mesh (export/surface.py: taubin_smooth): ripples go, the size stays."""
 
 import numpy as np
 import trimesh
