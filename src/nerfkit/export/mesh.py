@@ -14,11 +14,11 @@ Two ways to find the surface (`--method`):
 
 Then: connected pieces of the fused surface under SPECK_CELLS grid cells across are dropped (specks), the
 surface is smoothed by `--taubin` rounds of Taubin's filter (surface.taubin_smooth; TAUBIN_PAIRS for tsdf, none for
-the level set, whose vertices were placed on the density), `--watertight` closes the surface (points every view sees hidden behind a surface are inside; the box
-closes what it cuts) and checks it is a closed manifold, `--max-faces` decimates, and the colour is the
-field's, seen straight at the surface (surface.py), or for a run without a density field (splats) what its fused
-views render there (viewcolor.py): per vertex, or with `--texture` in a UV atlas image (texture.py: a .glb, or
-.obj + .mtl + .png).
+the level set, whose vertices were placed on the density), `--watertight` closes the surface (points every view
+sees hidden behind a surface are inside; the box closes what it cuts) and checks it is a closed manifold,
+`--max-faces` decimates, and the colour is the field's, seen straight at the surface (surface.py), or for a run
+without a density field (splats) what its fused views render there (viewcolor.py): per vertex, or with `--texture`
+in a UV atlas image (texture.py: a .glb, or .obj + .mtl + .png).
 """
 
 from __future__ import annotations
@@ -164,8 +164,9 @@ def clean_up(verts, faces, method: str, h: float, max_faces: int | None, texture
              taubin: int = 0, bound: float = np.inf):
     """(verts, faces, record fields): specks of the fused surface dropped (the level set keeps its pieces, as
     in the exports of the last round), smoothed by `taubin` rounds of Taubin's filter (kept in the box
-    [-bound, bound]^3: the inflating step moves a closed mesh's corners on the box a little out), decimated to max_faces (TEXTURE_FACES with a texture), and checked to
-    be a closed manifold (an error when `watertight` asked for one)."""
+    [-bound, bound]^3: the inflating step moves a closed mesh's corners on the box a little out), decimated to
+    max_faces (TEXTURE_FACES with a texture), and checked to be a closed manifold (an error when `watertight` asked
+    for one)."""
     n_surface, dropped = len(faces), 0
     if method == "tsdf":
         verts, faces, dropped = drop_specks(verts, faces, SPECK_CELLS * h)

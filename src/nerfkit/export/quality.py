@@ -74,8 +74,8 @@ def mesh_against_views(verts: np.ndarray, faces: np.ndarray, poses: np.ndarray, 
     """Per-view IoU / precision / recall (and, when the field's depth is given: depth agreement within tol with
     it, depth_within_tol, depth_within_tol_interior, and depth_within_tol_median with its median depth; the
     field's own silhouette (opacity >= 1/2) against the view's, field_iou and field_recall; the share of the
-    field's silhouette the mesh covers, recall_of_field) of a mesh (normalised frame: verts [V, 3], faces [F, 3]) in views (poses [V, 4, 4], cameras,
-    silhouettes bool [H, W]); with their means and minima."""
+    field's silhouette the mesh covers, recall_of_field) of a mesh (normalised frame: verts [V, 3], faces [F, 3])
+    in views (poses [V, 4, 4], cameras, silhouettes bool [H, W]); with their means and minima."""
     rows = []
     for k, (pose, cam, sil) in enumerate(zip(poses, cameras, silhouettes)):
         d = mesh_depth(verts, faces, np.asarray(pose, np.float64), cam)
