@@ -44,11 +44,15 @@ def test_the_sums_do_not_depend_on_the_threads(monkeypatch):
     poses, intr, depth, opacity = views(True)
     axis = np.linspace(-1.0, 1.0, 24, dtype=np.float32)
     cams = fusion_kernel.camera_table(poses, intr)
-    outs = []
+    outs, used = [], []
+    run = fusion_kernel.run_interleaved
+    monkeypatch.setattr(fusion_kernel, "run_interleaved",
+                        lambda kernel, args, n: used.append(n) or run(kernel, args, n))
     for workers in (1, 3):
-        monkeypatch.setattr(fusion_kernel, "_workers", lambda w=workers: w)
+        monkeypatch.setattr(fusion_kernel, "cpu_count", lambda w=workers: w)
         out = tuple(np.full((24, 24, 24), np.nan, np.float32) for _ in range(3))
         fusion_kernel.fuse_lines(axis, 0, 24, cams, depth, opacity, 0.05, tsdf.A_FREE, out)
         outs.append(out)
+    assert used == [1, 3]  # the lines went to one thread, then to three
     for a, b in zip(*outs):
         assert np.isfinite(a).all() and np.array_equal(a, b)  # every line written, by whichever thread

@@ -18,11 +18,10 @@ as there. The kernel releases the GIL; fuse_lines spreads the grid lines over wo
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 from numba import njit
+
+from nerfkit.core.threads import cpu_count, run_interleaved
 
 CAMERA_FLOATS = 16  # R row-major (9), o (3), fx, fy, cx, cy
 
@@ -76,26 +75,11 @@ def fuse_line_kernel(axis, i0, lines, cams, depth, opacity, tau, a_free, fsum, w
         fsum[a, b], wsum[a, b], seen[a, b] = fs, ws, ss
 
 
-_POOL: tuple[int, ThreadPoolExecutor] | None = None  # (workers, the pool), made on first use
-
-
-def _workers() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-
-
 def fuse_lines(axis: np.ndarray, i0: int, count: int, cams: np.ndarray, depth: np.ndarray, opacity: np.ndarray,
                tau: float, a_free: float, out: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
     """The sums of the grid's x-slices i0 .. i0 + count - 1 into out = (fsum, wsum, seen) [count, N, N] float32,
-    the lines interleaved over one worker thread per CPU."""
-    global _POOL
+    the lines interleaved over one worker thread per CPU (core/threads.py)."""
     n = len(axis)
     args = (np.ascontiguousarray(axis, np.float32), i0, count * n, cams, np.ascontiguousarray(depth, np.float32),
             np.ascontiguousarray(opacity, np.float32), np.float32(tau), np.float32(a_free), *out)
-    workers = _workers()
-    if workers == 1:
-        fuse_line_kernel(*args, 0, 1)
-        return
-    if _POOL is None or _POOL[0] != workers:
-        _POOL = (workers, ThreadPoolExecutor(workers, thread_name_prefix="nerfkit-fuse"))
-    for job in [_POOL[1].submit(fuse_line_kernel, *args, t, workers) for t in range(workers)]:
-        job.result()
+    run_interleaved(fuse_line_kernel, args, cpu_count())

@@ -48,14 +48,13 @@ on disk (cache=True).
 
 from __future__ import annotations
 
-import os
 import queue
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
 
+from nerfkit.core.threads import cpu_count, pool
 from nerfkit.models.splat.tiles_geometry import (
     TILE,
     bin_tiles,
@@ -68,10 +67,9 @@ from nerfkit.models.splat.tiles_geometry import (
 from nerfkit.models.splat.tiles_kernels import backward_tiles, forward_tiles, frame_tiles
 from nerfkit.models.splat.depth_kernels import median_tiles
 
-THREADS: int | None = None  # worker threads; None: every CPU in os.sched_getaffinity
+THREADS: int | None = None  # worker threads; None: every CPU this process may use (core/threads.py)
 CHUNKS_PER_WORKER = 8
 FRAME_TILE = 64  # frame()'s tiles, in pixels (a power of two)
-_POOL: ThreadPoolExecutor | None = None
 
 
 def depth_order(depths, live) -> np.ndarray:
@@ -142,16 +140,16 @@ def bin_local(means2d, conics, opacities, depths, radii, width: int, height: int
     """The Bins of a pass (float64 inputs): local_order, the tile lists and the rows' spans. With more than one
     worker thread (the kernels release the GIL), one builds the gaussian_table while this thread orders the
     Gaussians, then the spans of its rows while this one bins."""
-    pool = _pool(worker_count(threads)) if worker_count(threads) > 1 else None
-    table = pool.submit(gaussian_table, means2d, conics, opacities, radii, height) if pool else None
+    workers = pool(worker_count(threads)) if worker_count(threads) > 1 else None
+    table = workers.submit(gaussian_table, means2d, conics, opacities, radii, height) if workers else None
     perm, order = local_order(means2d, depths, radii, width, height, tile)
-    table = np.take(table.result() if pool else gaussian_table(means2d, conics, opacities, radii, height), perm,
+    table = np.take(table.result() if workers else gaussian_table(means2d, conics, opacities, radii, height), perm,
                     axis=0)
-    spans = pool.submit(table_spans, table, width, 1) if pool else None
+    spans = workers.submit(table_spans, table, width, 1) if workers else None
     tiles_x, tiles_y = -(-width // tile), -(-height // tile)
     rects = tile_rects(*(np.take(a, perm, axis=0) for a in (means2d, conics, opacities, radii)), width, height, tile)
     offsets, ids = bin_tiles(rects, order, tiles_x * tiles_y, tiles_x)
-    spans = spans.result() if pool else table_spans(table, width, 1)
+    spans = spans.result() if workers else table_spans(table, width, 1)
     return Bins(width, height, tile, perm, offsets, ids, (table, *spans))
 
 
@@ -232,15 +230,7 @@ def _f64(*arrays):
 
 def worker_count(threads: int | None = None) -> int:
     """Worker threads a call with `threads` uses (None: THREADS, else every CPU this process may use)."""
-    return max(1, threads or THREADS or len(os.sched_getaffinity(0)))
-
-
-def _pool(n: int) -> ThreadPoolExecutor:
-    """The worker threads (at least n), started on first use."""
-    global _POOL
-    if _POOL is None or _POOL._max_workers < n:
-        _POOL = ThreadPoolExecutor(n, thread_name_prefix="splat")
-    return _POOL
+    return max(1, threads or THREADS or cpu_count())
 
 
 def _run(kernel, threads: int | None, args_of) -> None:
@@ -253,7 +243,7 @@ def _run(kernel, threads: int | None, args_of) -> None:
     if n == 1:
         kernel(*args_of(0), 0, 1)
         return
-    pool = _pool(n)
+    workers = pool(n)
     free = queue.SimpleQueue()
     for w in range(n):
         free.put(w)
@@ -266,7 +256,7 @@ def _run(kernel, threads: int | None, args_of) -> None:
         finally:
             free.put(w)
 
-    for f in [pool.submit(chunk, i) for i in range(stride)]:
+    for f in [workers.submit(chunk, i) for i in range(stride)]:
         f.result()
 
 
