@@ -9,10 +9,12 @@ from pathlib import Path
 
 import pytest
 from chromium import CHROMIUM_NAMES, find_chromium
+from glibc_tunables import suite_tunables
 from shared_data import require_shared
 from xla_flags import suite_flags
 
 suite_flags()  # before any test starts JAX (xla_flags.py)
+suite_tunables()  # before pytest-xdist starts the test processes (glibc_tunables.py)
 
 
 def pytest_configure(config):
