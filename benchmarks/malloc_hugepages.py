@@ -1,6 +1,7 @@
-"""What glibc's transparent huge pages for malloc's large blocks (`GLIBC_TUNABLES=glibc.malloc.hugetlb=1`) change
-for a user's training run: the same `nerfkit train` with and without it, alternating (A B B A per preset), its
-wall clock, CPU time and minor page faults (getrusage of the child).
+"""What glibc's transparent huge pages for malloc's large blocks (`GLIBC_TUNABLES=glibc.malloc.hugetlb=1`, which
+`nerfkit` gives itself: cli/hugepages.py) change for a user's training run: the same `nerfkit train` with and
+without them, alternating (A B B A per preset), its wall clock, CPU time and minor page faults (getrusage of the
+child).
 
     python benchmarks/malloc_hugepages.py [--data LEGO] [--presets ngp splat] [--steps 300] [--rounds 2]
                                           [--out runs/malloc_hugepages] [--name malloc_hugepages]
@@ -10,8 +11,8 @@ Each run is exactly what a user types on lego's seed protocol at 200x200, stoppe
     nerfkit train LEGO --preset P --train-split "train,val[0:50]" --val-split "val[50:100]" --target-width 200
                        --max-steps STEPS --no-progress --out OUT/P_<variant>_<k>
 
-with $GLIBC_TUNABLES unset (`off`) or set to glibc.malloc.hugetlb=1 (`on`) in the child's environment (glibc
-reads it when a process starts). The kernel must allow transparent huge pages
+with $GLIBC_TUNABLES unset and $NERFKIT_HUGEPAGES=off (`off`), or as a user runs it, $GLIBC_TUNABLES unset
+(`on`: the command line restarts itself with the tunable). The kernel must allow transparent huge pages
 (/sys/kernel/mm/transparent_hugepage/enabled `always` or `madvise`), which the record keeps. Writes
 benchmarks/results/<name>.json (with the commit).
 """
@@ -39,9 +40,9 @@ THP = Path("/sys/kernel/mm/transparent_hugepage/enabled")
 
 def train(data: Path, preset: str, steps: int, out: Path, hugepages: bool) -> dict:
     """One `nerfkit train` in a child process: wall seconds, user and system CPU seconds, minor page faults."""
-    env = {k: v for k, v in os.environ.items() if k != "GLIBC_TUNABLES"}
-    if hugepages:
-        env["GLIBC_TUNABLES"] = TUNABLE
+    env = {k: v for k, v in os.environ.items() if k not in ("GLIBC_TUNABLES", "NERFKIT_HUGEPAGES")}
+    if not hugepages:
+        env["NERFKIT_HUGEPAGES"] = "off"
     shutil.rmtree(out, ignore_errors=True)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()

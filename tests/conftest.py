@@ -9,12 +9,15 @@ from pathlib import Path
 
 import pytest
 from chromium import CHROMIUM_NAMES, find_chromium
-from glibc_tunables import suite_tunables
+from nerfkit.cli.hugepages import glibc_version, huge_page_environment, thp_mode
 from shared_data import require_shared
 from xla_flags import suite_flags
 
 suite_flags()  # before any test starts JAX (xla_flags.py)
-suite_tunables()  # before pytest-xdist starts the test processes (glibc_tunables.py)
+# Transparent huge pages for malloc's large blocks in the test processes pytest-xdist starts after this (and their
+# subprocesses), as the command line gives itself (nerfkit/cli/hugepages.py): the suite's XLA buffers faulted in 4 KiB
+# at a time (a subset of four long files on 2 cores: 35.5 M minor page faults -> 1.2 M, 4:42 -> 3:56 wall).
+os.environ.update(huge_page_environment(dict(os.environ), glibc_version(), thp_mode()) or {})
 
 
 def pytest_configure(config):

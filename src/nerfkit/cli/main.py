@@ -28,6 +28,7 @@ from nerfkit.cli.args import (
     ViewBakedArgs,
 )
 from nerfkit.cli.export import cmd_export
+from nerfkit.cli.hugepages import restart_with_huge_pages
 from nerfkit.cli.parsing import flag_value, parse
 from nerfkit.cli.train import cmd_demo, cmd_train
 from nerfkit.core.errors import ConfigError, NerfkitError
@@ -275,6 +276,7 @@ def enable_compile_cache() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from_command_line = argv is None  # `nerfkit ...` or `python -m nerfkit ...`, not a caller's main([...])
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(usage())
@@ -284,6 +286,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"nerfkit: unknown command {verb!r}\n\n{usage()}", file=sys.stderr)
         return 2
     if verb in COMPILING and "--help" not in rest and "-h" not in rest:
+        if from_command_line:
+            restart_with_huge_pages()  # returns where it changes nothing (hugepages.py)
         enable_compile_cache()
     try:
         return COMMANDS[verb][0](rest)
