@@ -118,6 +118,7 @@ NC_E9, MMW_E9 = "splat_normal_consistency_e952e3f.json", "mesh_maryrose_splat_wa
 ML6, MMW6 = "mesh_lego_splat_06cdf7f_nc01.json", "mesh_maryrose_splat_watertight_06cdf7f_nc01.json"
 NCM6 = "splat_normal_consistency_maryrose_06cdf7f.json"
 T0, T20 = "mesh_procedural_taubin0.json", "mesh_procedural_taubin20.json"
+HUGE = "malloc_hugepages.json"  # nerfkit train with and without huge pages for malloc's large blocks
 LT0, LT20 = "mesh_lego_splat_d3f8ca1_nc01_taubin0.json", "mesh_lego_splat_d3f8ca1_nc01_taubin20.json"
 MT0 = "mesh_maryrose_splat_watertight_d3f8ca1_nc01_taubin0.json"
 MT20 = "mesh_maryrose_splat_watertight_d3f8ca1_nc01_taubin20.json"
@@ -272,6 +273,14 @@ CHECKS = [
       ((ROOF, "runs", "/tmp/w/fr/runs_new/splat_2min", "roofline", "forward", "ns_per_tested_pair"), f1),
       ((ROOF, "runs", "/tmp/w/rec/mary/splat", "roofline", "forward", "pairs_per_entry"), f0),
       ((ROOF, "runs", "/tmp/w/rec/mary/splat", "roofline", "forward", "ns_per_tested_pair"), f1)]),
+    # ---- docs/measurements.md: huge pages for malloc's large blocks
+    ("docs/measurements.md", "**Memory pages.**",
+     "`benchmarks/results/malloc_hugepages.json`, at {h}, runs alternating): **{} s without, {} s with** (the means of "
+     "two runs each), minor page faults {} M -> {} M, system time {} -> {} s",
+     [commit(HUGE), ((HUGE, "presets", "ngp", "off", "wall_s"), f1), ((HUGE, "presets", "ngp", "on", "wall_s"), f1),
+      ((lambda: R(HUGE, "presets", "ngp", "off", "minor_faults") / 1e6), f1),
+      ((lambda: R(HUGE, "presets", "ngp", "on", "minor_faults") / 1e6), f1),
+      ((HUGE, "presets", "ngp", "off", "system_s"), f1), ((HUGE, "presets", "ngp", "on", "system_s"), f1)]),
     # ---- docs/measurements.md
     ("docs/measurements.md", "| `--preset ngp` (hash grid + occupancy grid), through the CLI",
      "**{} dB** after 2 min ({} steps), **{} dB** after 5 min ({} steps), **{} dB / SSIM {} after 10 min** ({} steps, {} steps/s) "
