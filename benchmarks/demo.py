@@ -33,6 +33,7 @@ def main():
     record["wall_minutes"] = round((time.perf_counter() - t0) / 60, 2)
     summary = json.loads((a.out / "demo_summary.json").read_text())
     record.update({k: summary[k] for k in ("steps", "steps_per_second", "test_psnr", "test_ssim", "minutes")})
+    a.results.mkdir(parents=True, exist_ok=True)
     path = a.results / "demo.json"
     path.write_text(json.dumps(record, indent=2))
     print(f"nerfkit demo: {record['wall_minutes']} min, {record['steps']} steps, test PSNR {record['test_psnr']:.2f} dB, "
