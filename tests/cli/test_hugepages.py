@@ -27,6 +27,13 @@ def test_the_tunable_is_added_once_where_glibc_and_the_kernel_use_it():
         assert hugepages.huge_page_environment(env, glibc, thp) is None, (env, glibc, thp)
 
 
+def test_the_glibc_version_is_read_whatever_its_suffix(monkeypatch):
+    for libc, version in ((("glibc", "2.36"), (2, 36)), (("glibc", "2.35.9000-dev"), (2, 35)), (("glibc", "2"), None),
+                          (("glibc", ""), None), (("musl", "1.2.4"), None), (("", ""), None)):
+        monkeypatch.setattr(hugepages.platform, "libc_ver", lambda v=libc: v)
+        assert hugepages.glibc_version() == version, libc
+
+
 def test_the_kernel_mode_is_read_from_its_brackets(tmp_path, monkeypatch):
     for text, mode in (("always [madvise] never\n", "madvise"), ("[always] madvise never\n", "always"),
                        ("always madvise [never]\n", "never")):

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 import platform
+import re
 import sys
 from pathlib import Path
 
@@ -29,9 +30,10 @@ THP = Path("/sys/kernel/mm/transparent_hugepage/enabled")
 def glibc_version() -> tuple[int, ...] | None:
     """(major, minor) of this process's glibc, or None where it runs on another C library."""
     name, version = platform.libc_ver()
-    if name != "glibc" or not version:
+    numbers = re.findall(r"\d+", version)
+    if name != "glibc" or len(numbers) < 2:
         return None
-    return tuple(int(x) for x in version.split(".")[:2])
+    return int(numbers[0]), int(numbers[1])
 
 
 def thp_mode() -> str | None:
