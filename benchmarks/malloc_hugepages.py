@@ -31,11 +31,11 @@ from pathlib import Path
 
 from provenance import provenance
 
+from nerfkit.cli.hugepages import THP, TUNABLE
+
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego"
 SEED = ["--train-split", "train,val[0:50]", "--val-split", "val[50:100]", "--target-width", "200"]
-TUNABLE = "glibc.malloc.hugetlb=1"
-THP = Path("/sys/kernel/mm/transparent_hugepage/enabled")
 
 
 def train(data: Path, preset: str, steps: int, out: Path, hugepages: bool) -> dict:
@@ -73,7 +73,7 @@ def main():
     args = ap.parse_args()
     if not (args.data / "transforms_train.json").exists():
         sys.exit(f"no lego capture at {args.data}: pass --data")
-    record = {"provenance": provenance(), "steps": args.steps, "tunable": TUNABLE,
+    record = {"provenance": provenance(), "steps": args.steps, "tunable": f"{TUNABLE}=1",
               "transparent_hugepage": THP.read_text().strip() if THP.exists() else None, "presets": {}}
     for preset in args.presets:
         runs = {"off": [], "on": []}

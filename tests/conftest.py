@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from chromium import CHROMIUM_NAMES, find_chromium
 from nerfkit.cli.hugepages import glibc_version, huge_page_environment, thp_mode
+from nerfkit.core.threads import cpu_count
 from shared_data import require_shared
 from xla_flags import suite_flags
 
@@ -36,8 +37,7 @@ MAX_WORKERS = 4  # each test process peaks at about 6 GB of memory
 
 def pytest_xdist_auto_num_workers(config):
     """`-n auto` (pyproject.toml's addopts): one test process per core, at most MAX_WORKERS."""
-    return max(1, min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1,
-                      MAX_WORKERS))
+    return max(1, min(cpu_count(), MAX_WORKERS))
 
 
 # The suite's longest files, longest first (seconds in one process, 2 cores: `pytest -n 0 --durations=200`), run
