@@ -118,6 +118,7 @@ NC_E9, MMW_E9 = "splat_normal_consistency_e952e3f.json", "mesh_maryrose_splat_wa
 ML6, MMW6 = "mesh_lego_splat_06cdf7f_nc01.json", "mesh_maryrose_splat_watertight_06cdf7f_nc01.json"
 NCM6 = "splat_normal_consistency_maryrose_06cdf7f.json"
 T0, T20 = "mesh_procedural_taubin0.json", "mesh_procedural_taubin20.json"
+NUMBA = "numba_first_run.json"  # a splat run with numba's kernel cache empty, then filled
 HUGE = "malloc_hugepages.json"  # nerfkit train with and without huge pages for malloc's large blocks
 LT0, LT20 = "mesh_lego_splat_d3f8ca1_nc01_taubin0.json", "mesh_lego_splat_d3f8ca1_nc01_taubin20.json"
 MT0 = "mesh_maryrose_splat_watertight_d3f8ca1_nc01_taubin0.json"
@@ -281,6 +282,12 @@ CHECKS = [
       ((lambda: R(HUGE, "presets", "ngp", "off", "minor_faults") / 1e6), f1),
       ((lambda: R(HUGE, "presets", "ngp", "on", "minor_faults") / 1e6), f1),
       ((HUGE, "presets", "ngp", "off", "system_s"), f1), ((HUGE, "presets", "ngp", "on", "system_s"), f1)]),
+    # ---- docs/measurements.md: the numba kernels' first compilation
+    ("docs/measurements.md", "**The first splat run after installing**",
+     "`benchmarks/results/numba_first_run.json`, at {h}, runs alternating): **{} and {} s with the kernel cache empty, "
+     "{} and {} s with it filled**: the first run spends about {} s",
+     [commit(NUMBA), ((NUMBA, "pairs", 0, "cold_s"), f1), ((NUMBA, "pairs", 1, "cold_s"), f1),
+      ((NUMBA, "pairs", 0, "warm_s"), f1), ((NUMBA, "pairs", 1, "warm_s"), f1), ((NUMBA, "first_run_extra_s"), f0)]),
     # ---- docs/measurements.md
     ("docs/measurements.md", "| `--preset ngp` (hash grid + occupancy grid), through the CLI",
      "**{} dB** after 2 min ({} steps), **{} dB** after 5 min ({} steps), **{} dB / SSIM {} after 10 min** ({} steps, {} steps/s) "
