@@ -22,11 +22,9 @@ import argparse
 import json
 import re
 import shlex
-import subprocess
-import sys
-import time
 from pathlib import Path
 
+from clirun import nerfkit
 from provenance import provenance
 
 from nerfkit.core.viz import plot_curves, read_jsonl
@@ -34,15 +32,6 @@ from nerfkit.core.viz import plot_curves, read_jsonl
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego"
 SEED = ["--train-split", "train,val[0:50]", "--val-split", "val[50:100]", "--target-width", "200"]
-
-
-def nerfkit(*args: str) -> tuple[float, str]:
-    """Run the CLI in its own process (as a user would); (wall seconds, stdout)."""
-    t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, text=True)
-    if r.returncode != 0:
-        raise SystemExit(f"nerfkit {' '.join(args)} failed (exit {r.returncode})")
-    return time.perf_counter() - t0, r.stdout
 
 
 def main():

@@ -15,12 +15,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
+from clirun import nerfkit
 from provenance import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,13 +27,8 @@ ROOT = Path(__file__).resolve().parents[1]
 def train(scene: Path, out: Path, steps: int, numba_cache: str) -> float:
     """Wall seconds of one `nerfkit train --preset splat` process with the given numba cache folder."""
     env = {**os.environ, "NUMBA_CACHE_DIR": numba_cache, "NERFKIT_COMPILE_CACHE": "off"}
-    t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "nerfkit", "train", str(scene), "--out", str(out), "--preset", "splat",
-                        "--max-steps", str(steps), "--no-progress", "--overwrite"], env=env,
-                       stdout=subprocess.DEVNULL, check=False)
-    if r.returncode:
-        sys.exit(f"nerfkit train failed (exit {r.returncode})")
-    return time.perf_counter() - t0
+    return nerfkit("train", scene, "--out", out, "--preset", "splat", "--max-steps", steps, "--no-progress",
+                   "--overwrite", env=env)[0]
 
 
 def main() -> None:

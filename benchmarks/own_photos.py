@@ -26,27 +26,13 @@ import argparse
 import json
 import re
 import shutil
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from clirun import nerfkit
 from provenance import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def nerfkit(*args: str, stderr: Path | None = None) -> tuple[float, str]:
-    """Run the CLI in its own process (as a user would); (wall seconds, stdout). Its stderr (progress bars)
-    goes to the file `stderr`, else to this process's."""
-    t0 = time.perf_counter()
-    with open(stderr, "w") if stderr else open(sys.stderr.fileno(), "w", closefd=False) as err:
-        r = subprocess.run([sys.executable, "-m", "nerfkit", *args], stdout=subprocess.PIPE, stderr=err, text=True,
-                           check=False)
-    if r.returncode != 0:
-        raise SystemExit(f"nerfkit {' '.join(args)} failed (exit {r.returncode})")
-    return time.perf_counter() - t0, r.stdout
 
 
 def rows(path: Path) -> list[dict]:

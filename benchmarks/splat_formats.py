@@ -22,13 +22,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from clirun import nerfkit
 from provenance import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,16 +37,6 @@ SCENES = {  # data, training arguments, held-out split, eval arguments
     "maryrose": (SHARED / "real" / "maryrose", ["--downscale", "2"], "test", ["--downscale", "2"]),
 }
 FORMATS = ("ply", "spz", "splat", "glb", "sog")
-
-
-def nerfkit(*args: str) -> tuple[float, str]:
-    """Run the CLI in its own process (as a user would); (wall seconds, stdout)."""
-    t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "nerfkit", *map(str, args)], stdout=subprocess.PIPE, text=True,
-                       check=False)
-    if r.returncode != 0:
-        raise SystemExit(f"nerfkit {shlex.join(map(str, args))} failed (exit {r.returncode})")
-    return time.perf_counter() - t0, r.stdout
 
 
 def renders(run: Path, split: str) -> list[np.ndarray]:
