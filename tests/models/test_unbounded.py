@@ -126,14 +126,16 @@ def test_a_forward_facing_capture_puts_the_field_in_the_ndc_of_its_mean_camera(t
     old = preset("ngp").to_dict()  # a run written before --warp trained contracted; --resume must keep that
     del old["field"]["warp"]
     assert resolve_config(Config.from_dict(old), cap, train, log=logs.append).field.ndc_frame is None
-    bare = make_capture(tmp_path / "b", "nerfstudio", n_views=16, size=32, environment=True, rig="forward")
+    # 96 px: SIFT finds about 95 points here (at 32 px it found 6 locally and, on CI's processor, too few).
+    bare = make_capture(tmp_path / "b", "nerfstudio", n_views=16, size=96, environment=True, rig="forward")
     cap = read_capture(bare, "train")
     assert resolve_config(preset("ngp"), cap, load_frames(cap, "train"), log=logs.append).field.warp == "contract"
     assert "contraction: no near plane for NDC (the capture has no points)" in logs[-2]
     ngp = preset("ngp")
     ngp.data.train_split, ngp.data.val_split = "train", "test"
     capture, _, _, cfg = load_splits(bare, ngp, False, logs.append)  # what nerfkit train does: triangulate
-    assert cfg.field.warp == "ndc" and capture.points is not None and len(capture.points) >= 4
+    assert capture.points is not None and len(capture.points) >= 20, [x for x in logs if x.startswith("points")]
+    assert cfg.field.warp == "ndc", logs[-3:]
 
 
 @pytest.mark.slow

@@ -15,12 +15,13 @@ from nerfkit.data.procedural.captures import make_capture
 from nerfkit.evaluation.evaluate import evaluate_run
 from nerfkit.training.trainer import Trainer
 
-# Measured: 19.05 dB on the 2 held-out photos after 300 steps (the best flat picture: 12.44 dB).
+# Measured: 20.62 dB on the 2 held-out photos of 64 px after 300 steps (the best flat picture: 12.46 dB). At 64 px SIFT
+# finds about 48 points here; at 48 px it found 9, too few to count on across processors.
 FLOOR_DB = 17.0
 
 
 def test_a_forward_facing_capture_trains(tmp_path):
-    data = make_capture(tmp_path / "cap", "nerfstudio", n_views=16, size=48, environment=True, rig="forward")
+    data = make_capture(tmp_path / "cap", "nerfstudio", n_views=16, size=64, environment=True, rig="forward")
     cfg = preset("splat")
     cfg.splat.capacity = 4000
     cfg.train.max_minutes, cfg.train.max_steps, cfg.train.val_every, cfg.train.ckpt_every = None, 300, 300, 300
