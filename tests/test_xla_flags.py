@@ -6,16 +6,22 @@ import os
 import xla_flags as xla
 
 
-def test_the_flag_is_added_once_and_the_users_choice_wins():
+SUITE = "--xla_cpu_use_fusion_emitters=false --xla_backend_optimization_level=1"
+
+
+def test_the_flags_are_added_once_and_the_users_choice_wins():
     env = {"XLA_FLAGS": "--xla_force_host_platform_device_count=2"}
-    assert xla.suite_flags(env) == "--xla_cpu_use_fusion_emitters=false"
-    assert env["XLA_FLAGS"] == "--xla_force_host_platform_device_count=2 --xla_cpu_use_fusion_emitters=false"
-    assert xla.suite_flags(env) is None and env["XLA_FLAGS"].count(xla.FLAG) == 1
+    assert xla.suite_flags(env) == SUITE
+    assert env["XLA_FLAGS"] == f"--xla_force_host_platform_device_count=2 {SUITE}"
+    assert xla.suite_flags(env) is None and all(env["XLA_FLAGS"].count(f) == 1 for f in xla.FLAGS)
     mine = {"XLA_FLAGS": "--xla_cpu_use_fusion_emitters=true"}
-    assert xla.suite_flags(mine) is None and mine["XLA_FLAGS"] == "--xla_cpu_use_fusion_emitters=true"
+    assert xla.suite_flags(mine) == "--xla_backend_optimization_level=1"
+    assert mine["XLA_FLAGS"] == "--xla_cpu_use_fusion_emitters=true --xla_backend_optimization_level=1"
+    both = {"XLA_FLAGS": "--xla_backend_optimization_level=2 --xla_cpu_use_fusion_emitters=true"}
+    assert xla.suite_flags(both) is None and both["XLA_FLAGS"].count("=") == 2
     empty = {}
     xla.suite_flags(empty)
-    assert empty["XLA_FLAGS"] == "--xla_cpu_use_fusion_emitters=false"
+    assert empty["XLA_FLAGS"] == SUITE
 
 
 def test_a_jaxlib_that_does_not_know_the_flag_gets_none(monkeypatch):
@@ -31,7 +37,7 @@ def test_this_process_has_it_in_its_environment():
     from importlib import metadata
 
     if xla._version(metadata.version("jaxlib")) >= xla.FIRST_JAXLIB:
-        assert xla.FLAG in os.environ["XLA_FLAGS"]
+        assert all(f in os.environ["XLA_FLAGS"] for f in xla.FLAGS)
 
 
 def test_importing_nerfkit_leaves_xla_flags_alone():
