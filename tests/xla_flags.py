@@ -10,10 +10,11 @@ nerfkit itself leaves XLA's default: the classic emitters run the MLP presets' s
 1024 rays x 64 samples: 598 and 656 ms against 540 and 537 ms, `benchmarks/vanilla_step.py`, one sitting),
 which outweighs their 3-4 s faster start of an ngp or splat run (docs/measurements.md).
 
-It also asks LLVM for its optimisation level 1 instead of 2 (`--xla_backend_optimization_level=1`): the ngp
-step above compiled in 8.6 / 8.1 s against 10.5 / 9.5 s, its 200-step run 28.3 s against 30.1, and four
-compile-heavy files (test_unbounded, test_ngp, test_ngp_proposal, test_flags; -n 2, A B A B in one sitting) took
-451 / 454 s of CPU against 487 / 503 (CHANGELOG.md, "The suite"). nerfkit itself keeps XLA's default level.
+It also asks LLVM for its optimisation level 1 instead of 2 (`--xla_backend_optimization_level=1`): with XLA's
+default emitters the ngp step above compiled in 8.6 / 8.1 s against 10.5 / 9.5 s, its 200-step run 28.3 s against
+30.1, and under this suite's flags four compile-heavy files (test_unbounded, test_ngp, test_ngp_proposal,
+test_flags; -n 2, A B A B in one sitting) took 451 / 454 s of CPU against 487 / 503 (CHANGELOG.md, "The suite").
+nerfkit itself keeps XLA's default level.
 """
 
 from __future__ import annotations
