@@ -240,6 +240,7 @@ def test_pose_only_reader_checks_ranges_too(scene):
     (["--downscale", "0"], "--downscale must be a positive integer (got 0)"),
     (["--downscale", "3"], "--downscale 3 does not divide the image size 8x8"),
     (["--train-split", "train[0:9]"], "index 9 in 'train[0:9]' is out of range"),
+    (["--preset", "splat"], "--preset given 2 times (tiny, splat); give it once"),
 ])
 def test_bad_config_values_fail_with_one_line(base, tmp_path, capsys, flags, message):
     rc = main(["train", str(base), "--out", str(tmp_path / "run"), "--preset", "tiny", "--no-progress", *flags])
@@ -248,6 +249,19 @@ def test_bad_config_values_fail_with_one_line(base, tmp_path, capsys, flags, mes
     assert err.startswith("nerfkit train: error: ") and err.count("\n") == 0 and "Traceback" not in err
     assert message in err
     assert not (tmp_path / "run" / "checkpoints").exists()  # refused before any training
+
+
+@pytest.mark.parametrize("flags,message", [
+    (["--normal-consistency", "0.1", "--normal-consistency-from", "1.5"],
+     "--normal-consistency-from must be in [0, 1): the share of the budget before the term comes on (got 1.5)"),
+    (["--normal-consistency-from", "0.3"], "--normal-consistency-from has no effect: the normal-consistency term is "
+                                           "off; give it a weight (--normal-consistency 0.15)"),
+])
+def test_bad_splat_values_fail_with_one_line(base, tmp_path, capsys, flags, message):
+    rc = main(["train", str(base), "--out", str(tmp_path / "run"), "--preset", "splat", "--no-progress", *flags])
+    err = capsys.readouterr().err.strip()
+    assert rc == 1 and err.count("\n") == 0 and "Traceback" not in err and message in err, err
+    assert not (tmp_path / "run").exists()
 
 
 def test_bad_run_config_json_is_a_one_line_error(base, tmp_path, capsys):

@@ -22,6 +22,7 @@ from nerfkit.models.splat.train import (
     SplatConfig,
     host_control,
     initial_params,
+    schedule_at,
     train_splats,
 )
 
@@ -128,6 +129,26 @@ def test_coarse_to_fine_trains_at_half_then_full_resolution(scene):
     assert len(loss) == 6 and np.mean(loss[-2:]) < np.mean(loss[:2])
     assert evaluate(params, val.images, val.poses, val.cameras)["psnr_mean"] > evaluate(
         initial_params(cfg)[0], val.images, val.poses, val.cameras)["psnr_mean"]
+
+
+def test_the_normal_consistency_term_comes_on_at_its_share_of_the_budget(scene):
+    """normal_consistency_from = 0.5 over 6 steps: steps 0-2 (progress < 0.5) run the step without the term, so
+    the photometric losses of steps 0-3 are those of a run without it, bit for bit; from the update of step 3
+    on the term moves the Gaussians, and step 4's loss differs. With the term from the start, step 1's does."""
+    train, _ = scene
+
+    def losses(**surface) -> list[float]:
+        cfg = SplatConfig(capacity=300, strategy="none", log_every=1, **surface)
+        return [r[2] for r in train_splats(train.images[:4], train.poses[:4], train.cameras[:4], (1.0, 1.0, 1.0),
+                                           cfg, steps=6)[1]]
+
+    late = SplatConfig(normal_consistency=0.1, normal_consistency_from=0.5)
+    assert [schedule_at(s, s / 6, late)["surface"] for s in range(6)] == [False] * 3 + [True] * 3
+    assert not schedule_at(5, 0.9, SplatConfig(normal_consistency_from=0.5))["surface"]  # no weight, no term
+    plain, later = losses(), losses(normal_consistency=0.1, normal_consistency_from=0.5)
+    assert later[:4] == plain[:4] and later[4] != plain[4]
+    from_start = losses(normal_consistency=0.1)
+    assert from_start[0] == plain[0] and from_start[1] != plain[1]
 
 
 def test_rgba_views_train_on_a_random_background_their_alpha_composites_them_onto():

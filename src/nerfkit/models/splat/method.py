@@ -93,7 +93,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
-                       normal_consistency=g.normal_consistency)
+                       normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -107,6 +107,13 @@ def _describe_coarse(coarse: float | None) -> str:
     if coarse is None:
         return f"half resolution for the first {COARSE_AUTO:.0%} on photos of >= {COARSE_MIN_PIXELS:,} pixels, "
     return f"half resolution for the first {coarse:.0%} of the budget, " if coarse else ""
+
+
+def _describe_surface(g) -> str:
+    if not g.normal_consistency:
+        return ""
+    late = f" from {g.normal_consistency_from:.0%} of the budget" if g.normal_consistency_from else ""
+    return f"; normal consistency {g.normal_consistency:g}{late}"
 
 
 class SplatOptimizer:
@@ -127,7 +134,8 @@ class SplatModel:
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
-        "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency")) | {"train.pose_refine"}
+        "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
+        "normal_consistency_from")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -140,7 +148,7 @@ class SplatModel:
                 f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
-                f"{f'; normal consistency {g.normal_consistency:g}' if g.normal_consistency else ''}"
+                f"{_describe_surface(g)}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
@@ -168,12 +176,15 @@ class SplatModel:
 
     @staticmethod
     def unused(cfg, capture=None) -> dict[str, str]:
-        """Settings left unread at these values: field.kind (splats are no field), sh_interval at SH degree 0,
-        init_points auto on a capture without SfM points."""
+        """Settings left unread at these values: field.kind (splats are no field), normal_consistency_from without
+        the term, sh_interval at SH degree 0, init_points auto on a capture without SfM points."""
         out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
         if cfg.splat.init:
             out["splat.init_points"] = f"the Gaussians start from --init {cfg.splat.init}"
             out["splat.far_points"] = f"the Gaussians start from --init {cfg.splat.init}"
+        if cfg.splat.normal_consistency == 0:
+            out["splat.normal_consistency_from"] = ("the normal-consistency term is off; give it a weight "
+                                                    "(--normal-consistency 0.15)")
         if cfg.splat.sh_degree == 0:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None

@@ -12,7 +12,9 @@ rate a traced scalar, so nothing recompiles when they change):
 Coarse to fine: while progress t < coarse_until, a step renders and scores the view at half
 resolution (half_resolution: 2x2 pixels averaged, intrinsics halved; a second compiled step,
 with the screen dilation a quarter in half-pixels^2, the photos' footprint: project.py), a
-quarter of the rasteriser's work, so the early, coarse fitting takes more steps.
+quarter of the rasteriser's work, so the early, coarse fitting takes more steps. Likewise the
+normal-consistency term W L_n is on from t = normal_consistency_from (2DGS starts it after a
+warm-up): before that a step compiled without it (nor its extra channels) runs.
 
 Views are visited in a fresh random order every epoch (3DGS draws one camera per step). The SH
 degree rises by one every `sh_interval` steps up to 3. Every `window.every` steps the host runs
@@ -28,7 +30,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from typing import Any
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 
 import jax
@@ -76,6 +78,7 @@ class SplatConfig:
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
+    normal_consistency_from: float = 0.0  # progress from which that term is on (before: steps without it)
     n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
 
@@ -249,23 +252,31 @@ class ViewStep:
 
     def __init__(self, sc: SplatConfig, opts: dict, width: int, height: int, background, extent: float):
         self.sc, self.opts, self.width, self.height, self.extent = sc, opts, width, height, extent
-        self.fine = make_step(sc, opts, width, height, with_health=True, extent=extent)
         self.background = jnp.asarray(background, jnp.float32)
         self.base_key = jax.random.PRNGKey(sc.seed)
-        self._half: dict = {}  # the half-resolution step and views, made at the first coarse step
+        self._steps: dict = {}  # (half resolution, surface term) -> compiled step, made at its first use
+        self._half: dict = {}  # the half-resolution views, made at the first coarse step
 
-    def _at_resolution(self, half_now: bool, images, intrinsics):
-        """(compiled step, images, intrinsics, width) for this step: the half-resolution ones in the coarse phase."""
-        if not half_now:
-            return self.fine, images, intrinsics, self.width
+    def _step_for(self, half_now: bool, surface_now: bool):
+        """The compiled step at half or full resolution, with or without the normal-consistency term."""
+        key = (half_now, surface_now)
+        if key not in self._steps:
+            sc = self.sc if surface_now else replace(self.sc, normal_consistency=0.0)
+            make = half_step if half_now else make_step
+            self._steps[key] = make(sc, self.opts, self.width, self.height, with_health=True, extent=self.extent)
+        return self._steps[key]
+
+    def _at_resolution(self, plan: dict, images, intrinsics):
+        """(compiled step, images, intrinsics, width) for this step's plan (schedule_at): the half-resolution
+        ones in the coarse phase, the step without the surface term before it is on."""
+        fn = self._step_for(plan["half_resolution"], plan["surface"])
+        if not plan["half_resolution"]:
+            return fn, images, intrinsics, self.width
         half = self._half
         if half.get("of") is not images:
             small, small_intr = half_resolution(images, intrinsics)
             half.update({"of": images, "images": small, "intr": small_intr})
-            if "step" not in half:
-                half["step"] = half_step(self.sc, self.opts, self.width, self.height, with_health=True,
-                                         extent=self.extent)
-        return half["step"], half["images"], half["intr"], self.width // 2
+        return fn, half["images"], half["intr"], self.width // 2
 
     def __call__(self, state: dict, step: int, progress: float, images, poses, intrinsics) -> tuple[dict, dict]:
         sc, aux = self.sc, dict(state["aux"])
@@ -274,7 +285,7 @@ class ViewStep:
         lr = means_lr(progress, self.extent, sc.lrs)
         stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
         params = {k: jnp.asarray(v) for k, v in state["params"].items()}
-        fn, views, view_intr, w_now = self._at_resolution(plan["half_resolution"], images, intrinsics)
+        fn, views, view_intr, w_now = self._at_resolution(plan, images, intrinsics)
         params, opt_state, stats, photo, mse, finite = fn(
             params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, self.background,
             view_of(sc.seed, len(poses), step), jax.random.fold_in(self.base_key, step), lr, plan["sh_degree"],
@@ -290,11 +301,12 @@ class ViewStep:
 
 def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
     """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
-    learning rate per unit of scene extent, whether density control may run (the window) and whether the
-    step trains at half resolution (coarse to fine)."""
+    learning rate per unit of scene extent, whether density control may run (the window), whether the
+    step trains at half resolution (coarse to fine) and whether the normal-consistency term is on."""
     return {"sh_degree": min(sc.sh_degree, sc.sh_start + step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
             "control": sc.strategy.window.due(step, progress),
-            "half_resolution": progress < sc.coarse_until}
+            "half_resolution": progress < sc.coarse_until,
+            "surface": sc.normal_consistency > 0 and progress >= sc.normal_consistency_from}
 
 
 def train_splats(train_images, poses, cameras, background=(1.0, 1.0, 1.0), cfg: SplatConfig = SplatConfig(), *,
