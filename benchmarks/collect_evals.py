@@ -35,7 +35,8 @@ def main() -> None:
         out["runs"][label] = {"run": run, "split": split, "psnr": rec["psnr"], "ssim": rec["ssim"], "step": rec["step"],
                               "views": rec.get("n_views"), "random_background": cfg.get("splat", {}).get(
                                   "random_background"), "normal_consistency": cfg.get("splat", {}).get(
-                                  "normal_consistency", 0.0), "max_minutes": cfg["train"]["max_minutes"]}
+                                  "normal_consistency", 0.0), "normal_consistency_from": cfg.get("splat", {}).get(
+                                  "normal_consistency_from", 0.0), "max_minutes": cfg["train"]["max_minutes"]}
         print(f"{label}: {rec['psnr']:.2f} dB, SSIM {rec['ssim']:.4f} at step {rec['step']}")
     a.results.mkdir(parents=True, exist_ok=True)
     (a.results / f"{a.name}.json").write_text(json.dumps(out, indent=1))
