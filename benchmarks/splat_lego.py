@@ -34,7 +34,8 @@ from nerfkit.models.splat.densify import ClassicSchedule
 from nerfkit.models.splat.strategy import STRATEGIES, Window
 from nerfkit.models.splat.gaussians import render
 from nerfkit.models.splat.gaussians import evaluate
-from nerfkit.models.splat.train import SplatConfig, train_splats
+from nerfkit.models.splat.fit import train_splats
+from nerfkit.models.splat.train import SplatConfig
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego"

@@ -23,8 +23,8 @@ from nerfkit.models.splat.train import (
     host_control,
     initial_params,
     schedule_at,
-    train_splats,
 )
+from nerfkit.models.splat.fit import train_splats
 
 FLOOR_DB = 15.0
 STEPS = 300

@@ -11,7 +11,7 @@ nerfkit's run loop (training/trainer.Trainer) asks a model for five things; the 
     renderer(chunk)                 .render_camera(params, aux, c2w, camera) -> rgb, depth, opacity
                                     (.render_cameras: a list of views in one call)
 
-One step is train.ViewStep, the step train_splats (tests, benchmarks) drives too: it renders one
+One step is train.ViewStep, the step fit.train_splats (tests, benchmarks) drives too: it renders one
 training view (a random order per epoch, fixed by the seed), takes an Adam step (train.make_step)
 and, on the host, the density control of its strategy (strategy.py: 3DGS-MCMC or classic 3DGS). params are all `capacity` slots; aux["active"] marks the slots in use, aux
 holds the classic statistics and aux["clock"] the seconds spent in steps, so that progress
