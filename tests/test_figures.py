@@ -719,10 +719,10 @@ CHECKS = [
     ("docs/verbs/export.md", "| `export mesh RUN` |", "| `export mesh RUN` | {} ({}) | {} / {} | {} / {} | {} deg | {} deg "
      "| {}k | {} s |", splat_mesh_cells(NCLD)),
     ("docs/verbs/export.md", "maryrose with the late term", "10 minutes, {} steps, {} dB on its 9 held-out photos against "
-     "{} with 0.1 from the start below", [((NCLM, "runs", "maryrose_normal_consistency_0.15_from_0.3", "step"), d),
+     "{} with 0.1 from the start above", [((NCLM, "runs", "maryrose_normal_consistency_0.15_from_0.3", "step"), d),
                                           ((NCLM, "runs", "maryrose_normal_consistency_0.15_from_0.3", "psnr"), f1),
                                           ((NCM_E9, "runs", "maryrose_normal_consistency_0.1", "psnr"), f1)]),
-    ("docs/verbs/export.md", "maryrose with the late term", "IoU {} ({} below), depth within 1% on {}% of covered pixels "
+    ("docs/verbs/export.md", "maryrose with the late term", "IoU {} ({} above), depth within 1% on {}% of covered pixels "
      "({}%), the normals a median {} degrees from its depth's ({}), faces meeting at a median {} degrees ({}), closed, {} s.",
      [((NCLMM, "methods", "tsdf", "iou_mean"), f3), ((MMW_E9, "methods", "tsdf", "iou_mean"), f3),
       ((NCLMM, "methods", "tsdf", "depth_within_tol_median_mean"), pct1),
