@@ -32,11 +32,12 @@ def main() -> None:
         split = split or "test"
         rec = json.loads((Path(run) / f"eval_{re.sub(r'[^A-Za-z0-9]+', '_', split).strip('_')}.json").read_text())
         cfg = json.loads((Path(run) / "config.json").read_text())
+        splat = cfg.get("splat", {})
         out["runs"][label] = {"run": run, "split": split, "psnr": rec["psnr"], "ssim": rec["ssim"], "step": rec["step"],
-                              "views": rec.get("n_views"), "random_background": cfg.get("splat", {}).get(
-                                  "random_background"), "normal_consistency": cfg.get("splat", {}).get(
-                                  "normal_consistency", 0.0), "normal_consistency_from": cfg.get("splat", {}).get(
-                                  "normal_consistency_from", 0.0), "max_minutes": cfg["train"]["max_minutes"]}
+                              "views": rec.get("n_views"), "random_background": splat.get("random_background"),
+                              "normal_consistency": splat.get("normal_consistency", 0.0),
+                              "normal_consistency_from": splat.get("normal_consistency_from", 0.0),
+                              "max_minutes": cfg["train"]["max_minutes"]}
         print(f"{label}: {rec['psnr']:.2f} dB, SSIM {rec['ssim']:.4f} at step {rec['step']}")
     a.results.mkdir(parents=True, exist_ok=True)
     (a.results / f"{a.name}.json").write_text(json.dumps(out, indent=1))

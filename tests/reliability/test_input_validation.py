@@ -241,6 +241,7 @@ def test_pose_only_reader_checks_ranges_too(scene):
     (["--downscale", "3"], "--downscale 3 does not divide the image size 8x8"),
     (["--train-split", "train[0:9]"], "index 9 in 'train[0:9]' is out of range"),
     (["--preset", "splat"], "--preset given 2 times (tiny, splat); give it once"),
+    (["--out", "elsewhere"], "--out given 2 times ("),  # read before tyro parses (--resume), as --preset is
 ])
 def test_bad_config_values_fail_with_one_line(base, tmp_path, capsys, flags, message):
     rc = main(["train", str(base), "--out", str(tmp_path / "run"), "--preset", "tiny", "--no-progress", *flags])

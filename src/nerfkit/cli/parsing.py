@@ -55,12 +55,12 @@ def parse(cls, argv: list[str], prog: str, default=None):
 
 
 def flag_value(argv: list[str], flag: str) -> str | None:
-    """The value given to `flag` ("--flag V" or "--flag=V"), read before tyro parses argv."""
-    for k, a in enumerate(argv):
-        if a == flag and k + 1 < len(argv):
-            return argv[k + 1]
-        if a.startswith(flag + "="):
-            return a.split("=", 1)[1]
-    return None
+    """The value given to `flag` ("--flag V" or "--flag=V"), read before tyro parses argv; ConfigError where it
+    is given several different values (tyro would take the last, a reader of the first would disagree)."""
+    values = [argv[k + 1] if a == flag else a.split("=", 1)[1] for k, a in enumerate(argv)
+              if (a == flag and k + 1 < len(argv)) or a.startswith(flag + "=")]
+    if len(set(values)) > 1:
+        raise ConfigError(f"{flag} given {len(values)} times ({', '.join(values)}); give it once")
+    return values[0] if values else None
 
 

@@ -28,10 +28,6 @@ from nerfkit.training.flags import explicit_settings
 
 def preset_of(argv: list[str]) -> str:
     """The --preset of argv (read before tyro parses, so help and defaults follow it), or ConfigError."""
-    given = [a.split("=", 1)[1] if a.startswith("--preset=") else argv[k + 1]
-             for k, a in enumerate(argv) if (a == "--preset" and k + 1 < len(argv)) or a.startswith("--preset=")]
-    if len(set(given)) > 1:
-        raise ConfigError(f"--preset given {len(given)} times ({', '.join(given)}); give it once")
     name = flag_value(argv, "--preset") or DEFAULT_PRESET
     if name not in PRESETS:
         raise ConfigError(f"--preset {name}: no such preset; pick one of {', '.join(PRESETS)}")
