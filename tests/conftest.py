@@ -11,6 +11,7 @@ import pytest
 from chromium import CHROMIUM_NAMES, find_chromium
 from nerfkit.cli.hugepages import glibc_version, huge_page_environment, thp_mode
 from nerfkit.core.threads import cpu_count
+from pinning import pin_worker
 from shared_data import require_shared
 from xla_flags import suite_flags
 
@@ -19,6 +20,8 @@ suite_flags()  # before any test starts JAX (xla_flags.py)
 # subprocesses), as the command line gives itself (nerfkit/cli/hugepages.py): the suite's XLA buffers faulted in 4 KiB
 # at a time (a subset of four long files on 2 cores: 35.5 M minor page faults -> 1.2 M, 4:42 -> 3:56 wall).
 os.environ.update(huge_page_environment(dict(os.environ), glibc_version(), thp_mode()) or {})
+
+pin_worker(os.environ.get("PYTEST_XDIST_WORKER"))  # one core per test process (pinning.py)
 
 
 def pytest_configure(config):
