@@ -21,7 +21,7 @@ suite_flags()  # before any test starts JAX (xla_flags.py)
 # at a time (a subset of four long files on 2 cores: 35.5 M minor page faults -> 1.2 M, 4:42 -> 3:56 wall).
 os.environ.update(huge_page_environment(dict(os.environ), glibc_version(), thp_mode()) or {})
 
-pin_worker(os.environ.get("PYTEST_XDIST_WORKER"))  # one core per test process (pinning.py)
+pin_worker(os.environ.get("PYTEST_XDIST_WORKER"), os.environ.get("PYTEST_XDIST_WORKER_COUNT"))  # pinning.py
 
 
 def pytest_configure(config):
