@@ -1,6 +1,7 @@
 """Test-session set-up: one persistent JAX compilation cache for the session (in a temporary folder, not the
 user's ~/.cache), so functions that several tests compile alike compile once; the session's shared runs, made
-once for all test processes (pytest-xdist runs the suite in one process per core, at most MAX_WORKERS)."""
+once for all test processes (pytest-xdist runs the suite in one process per core, at most MAX_WORKERS, each pinned
+to its share of the cores: pinning.py)."""
 
 import os
 import shutil
