@@ -140,18 +140,16 @@ def splat_mesh_cells(name):
             ((*m, "cli_seconds"), f0)]
 
 
-def half_mean(name, key, half):
-    """The mean of a mesh record's per-view `key` over the first (half 0) or second half of its views."""
-    views = R(name, "methods", "tsdf", "views")
-    n = len(views) // 2
-    part = views[:n] if half == 0 else views[n:]
-    return sum(v[key] for v in part) / len(part)
-
-
 def views_mean(name, key, views):
     """The mean of a mesh record's per-view `key` over the views at the indices `views`."""
     every = R(name, "methods", "tsdf", "views")
     return sum(every[k][key] for k in views) / len(views)
+
+
+def half_mean(name, key, half):
+    """The mean of a mesh record's per-view `key` over the first (half 0) or second half of its views."""
+    n = len(R(name, "methods", "tsdf", "views"))
+    return views_mean(name, key, range(n // 2) if half == 0 else range(n // 2, n))
 
 
 def mesh_cells(name, method):
