@@ -22,8 +22,8 @@ and measures the mesh (data/procedural/surfaces.py's signed distance and normals
                    meet), where a mesh on a grid of cell h can have the true normal at all
 
 The run label `exact` (no training) fuses the training views' exact depth maps (ray traced, as wide as the
-export renders them) with the export's own TSDF steps and its Taubin smoothing (`--taubin` of EXPORT_ARGS, or the
-export's default): what the grid and the fusion allow, the ceiling of every measure above.
+export renders them) with the export's own TSDF steps, its Taubin smoothing and its bilateral normal filtering
+(`--taubin` and `--bilateral` of EXPORT_ARGS, or the export's defaults): what the grid and the fusion allow, the ceiling of every measure above.
 
 Writes benchmarks/results/mesh_procedural.json (with the commit) and mesh_procedural_<label>.png (the
 export's picture of its mesh from two sides).
@@ -96,14 +96,16 @@ def measure(mesh_file: Path, seen: np.ndarray, h: float) -> dict:
             "off_crease_share": float(off.mean())}
 
 
-def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int) -> float:
+def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int, bilateral: int) -> float:
     """Fuses the training views' exact depth maps (PIXELS_PER_CELL x resolution px) with export/tsdf.py's
     fused_surface, as tsdf_surface does its renders (the same truncation and smoothing), smooths it by `taubin` rounds
-    as the export does (surface.taubin_smooth), writes the surface to `out`; returns the seconds taken."""
+    and then `bilateral` rounds as the export does (surface.taubin_smooth, denoise.bilateral_smooth), writes the
+    surface to `out`; returns the seconds taken."""
     import trimesh
 
     from nerfkit.data.procedural import scene as proc
     from nerfkit.export import tsdf
+    from nerfkit.export.denoise import bilateral_smooth
     from nerfkit.export.grid import grid_axis
     from nerfkit.export.surface import taubin_smooth
 
@@ -124,7 +126,8 @@ def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int) -> float:
     pixel = float(np.linalg.norm(c2w[0, :3, 3])) / focal  # a pixel's footprint at the scene centre
     verts, faces, *_ = tsdf.fused_surface(EXACT_BOUND, axis, c2w, intr, depth, alpha, tsdf.truncation(h, pixel),
                                           tsdf.SMOOTH_PIXELS * pixel / h, False)
-    trimesh.Trimesh(taubin_smooth(verts, faces, taubin), faces, process=False).export(out)
+    smooth = bilateral_smooth(taubin_smooth(verts, faces, taubin), faces, bilateral)
+    trimesh.Trimesh(smooth, faces, process=False).export(out)
     return time.perf_counter() - t0
 
 
@@ -144,24 +147,25 @@ def main() -> None:
 
     from nerfkit.data.procedural import scene as proc
     from nerfkit.data.procedural.scene import make_scene
-    from nerfkit.export.mesh import TAUBIN_PAIRS
+    from nerfkit.export.mesh import BILATERAL_ROUNDS, TAUBIN_PAIRS
 
     extra = shlex.split(a.export_args)
     taubin = int(extra[extra.index("--taubin") + 1]) if "--taubin" in extra else TAUBIN_PAIRS
+    bilateral = int(extra[extra.index("--bilateral") + 1]) if "--bilateral" in extra else BILATERAL_ROUNDS
 
     scene = a.out / "scene"
     if not (scene / "transforms_train.json").is_file():
         make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
     seen = seen_surface(scene, a.size)
     result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
-              "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "runs": {}}
+              "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "bilateral": bilateral, "runs": {}}
     a.results.mkdir(parents=True, exist_ok=True)
     for entry in a.runs:
         preset, _, args = entry.partition("=")
         if preset == "exact":
             h = 2 * EXACT_BOUND / (a.resolution - 1)
             mesh = a.out / "exact.ply"
-            export_s = exact_mesh(scene, a.resolution, mesh, taubin)
+            export_s = exact_mesh(scene, a.resolution, mesh, taubin, bilateral)
             scores = measure(mesh, seen, h)
             result["runs"][preset] = {"args": "exact depth maps", "export_wall_s": round(export_s, 1), "cell": h,
                                       **scores}

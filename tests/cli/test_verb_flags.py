@@ -64,6 +64,8 @@ PROOFS = {
         "smooth": ["export/test_splat_mesh.py::test_smoothing_changes_the_mesh_and_is_recorded",
                    "export/test_splat_mesh.py::test_bad_smoothing_is_refused_in_one_line"],
         "taubin": ["export/test_splat_mesh.py::test_taubin_smooths_the_mesh_keeps_its_size_and_is_recorded"],
+        "bilateral": ["export/test_splat_mesh.py::test_bilateral_filtering_flattens_the_mesh_keeps_its_size_and_is_"
+                      "recorded"],
         "data": ["reliability/test_bad_runs.py::test_damaged_run_folders"],
         "progress": [f"{T}::test_no_progress_hides_the_bars"],
         "overwrite": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"]},
