@@ -168,7 +168,7 @@ def test_taubin_smooths_the_mesh_keeps_its_size_and_is_recorded(run, tmp_path, c
 
 def test_bilateral_filtering_flattens_the_mesh_keeps_its_size_and_is_recorded(run, tmp_path, capsys):
     """--bilateral: the same faces, neighbours meeting at smaller angles than after Taubin's filter alone, the same
-    size; the default is 40 rounds for tsdf; a bad value is refused in one line and writes nothing."""
+    size; the default is 10 rounds for tsdf; a bad value is refused in one line and writes nothing."""
     import json
 
     meshes, recs = {}, {}
@@ -178,7 +178,7 @@ def test_bilateral_filtering_flattens_the_mesh_keeps_its_size_and_is_recorded(ru
                      *(["--bilateral", rounds] if rounds else [])]) == 0
         recs[rounds] = json.loads((run / "exports" / "export_mesh.json").read_text())
         meshes[rounds] = trimesh.load(out, process=False)
-    assert recs["0"]["bilateral_rounds"] == 0 and recs[None]["bilateral_rounds"] == 40
+    assert recs["0"]["bilateral_rounds"] == 0 and recs[None]["bilateral_rounds"] == 10
     assert recs["0"]["taubin_pairs"] == recs[None]["taubin_pairs"] == 20
     taubin, both = meshes["0"], meshes[None]
     assert np.array_equal(taubin.faces, both.faces) and not np.allclose(taubin.vertices, both.vertices)

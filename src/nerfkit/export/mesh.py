@@ -69,11 +69,12 @@ COLOR_CELLS = 2.0  # the colour ray crosses the surface from this many grid cell
 # points (docs/verbs/export.md, CHANGELOG).
 TAUBIN_PAIRS = 20
 MAX_TAUBIN = 500
-# Rounds of bilateral normal filtering after Taubin's, chosen on the procedural scene's exact surfaces (a probe of
-# 0, 5, 10, 20, 40, 80 rounds on a splat run: normals within 10 degrees of the truth on 76, 79, 80, 83, 85, 85% of
-# the surface, its distance to the truth 0.58 cells throughout; the exact depth maps' mesh 87 -> 93%), checked on
-# lego's and maryrose's held-out views (docs/verbs/export.md, CHANGELOG).
-BILATERAL_ROUNDS = 40
+# Rounds of bilateral normal filtering after Taubin's: on the procedural scene's exact surfaces a splat run's normals
+# within 10 degrees of the truth went from 76% of the surface to 81% at 10 rounds and 85% at 40 (the exact depth
+# maps' mesh 87 -> 92 / 93%), its distance to the truth unchanged; on lego's held-out views (the tuning half) 40
+# rounds took the depth agreement under 95% (0.955 -> 0.949) and the normals' agreement with the run's depth down 5
+# points, where 10 moved both by about a tenth of a point (maryrose: none). docs/verbs/export.md, CHANGELOG.
+BILATERAL_ROUNDS = 10
 
 
 def check_options(resolution: int, method: str, box: float | None, max_faces: int | None, texture_size: int,
@@ -276,7 +277,7 @@ class ExportMeshArgs:
     bilateral: int | None = None
     """Then this many rounds of bilateral normal filtering (each face's normal averaged with its neighbours' where
     they point the same way, the vertices moved onto the filtered faces: flattens the noise left on flat and gently
-    curved parts and keeps edges sharp; 0: none). Default: 40 for tsdf, 0 for the level set."""
+    curved parts and keeps edges sharp; 0: none). Default: 10 for tsdf, 0 for the level set."""
     max_faces: int | None = None
     """Simplify the mesh to at most this many faces (quadric decimation)."""
     every: int | None = None
