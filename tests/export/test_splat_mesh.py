@@ -140,56 +140,53 @@ def test_bad_smoothing_is_refused_in_one_line(run, tmp_path, capsys):
     assert not out.exists()
 
 
-def test_taubin_smooths_the_mesh_keeps_its_size_and_is_recorded(run, tmp_path, capsys):
-    """--taubin: the same faces, flatter between neighbours, the same size (a Laplacian filter alone, without
-    Taubin's inflating step, shrinks this mesh by about 3% of its radius in 20 rounds); the default is 20 rounds
-    for tsdf; a bad value is refused in one line and writes nothing."""
+def export_rounds(run, tmp_path, flag: str, values, *extra: str) -> tuple[dict, dict]:
+    """({value: mesh}, {value: record}) of `export mesh RUN --resolution 48 FLAG VALUE EXTRA` for each value (None:
+    the flag left out)."""
     import json
 
     meshes, recs = {}, {}
-    for rounds in ("0", "20", None):
-        out = tmp_path / f"mesh_{rounds}.ply"
-        assert main(["export", "mesh", str(run), "--out", str(out), "--resolution", "48", "--no-progress",
-                     "--bilateral", "0", *(["--taubin", rounds] if rounds else [])]) == 0
-        recs[rounds] = json.loads((run / "exports" / "export_mesh.json").read_text())
-        meshes[rounds] = trimesh.load(out, process=False)
-    assert recs["0"]["taubin_pairs"] == 0 and recs["20"]["taubin_pairs"] == recs[None]["taubin_pairs"] == 20
-    rough, smooth = meshes["0"], meshes["20"]
-    assert np.array_equal(rough.faces, smooth.faces) and np.allclose(smooth.vertices, meshes[None].vertices)
+    for value in values:
+        out = tmp_path / f"mesh_{flag.strip('-')}_{value}.ply"
+        assert main(["export", "mesh", str(run), "--out", str(out), "--resolution", "48", "--no-progress", *extra,
+                     *([flag, value] if value else [])]) == 0
+        recs[value] = json.loads((run / "exports" / "export_mesh.json").read_text())
+        meshes[value] = trimesh.load(out, process=False)
+    return meshes, recs
+
+
+def assert_smoother_same_size_and_refused_bad(run, tmp_path, capsys, flag: str, rough, smooth) -> None:
+    """The same faces, neighbours meeting at smaller angles, the same size; FLAG -1 refused in one line, nothing
+    written."""
+    assert np.array_equal(rough.faces, smooth.faces)
     assert np.median(smooth.face_adjacency_angles) < 0.8 * np.median(rough.face_adjacency_angles)
     def size(m):
         return np.mean(np.linalg.norm(m.vertices - rough.vertices.mean(0), axis=1))
     assert size(smooth) == pytest.approx(size(rough), rel=0.01)
     bad = tmp_path / "bad.ply"
-    assert main(["export", "mesh", str(run), "--out", str(bad), "--taubin", "-1", "--no-progress"]) == 1
+    assert main(["export", "mesh", str(run), "--out", str(bad), flag, "-1", "--no-progress"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--taubin must be between 0 and" in err[0] and not bad.exists()
+    assert len(err) == 1 and f"{flag} must be between 0 and" in err[0] and not bad.exists()
+
+
+def test_taubin_smooths_the_mesh_keeps_its_size_and_is_recorded(run, tmp_path, capsys):
+    """--taubin: the same faces, flatter between neighbours, the same size (a Laplacian filter alone, without
+    Taubin's inflating step, shrinks this mesh by about 3% of its radius in 20 rounds); the default is 20 rounds
+    for tsdf; a bad value is refused in one line and writes nothing."""
+    meshes, recs = export_rounds(run, tmp_path, "--taubin", ("0", "20", None), "--bilateral", "0")
+    assert recs["0"]["taubin_pairs"] == 0 and recs["20"]["taubin_pairs"] == recs[None]["taubin_pairs"] == 20
+    assert np.allclose(meshes["20"].vertices, meshes[None].vertices)
+    assert_smoother_same_size_and_refused_bad(run, tmp_path, capsys, "--taubin", meshes["0"], meshes["20"])
 
 
 def test_bilateral_filtering_flattens_the_mesh_keeps_its_size_and_is_recorded(run, tmp_path, capsys):
     """--bilateral: the same faces, neighbours meeting at smaller angles than after Taubin's filter alone, the same
     size; the default is 10 rounds for tsdf; a bad value is refused in one line and writes nothing."""
-    import json
-
-    meshes, recs = {}, {}
-    for rounds in ("0", None):
-        out = tmp_path / f"mesh_{rounds}.ply"
-        assert main(["export", "mesh", str(run), "--out", str(out), "--resolution", "48", "--no-progress",
-                     *(["--bilateral", rounds] if rounds else [])]) == 0
-        recs[rounds] = json.loads((run / "exports" / "export_mesh.json").read_text())
-        meshes[rounds] = trimesh.load(out, process=False)
+    meshes, recs = export_rounds(run, tmp_path, "--bilateral", ("0", None))
     assert recs["0"]["bilateral_rounds"] == 0 and recs[None]["bilateral_rounds"] == 10
     assert recs["0"]["taubin_pairs"] == recs[None]["taubin_pairs"] == 20
-    taubin, both = meshes["0"], meshes[None]
-    assert np.array_equal(taubin.faces, both.faces) and not np.allclose(taubin.vertices, both.vertices)
-    assert np.median(both.face_adjacency_angles) < 0.8 * np.median(taubin.face_adjacency_angles)
-    def size(m):
-        return np.mean(np.linalg.norm(m.vertices - taubin.vertices.mean(0), axis=1))
-    assert size(both) == pytest.approx(size(taubin), rel=0.01)
-    bad = tmp_path / "bad.ply"
-    assert main(["export", "mesh", str(run), "--out", str(bad), "--bilateral", "-1", "--no-progress"]) == 1
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--bilateral must be between 0 and" in err[0] and not bad.exists()
+    assert not np.allclose(meshes["0"].vertices, meshes[None].vertices)
+    assert_smoother_same_size_and_refused_bad(run, tmp_path, capsys, "--bilateral", meshes["0"], meshes[None])
 
 
 def test_smoothing_changes_the_mesh_and_is_recorded(run, tmp_path):

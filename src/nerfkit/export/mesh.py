@@ -71,9 +71,10 @@ TAUBIN_PAIRS = 20
 MAX_TAUBIN = 500
 # Rounds of bilateral normal filtering after Taubin's: on the procedural scene's exact surfaces a splat run's normals
 # within 10 degrees of the truth went from 76% of the surface to 81% at 10 rounds and 85% at 40 (the exact depth
-# maps' mesh 87 -> 92 / 93%), its distance to the truth unchanged; on lego's held-out views (the tuning half) 40
-# rounds took the depth agreement under 95% (0.955 -> 0.949) and the normals' agreement with the run's depth down 5
-# points, where 10 moved both by about a tenth of a point (maryrose: none). docs/verbs/export.md, CHANGELOG.
+# maps' mesh 87.3 -> 91.5 / 92.5%), its distance to the truth unchanged; on lego's held-out views (the tuning half)
+# 40 rounds took the depth agreement under 95% (0.955 -> 0.949) and the normals' agreement with the run's depth down
+# 5 points, where 10 moved the first by a tenth of a point and the second by one (maryrose: neither).
+# docs/verbs/export.md, CHANGELOG.
 BILATERAL_ROUNDS = 10
 
 
