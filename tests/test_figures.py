@@ -787,7 +787,7 @@ CHECKS = [
                        ((NCL342, "runs", "lego_normal_consistency_0.15_from_0.3", "psnr"), f1)]),
     ("docs/verbs/export.md", "Then `--bilateral` rounds of bilateral normal filtering", "10 rounds take the IoU from {} "
      "to {} and the depth agreement from {} to {}, and neighbouring faces meet at a median {} degrees instead of {}; "
-     "40 rounds flatten lego's small rounded parts: depth agreement {}, under {}%",
+     "40 rounds flatten further and take the depth agreement to {}, under {}%",
      [((LB0, "methods", "tsdf", "iou_mean"), f3), ((LB10, "methods", "tsdf", "iou_mean"), f3),
       ((LB0, "methods", "tsdf", "depth_within_tol_median_mean"), f3),
       ((LB10, "methods", "tsdf", "depth_within_tol_median_mean"), f3),
