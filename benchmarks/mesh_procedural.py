@@ -131,6 +131,16 @@ def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int, bilateral: 
     return time.perf_counter() - t0
 
 
+def smoothing_rounds(export_args: list[str]) -> tuple[int, int]:
+    """(Taubin rounds, bilateral rounds) the export runs with these flags: those given, else its defaults."""
+    from nerfkit.export.mesh import BILATERAL_ROUNDS, TAUBIN_PAIRS
+
+    def given(flag, default):
+        return int(export_args[export_args.index(flag) + 1]) if flag in export_args else default
+
+    return given("--taubin", TAUBIN_PAIRS), given("--bilateral", BILATERAL_ROUNDS)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=128)
@@ -147,11 +157,8 @@ def main() -> None:
 
     from nerfkit.data.procedural import scene as proc
     from nerfkit.data.procedural.scene import make_scene
-    from nerfkit.export.mesh import BILATERAL_ROUNDS, TAUBIN_PAIRS
-
     extra = shlex.split(a.export_args)
-    taubin = int(extra[extra.index("--taubin") + 1]) if "--taubin" in extra else TAUBIN_PAIRS
-    bilateral = int(extra[extra.index("--bilateral") + 1]) if "--bilateral" in extra else BILATERAL_ROUNDS
+    taubin, bilateral = smoothing_rounds(extra)
 
     scene = a.out / "scene"
     if not (scene / "transforms_train.json").is_file():

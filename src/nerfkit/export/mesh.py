@@ -68,7 +68,7 @@ COLOR_CELLS = 2.0  # the colour ray crosses the surface from this many grid cell
 # 0.61 cells); checked on lego's and maryrose's held-out views, where IoU and depth agreement moved by under 0.2
 # points (docs/verbs/export.md, CHANGELOG).
 TAUBIN_PAIRS = 20
-MAX_TAUBIN = 500
+MAX_ROUNDS = 500  # of either filter
 # Rounds of bilateral normal filtering after Taubin's: on the procedural scene's exact surfaces a splat run's normals
 # within 10 degrees of the truth went from 76% of the surface to 81% at 10 rounds and 85% at 40 (the exact depth
 # maps' mesh 87.3 -> 91.5 / 92.5%), its distance to the truth unchanged; on lego's held-out views (the tuning half)
@@ -93,10 +93,10 @@ def check_options(resolution: int, method: str, box: float | None, max_faces: in
         raise ConfigError(f"--box must be a positive half-size in the run's normalised units (got {box})")
     if not 64 <= texture_size <= 8192:
         raise ConfigError(f"--texture-size must be between 64 and 8192 texels (got {texture_size})")
-    if taubin is not None and not 0 <= taubin <= MAX_TAUBIN:
-        raise ConfigError(f"--taubin must be between 0 and {MAX_TAUBIN} rounds of smoothing (got {taubin})")
-    if bilateral is not None and not 0 <= bilateral <= MAX_TAUBIN:
-        raise ConfigError(f"--bilateral must be between 0 and {MAX_TAUBIN} rounds of filtering (got {bilateral})")
+    if taubin is not None and not 0 <= taubin <= MAX_ROUNDS:
+        raise ConfigError(f"--taubin must be between 0 and {MAX_ROUNDS} rounds of smoothing (got {taubin})")
+    if bilateral is not None and not 0 <= bilateral <= MAX_ROUNDS:
+        raise ConfigError(f"--bilateral must be between 0 and {MAX_ROUNDS} rounds of filtering (got {bilateral})")
 
 
 def default_out(run_dir: Path, texture: bool) -> Path:
@@ -181,9 +181,8 @@ def clean_up(verts, faces, method: str, h: float, max_faces: int | None, texture
     """(verts, faces, record fields): specks of the fused surface dropped (the level set keeps its pieces, as
     in the exports of the last round), smoothed by `smoothing` = (taubin, bilateral) rounds of Taubin's filter and
     then of bilateral normal filtering (kept in the box [-bound, bound]^3: the inflating step moves a closed mesh's
-    corners on the box a little out), decimated to
-    max_faces (TEXTURE_FACES with a texture), and checked to be a closed manifold (an error when `watertight` asked
-    for one)."""
+    corners on the box a little out), decimated to max_faces (TEXTURE_FACES with a texture), and checked to be a
+    closed manifold (an error when `watertight` asked for one)."""
     n_surface, dropped = len(faces), 0
     if method == "tsdf":
         verts, faces, dropped = drop_specks(verts, faces, SPECK_CELLS * h)
