@@ -23,7 +23,8 @@ and measures the mesh (data/procedural/surfaces.py's signed distance and normals
 
 The run label `exact` (no training) fuses the training views' exact depth maps (ray traced, as wide as the
 export renders them) with the export's own TSDF steps, its Taubin smoothing and its bilateral normal filtering
-(`--taubin` and `--bilateral` of EXPORT_ARGS, or the export's defaults): what the grid and the fusion allow, the ceiling of every measure above.
+(`--taubin` and `--bilateral` of EXPORT_ARGS, or the export's defaults): what the grid and the fusion allow, the
+ceiling of every measure above.
 
 Writes benchmarks/results/mesh_procedural.json (with the commit) and mesh_procedural_<label>.png (the
 export's picture of its mesh from two sides).
@@ -165,7 +166,8 @@ def main() -> None:
         make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
     seen = seen_surface(scene, a.size)
     result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
-              "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "bilateral": bilateral, "runs": {}}
+              "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "bilateral": bilateral,
+              "runs": {}}
     a.results.mkdir(parents=True, exist_ok=True)
     for entry in a.runs:
         preset, _, args = entry.partition("=")

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from nerfkit.export.surface import rim_vertices
+
 SIGMA_NORMAL = 0.2  # sigma_r: the distance between unit normals the range weight falls off over (about 11 degrees)
 
 
@@ -91,9 +93,7 @@ def bilateral_smooth(verts: np.ndarray, faces: np.ndarray, rounds: int, sigma_r:
     if rounds <= 0 or len(faces) == 0:
         return verts
     x = np.asarray(verts, np.float64)
-    edges = trimesh.Trimesh(x, faces, process=False).edges_sorted
-    rim = trimesh.grouping.group_rows(edges, require_count=1)
-    pinned = np.unique(edges[rim]) if len(rim) else None
+    pinned = rim_vertices(trimesh.Trimesh(x, faces, process=False))
     inc = incidence(faces, len(x))
     centroids, normals, areas = face_geometry(x, faces)
     filtered = filter_normals(centroids, normals, areas, inc @ inc.T, rounds, sigma_r)

@@ -79,6 +79,16 @@ def drop_specks(verts: np.ndarray, faces: np.ndarray, size: float) -> tuple[np.n
     return v, f, int(speck.sum())
 
 
+def rim_vertices(mesh) -> np.ndarray | None:
+    """The indices of a trimesh mesh's vertices on open edges (edges of one face: an open mesh's rim, where the box
+    cut it or no view saw), or None for a closed mesh. The smoothing filters hold them where they are: their
+    one-sided neighbourhood would pull them along the surface."""
+    import trimesh
+
+    rim = trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)
+    return np.unique(mesh.edges_sorted[rim]) if len(rim) else None
+
+
 TAUBIN_LAMBDA, TAUBIN_MU = 0.5, 0.53  # Taubin's classic pass band: k_PB = 1 / lambda - 1 / mu = 0.11
 
 
@@ -99,9 +109,7 @@ def taubin_smooth(verts: np.ndarray, faces: np.ndarray, pairs: int) -> np.ndarra
     if pairs <= 0 or len(faces) == 0:
         return verts
     mesh = trimesh.Trimesh(np.asarray(verts, np.float64), faces, process=False)
-    rim = trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)
-    pinned = np.unique(mesh.edges_sorted[rim]) if len(rim) else None
-    operator = trimesh.smoothing.laplacian_calculation(mesh, pinned_vertices=pinned)
+    operator = trimesh.smoothing.laplacian_calculation(mesh, pinned_vertices=rim_vertices(mesh))
     trimesh.smoothing.filter_taubin(mesh, lamb=TAUBIN_LAMBDA, nu=TAUBIN_MU, iterations=2 * pairs,
                                     laplacian_operator=operator)
     return np.asarray(mesh.vertices, np.float32)
