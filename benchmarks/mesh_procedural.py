@@ -20,6 +20,9 @@ and measures the mesh (data/procedural/surfaces.py's signed distance and normals
                    10 degrees of the true normal there, and the median angle; and the same share over those at
                    least CREASE_CELLS h from a crease (surfaces.crease_distance: box edges, rims, where solids
                    meet), where a mesh on a grid of cell h can have the true normal at all
+    normals seen   the same two shares over the points whose nearest true surface point a training camera sees
+                   (in front of it, nothing between): the ground's underside and the solids' hidden parts are
+                   meshed from no photo, so no normal there can be right but by chance
 
 The run label `exact` (no training) fuses the training views' exact depth maps (ray traced, as wide as the
 export renders them) with the export's own TSDF steps, its Taubin smoothing and its bilateral normal filtering
@@ -75,7 +78,27 @@ def seen_surface(scene: Path, size: int) -> np.ndarray:
     return np.concatenate(pts)
 
 
-def measure(mesh_file: Path, seen: np.ndarray, h: float) -> dict:
+def camera_centres(scene: Path) -> np.ndarray:
+    """The training cameras' centres [C, 3]."""
+    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
+    return np.array([np.array(f["transform_matrix"])[:3, 3] for f in frames])
+
+
+def seen_by(q: np.ndarray, normal: np.ndarray, cams: np.ndarray, h: float) -> np.ndarray:
+    """How many cameras [C, 3] see each true surface point q [N, 3] (outward normals [N, 3]): the point faces the
+    camera, n . (c - q) > 0, and the ray from c towards q hits nothing before it, t > |q - c| - h / 2."""
+    from nerfkit.data.procedural import scene as proc
+
+    count = np.zeros(len(q), np.int32)
+    for c in cams:
+        d = q - c
+        dist = np.linalg.norm(d, axis=1)
+        _, alpha, t = proc.trace(np.broadcast_to(c, q.shape).copy(), d / dist[:, None])
+        count += (np.sum(normal * (c - q), axis=1) > 0) & ((alpha < 0.5) | (t > dist - 0.5 * h))
+    return count
+
+
+def measure(mesh_file: Path, seen: np.ndarray, h: float, cams: np.ndarray) -> dict:
     import trimesh
     from scipy.spatial import cKDTree
 
@@ -85,16 +108,20 @@ def measure(mesh_file: Path, seen: np.ndarray, h: float) -> dict:
     pts, fid = trimesh.sample.sample_surface(mesh, POINTS, seed=0)
     sdf = np.abs(signed_distance(pts))
     near = sdf < 2 * h
-    cos = np.sum(mesh.face_normals[fid[near]] * surface_normal(pts[near]), axis=1)
+    true_n = surface_normal(pts[near])
+    cos = np.sum(mesh.face_normals[fid[near]] * true_n, axis=1)
     ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     off = crease_distance(pts[near]) >= CREASE_CELLS * h
+    vis = seen_by(pts[near] - signed_distance(pts[near])[:, None] * true_n, true_n, cams, h) > 0
     gap = cKDTree(pts).query(seen)[0]
     return {"faces": len(mesh.faces), "accuracy_cells": float(sdf.mean() / h),
             "accuracy_median_cells": float(np.median(sdf) / h), "completeness_cells": float(gap.mean() / h),
             "completeness_median_cells": float(np.median(gap) / h), "near_share": float(near.mean()),
             "normals_within_10deg": float(np.mean(ang <= NORMAL_DEG)), "normal_median_deg": float(np.median(ang)),
             "normals_off_creases_within_10deg": float(np.mean(ang[off] <= NORMAL_DEG)),
-            "off_crease_share": float(off.mean())}
+            "off_crease_share": float(off.mean()), "seen_share": float(vis.mean()),
+            "normals_seen_within_10deg": float(np.mean(ang[vis] <= NORMAL_DEG)),
+            "normals_seen_off_creases_within_10deg": float(np.mean(ang[vis & off] <= NORMAL_DEG))}
 
 
 def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int, bilateral: int) -> float:
@@ -142,6 +169,15 @@ def smoothing_rounds(export_args: list[str]) -> tuple[int, int]:
     return given("--taubin", TAUBIN_PAIRS), given("--bilateral", BILATERAL_ROUNDS)
 
 
+def summary(label: str, scores: dict, export_s: float) -> str:
+    """One line of a run's measures."""
+    return (f"{label}: accuracy {scores['accuracy_cells']:.2f} h, completeness {scores['completeness_cells']:.2f} h, "
+            f"normals within {NORMAL_DEG:g} deg on {scores['normals_within_10deg']:.3f} (median "
+            f"{scores['normal_median_deg']:.1f} deg; off creases {scores['normals_off_creases_within_10deg']:.3f}; "
+            f"seen {scores['normals_seen_within_10deg']:.3f}, seen off creases "
+            f"{scores['normals_seen_off_creases_within_10deg']:.3f}); export {export_s:.0f} s")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=128)
@@ -165,6 +201,7 @@ def main() -> None:
     if not (scene / "transforms_train.json").is_file():
         make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
     seen = seen_surface(scene, a.size)
+    cams = camera_centres(scene)
     result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
               "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "bilateral": bilateral,
               "runs": {}}
@@ -175,7 +212,7 @@ def main() -> None:
             h = 2 * EXACT_BOUND / (a.resolution - 1)
             mesh = a.out / "exact.ply"
             export_s = exact_mesh(scene, a.resolution, mesh, taubin, bilateral)
-            scores = measure(mesh, seen, h)
+            scores = measure(mesh, seen, h, cams)
             result["runs"][preset] = {"args": "exact depth maps", "export_wall_s": round(export_s, 1), "cell": h,
                                       **scores}
         else:
@@ -191,16 +228,13 @@ def main() -> None:
             rec = json.loads((run / "exports" / "export_mesh.json").read_text())
             h = 2 * rec["bound"] / (a.resolution - 1)
             val = [json.loads(line) for line in (run / "val_metrics.jsonl").read_text().splitlines() if line.strip()]
-            scores = measure(mesh, seen, h)
+            scores = measure(mesh, seen, h, cams)
             result["runs"][preset] = {"args": args, "train_wall_s": train_s, "export_wall_s": round(export_s, 1),
                                       "cell": h, "pixel_cells": float(4.0 / (0.5 * a.size / np.tan(
                                           0.5 * proc.CAMERA_ANGLE_X)) / h),
                                       "val_psnr": val[-1]["psnr"], "step": val[-1]["step"], **scores}
             shutil.copyfile(run / "exports" / rec["picture"], a.results / f"{a.name}_{preset}.png")
-        print(f"{preset}: accuracy {scores['accuracy_cells']:.2f} h, completeness {scores['completeness_cells']:.2f} h, "
-              f"normals within {NORMAL_DEG:g} deg on {scores['normals_within_10deg']:.3f} (median "
-              f"{scores['normal_median_deg']:.1f} deg; off creases {scores['normals_off_creases_within_10deg']:.3f}); "
-              f"export {export_s:.0f} s")
+        print(summary(preset, scores, export_s))
     (a.results / f"{a.name}.json").write_text(json.dumps(result, indent=1))
     print(f"wrote {a.results / f'{a.name}.json'}")
 
