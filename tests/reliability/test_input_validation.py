@@ -255,8 +255,9 @@ def test_bad_config_values_fail_with_one_line(base, tmp_path, capsys, flags, mes
 @pytest.mark.parametrize("flags,message", [
     (["--normal-consistency", "0.1", "--normal-consistency-from", "1.5"],
      "--normal-consistency-from must be in [0, 1): the share of the budget before the term comes on (got 1.5)"),
-    (["--normal-consistency-from", "0.3"], "--normal-consistency-from has no effect: the normal-consistency term is "
-                                           "off; give it a weight (--normal-consistency 0.15)"),
+    (["--normal-consistency-from", "0.3"], "--normal-consistency-from has no effect: the surface terms are off; give "
+                                           "one a weight (--normal-consistency 0.15)"),
+    (["--depth-distortion", "-1"], "--depth-distortion must be >= 0 (got -1.0)"),
 ])
 def test_bad_splat_values_fail_with_one_line(base, tmp_path, capsys, flags, message):
     rc = main(["train", str(base), "--out", str(tmp_path / "run"), "--preset", "splat", "--no-progress", *flags])

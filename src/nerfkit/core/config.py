@@ -297,10 +297,14 @@ class SplatSettings:
     (2DGS's normal consistency: the blended normals of the Gaussians against the normals of the rendered
     depth), for runs meant for `export mesh`; 0: off. Costs steps per second and some PSNR (docs: Export)."""
     normal_consistency_from: float = 0.0
-    """The share of the budget trained before the --normal-consistency term comes on (2DGS starts it after a
-    warm-up, so that the Gaussians find the colours first): 0 (default) from the first step. lego, 10
+    """The share of the budget trained before the --normal-consistency and --depth-distortion terms come on (2DGS
+    starts them after a warm-up, so that the Gaussians find the colours first): 0 (default) from the first step. lego, 10
     minutes, weight 0.15 from 0.3: 31.0 dB held out (28.2 with 0.15 from the start) and a mesh that keeps both
     the silhouettes and the depth (docs: Export)."""
+    depth_distortion: float = 0.0
+    """Weight of a training term that draws the Gaussians a ray passes together in depth (2DGS's depth distortion:
+    the blended squared differences of their depths along each ray, relative to the depth), for runs meant for
+    `export mesh`; 0: off. On from --normal-consistency-from, as that term is (docs: Export)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
@@ -362,6 +366,7 @@ class Config:
                 sections["splat"].setdefault("random_background", "off")
                 sections["splat"].setdefault("normal_consistency", 0.0)
                 sections["splat"].setdefault("normal_consistency_from", 0.0)
+                sections["splat"].setdefault("depth_distortion", 0.0)
             sections["train"].setdefault("pose_refine", "off")
             cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
         except (KeyError, TypeError, AttributeError) as e:

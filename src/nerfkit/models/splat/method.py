@@ -93,7 +93,8 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
-                       normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from)
+                       normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
+                       depth_distortion=g.depth_distortion)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -110,10 +111,12 @@ def _describe_coarse(coarse: float | None) -> str:
 
 
 def _describe_surface(g) -> str:
-    if not g.normal_consistency:
+    terms = [f"{name} {w:g}" for name, w in (("normal consistency", g.normal_consistency),
+                                             ("depth distortion", g.depth_distortion)) if w]
+    if not terms:
         return ""
     late = f" from {g.normal_consistency_from:.0%} of the budget" if g.normal_consistency_from else ""
-    return f"; normal consistency {g.normal_consistency:g}{late}"
+    return f"; {', '.join(terms)}{late}"
 
 
 class SplatOptimizer:
@@ -135,7 +138,7 @@ class SplatModel:
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
-        "normal_consistency_from")) | {"train.pose_refine"}
+        "normal_consistency_from", "depth_distortion")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -177,13 +180,13 @@ class SplatModel:
     @staticmethod
     def unused(cfg, capture=None) -> dict[str, str]:
         """Settings left unread at these values: field.kind (splats are no field), normal_consistency_from without
-        the term, sh_interval at SH degree 0, init_points auto on a capture without SfM points."""
+        a surface term, sh_interval at SH degree 0, init_points auto on a capture without SfM points."""
         out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
         if cfg.splat.init:
             out["splat.init_points"] = f"the Gaussians start from --init {cfg.splat.init}"
             out["splat.far_points"] = f"the Gaussians start from --init {cfg.splat.init}"
-        if cfg.splat.normal_consistency == 0:
-            out["splat.normal_consistency_from"] = ("the normal-consistency term is off; give it a weight "
+        if cfg.splat.normal_consistency == 0 and cfg.splat.depth_distortion == 0:
+            out["splat.normal_consistency_from"] = ("the surface terms are off; give one a weight "
                                                     "(--normal-consistency 0.15)")
         if cfg.splat.sh_degree == 0:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"

@@ -19,6 +19,17 @@ agrees with the Gaussians' own normals where neighbouring planes meet along one 
     L_n = mean over pixels with A > 1/2 of  A - N . N_D  =  sum_k w_k (1 - n_k . N_D)
 
 is the 2DGS term (0 when every blended Gaussian is tangent to the depth map's surface).
+
+Depth distortion (2DGS eq. 13, sum_{i,j} w_i w_j (z_i - z_j)^2: the blended Gaussians drawn together along the
+ray), in inverse depth: Gaussian k meets the ray of pixel p at s_k(p) = q_k . r_p, linear in r_p, so with the
+blended outer products M(p) = sum_k w_k q_k q_k^T (6 more channels) the rasteriser's sums give it exactly,
+
+    sum_{i,j} w_i w_j (s_i - s_j)^2 = 2 (A r_p^T M r_p - (Q . r_p)^2)
+
+and, scaled by D^2 (held constant), the spread of the depths relative to the depth, (dz / z)^2, the same on a
+scene of any size:
+
+    L_d = mean over pixels with A > 1/2 of  2 (A r_p^T M r_p - (Q . r_p)^2) D^2
 """
 
 from __future__ import annotations
@@ -29,6 +40,7 @@ import jax.numpy as jnp
 from nerfkit.models.splat.project import quaternion_to_rotation, world_to_camera
 
 SURFACE_CHANNELS = 6  # N (3) and Q (3), after the colour channels
+DISTORTION_CHANNELS = 6  # M's entries (00, 01, 02, 11, 12, 22), after those
 DELTA_MIN = 0.05  # |delta_k| >= this x z_k: a plane seen edge-on does not send 1 / t towards 0
 INV_DEPTH_MIN = 1e-3  # pixels where Q . r_p falls below this (no plane in front) are left out
 
@@ -45,11 +57,21 @@ def surface_channels(means: jax.Array, log_scales: jax.Array, quats: jax.Array, 
     return jnp.concatenate([n, n / delta[:, None]], axis=-1)
 
 
-def with_surface_channels(colors: jax.Array, background: jax.Array, params: dict, c2w: jax.Array):
-    """(colors [N, C + 6], background [C + 6]): the colour channels followed by surface_channels, on zero."""
+def outer_channels(q: jax.Array) -> jax.Array:
+    """[N, 6]: the entries (00, 01, 02, 11, 12, 22) of q_k q_k^T for q [N, 3]."""
+    i, j = (0, 0, 0, 1, 1, 2), (0, 1, 2, 1, 2, 2)
+    return q[:, i] * q[:, j]
+
+
+def with_surface_channels(colors: jax.Array, background: jax.Array, params: dict, c2w: jax.Array,
+                          distortion: bool = False):
+    """(colors [N, C + K], background [C + K]): the colour channels followed by surface_channels (K = 6) and, with
+    distortion, outer_channels of their q (K = 12), on zero."""
     extra = surface_channels(params["means"], params["log_scales"], params["quats"], c2w)
+    if distortion:
+        extra = jnp.concatenate([extra, outer_channels(extra[:, 3:])], axis=-1)
     return (jnp.concatenate([colors, extra], axis=-1),
-            jnp.concatenate([background, jnp.zeros(SURFACE_CHANNELS, background.dtype)]))
+            jnp.concatenate([background, jnp.zeros(extra.shape[-1], background.dtype)]))
 
 
 def pixel_directions(intrinsics, width: int, height: int) -> jax.Array:
@@ -77,10 +99,24 @@ def normal_consistency(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax
     opacity alpha [H, W]; 0 where no interior pixel is more than half opaque."""
     height, width = alpha.shape
     rays = pixel_directions(intrinsics, width, height)
-    inv = jnp.sum(channels[..., 3:] * rays, -1)  # Q . r_p = A / D
+    inv = jnp.sum(channels[..., 3:6] * rays, -1)  # Q . r_p = A / D
     ok = (alpha > 0.5) & (inv > INV_DEPTH_MIN * alpha)
     depth = jnp.where(ok, alpha / jnp.where(ok, inv, 1.0), 0.0)
     nd = depth_normals(depth, rays)
     inner = jax.lax.stop_gradient(ok[1:-1, 1:-1] & ok[2:, 1:-1] & ok[:-2, 1:-1] & ok[1:-1, 2:] & ok[1:-1, :-2])
     term = alpha[1:-1, 1:-1] - jnp.sum(channels[1:-1, 1:-1, :3] * nd, -1)
     return jnp.sum(jnp.where(inner, term, 0.0)) / jnp.maximum(jnp.sum(inner), 1)
+
+
+def depth_distortion(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax.Array:
+    """L_d (module docstring) of a render's surface channels [H, W, 12] (N, Q, M blended on a zero background) and
+    opacity alpha [H, W]; 0 where no pixel is more than half opaque."""
+    height, width = alpha.shape
+    x, y, _ = jnp.moveaxis(pixel_directions(intrinsics, width, height), -1, 0)
+    inv = x * channels[..., 3] + y * channels[..., 4] + channels[..., 5]  # Q . r_p = A / D
+    m = [channels[..., 6 + c] for c in range(DISTORTION_CHANNELS)]
+    second = m[0] * x * x + 2 * m[1] * x * y + 2 * m[2] * x + m[3] * y * y + 2 * m[4] * y + m[5]  # r^T M r
+    ok = jax.lax.stop_gradient((alpha > 0.5) & (inv > INV_DEPTH_MIN * alpha))
+    depth = jax.lax.stop_gradient(jnp.where(ok, alpha / jnp.where(ok, inv, 1.0), 0.0))
+    spread = 2 * (alpha * second - inv * inv) * depth * depth
+    return jnp.sum(jnp.where(ok, spread, 0.0)) / jnp.maximum(jnp.sum(ok), 1)

@@ -5,15 +5,15 @@ One step (compiled once for the run; the SH degree is a traced band mask, the me
 rate a traced scalar, so nothing recompiles when they change):
 
     render training view k (project.py + SH + the numba tile rasteriser), with inactive slots culled
-    L = (1 - 0.2) L1 + 0.2 (1 - SSIM)  [+ MCMC's opacity and scale regularisers] [+ W L_n, surface.py]
+    L = (1 - 0.2) L1 + 0.2 (1 - SSIM)  [+ MCMC's opacity and scale regularisers] [+ W L_n] [+ W_d L_d, surface.py]
     Adam per parameter group (optim.py)  [+ MCMC position noise | classic gradient statistics]
 
 Coarse to fine: while progress t < coarse_until, a step renders and scores the view at half
 resolution (half_resolution: 2x2 pixels averaged, intrinsics halved; a second compiled step,
 with the screen dilation a quarter in half-pixels^2, the photos' footprint: project.py), a
 quarter of the rasteriser's work, so the early, coarse fitting takes more steps. Likewise the
-normal-consistency term W L_n is on from t = normal_consistency_from (2DGS starts it after a
-warm-up): before that a step compiled without it (nor its extra channels) runs.
+surface terms (normal consistency W L_n, depth distortion W_d L_d) are on from t = normal_consistency_from
+(2DGS starts them after a warm-up): before that a step compiled without them (nor their extra channels) runs.
 
 Views are visited in a fresh random order every epoch (3DGS draws one camera per step). The SH
 degree rises by one every `sh_interval` steps up to 3. Every `window.every` steps the host runs
@@ -43,7 +43,7 @@ from nerfkit.models.splat.optim import LearningRates, adam_step, means_lr, pose_
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
-from nerfkit.models.splat.surface import normal_consistency, with_surface_channels
+from nerfkit.models.splat.surface import depth_distortion, normal_consistency, with_surface_channels
 from nerfkit.rays.correction import corrected_composite, corrected_pose
 
 
@@ -75,7 +75,8 @@ class SplatConfig:
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
-    normal_consistency_from: float = 0.0  # progress from which that term is on (before: steps without it)
+    normal_consistency_from: float = 0.0  # progress from which the surface terms are on (before: steps without)
+    depth_distortion: float = 0.0  # weight of surface.depth_distortion in the loss (0: off)
     n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
 
@@ -134,8 +135,9 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
     proj, colors, opac = splat_inputs(params, c2w, (intr[0], intr[1], intr[2], intr[3]), width, height,
                                       all_sh(params) * sh_mask, dilation)
     radii = jnp.where(active, proj["radii"], 0)
-    surface = cfg.normal_consistency > 0  # then the Gaussians' normals and planes follow the colour (surface.py)
-    channels, bg_in = with_surface_channels(colors, bg, params, c2w) if surface else (colors, bg)
+    surface = surface_terms(cfg)  # then the Gaussians' normals and planes follow the colour (surface.py)
+    channels, bg_in = (with_surface_channels(colors, bg, params, c2w, cfg.depth_distortion > 0) if surface
+                       else (colors, bg))
     rendered, alpha = rasterize(proj["means2d"] + offset, proj["conics"], channels, opac, proj["depths"], radii,
                                 bg_in, width, height, backend=cfg.backend)
     rgb = rendered[..., :3]
@@ -143,9 +145,16 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
         rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx])
     photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
     loss = photo + cfg.strategy.regularizer(params, active)
-    if surface:
+    if cfg.normal_consistency > 0:
         loss = loss + cfg.normal_consistency * normal_consistency(rendered[..., 3:], alpha, intr)
+    if cfg.depth_distortion > 0:
+        loss = loss + cfg.depth_distortion * depth_distortion(rendered[..., 3:], alpha, intr)
     return loss, (photo, radii, jnp.mean((rgb - image) ** 2))
+
+
+def surface_terms(cfg: SplatConfig) -> bool:
+    """Whether cfg trains with a surface term (normal consistency, depth distortion; surface.py)."""
+    return cfg.normal_consistency > 0 or cfg.depth_distortion > 0
 
 
 BACKGROUND_KEY = 0x6B67  # folded into a step's key for its random background (the strategy uses the key itself)
@@ -252,17 +261,17 @@ class ViewStep:
         self._half: dict = {}  # the half-resolution views, made at the first coarse step
 
     def _step_for(self, half_now: bool, surface_now: bool):
-        """The compiled step at half or full resolution, with or without the normal-consistency term."""
+        """The compiled step at half or full resolution, with or without the surface terms."""
         key = (half_now, surface_now)
         if key not in self._steps:
-            sc = self.sc if surface_now else replace(self.sc, normal_consistency=0.0)
+            sc = self.sc if surface_now else replace(self.sc, normal_consistency=0.0, depth_distortion=0.0)
             make = half_step if half_now else make_step
             self._steps[key] = make(sc, self.opts, self.width, self.height, with_health=True, extent=self.extent)
         return self._steps[key]
 
     def _at_resolution(self, plan: dict, images, intrinsics):
         """(compiled step, images, intrinsics, width) for this step's plan (schedule_at): the half-resolution
-        ones in the coarse phase, the step without the surface term before it is on."""
+        ones in the coarse phase, the step without the surface terms before they are on."""
         fn = self._step_for(plan["half_resolution"], plan["surface"])
         if not plan["half_resolution"]:
             return fn, images, intrinsics, self.width
@@ -296,8 +305,8 @@ class ViewStep:
 def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
     """What the run does at `step` (0-based, before it) and progress t: SH degree in use, the means'
     learning rate per unit of scene extent, whether density control may run (the window), whether the
-    step trains at half resolution (coarse to fine) and whether the normal-consistency term is on."""
+    step trains at half resolution (coarse to fine) and whether the surface terms are on."""
     return {"sh_degree": min(sc.sh_degree, sc.sh_start + step // sc.sh_interval), "lr_means": means_lr(progress, 1.0, sc.lrs),
             "control": sc.strategy.window.due(step, progress),
             "half_resolution": progress < sc.coarse_until,
-            "surface": sc.normal_consistency > 0 and progress >= sc.normal_consistency_from}
+            "surface": surface_terms(sc) and progress >= sc.normal_consistency_from}
