@@ -1,7 +1,7 @@
 """Normal consistency (models/splat/surface.py): zero for flat Gaussians tangent to the plane they tile, the
 2DGS value 1 - cos(tilt) for tilted ones, and a gradient that turns them back; the depth map's normals exact
-on a plane. Depth distortion: the pairwise sum over the blend weights, zero on one plane, and a gradient that
-draws two layers together."""
+on a plane. Depth distortion: the pairwise sum over the blend weights, zero on one plane, a gradient that draws
+two layers together, nothing at a depth edge."""
 
 from __future__ import annotations
 
@@ -11,9 +11,11 @@ import numpy as np
 
 from nerfkit.data.procedural.scene import look_at
 from nerfkit.models.splat.gaussians import all_sh, splat_inputs
+from nerfkit.models.splat import surface
 from nerfkit.models.splat.rasterize import rasterize
-from nerfkit.models.splat.surface import (SURFACE_CHANNELS, depth_distortion, depth_normals, normal_consistency,
-                                          pixel_directions, surface_channels, with_surface_channels)
+from nerfkit.models.splat.surface import (EDGE_SPREAD, SURFACE_CHANNELS, depth_distortion, depth_normals,
+                                          normal_consistency, pixel_directions, surface_channels,
+                                          with_surface_channels)
 
 SIZE, FOCAL, SLOPE = 64, 60.0, 0.2  # the plane z = SLOPE x, seen from (0, 0, 3) looking down -z
 C2W = np.eye(4, dtype=np.float32)
@@ -116,9 +118,10 @@ def test_depth_distortion_is_the_pairwise_sum_over_the_blend_weights():
     depth = a / np.maximum(np.sum(w * s, -1), 1e-9)
     ok = a > 0.5
     assert ok.mean() > 0.15 and float(np.median(pairs[ok])) > 0  # the layers overlap over much of the view
-    want = np.mean((pairs * depth ** 2)[ok])
+    spread = pairs * depth ** 2
+    assert spread[ok].max() < EDGE_SPREAD  # 0.1 apart at a depth of 3: no pixel is a depth edge
     got = float(depth_distortion(channels[..., :12], alpha, jnp.asarray(INTR)))
-    np.testing.assert_allclose(got, want, rtol=1e-3)
+    np.testing.assert_allclose(got, np.mean(spread[ok]), rtol=1e-3)
 
 
 def test_one_plane_has_no_distortion_and_a_gradient_step_draws_two_layers_together():
@@ -132,3 +135,13 @@ def test_one_plane_has_no_distortion_and_a_gradient_step_draws_two_layers_togeth
     assert np.all(dz[:half] <= 0) and np.all(dz[half:] >= 0) and dz[:half].sum() < 0 < dz[half:].sum()
     step = dict(params, means=params["means"] - 0.02 * grads["means"] / jnp.abs(grads["means"]).max())
     assert float(distortion_of(step)) < float(loss)
+
+
+def test_a_depth_edge_is_left_to_the_photometric_loss(monkeypatch):
+    """Layers 1.5 apart (a silhouette before a wall) spread their depths by far more than EDGE_SPREAD: where both
+    are blended the pixels count 0, so L_d is under that of layers 0.1 apart, where without the rule it is over
+    fifty times theirs."""
+    near, far = two_layers(0.1), two_layers(1.5)
+    assert float(distortion_of(far)) < float(distortion_of(near))
+    monkeypatch.setattr(surface, "EDGE_SPREAD", np.inf)
+    assert float(distortion_of(far)) > 50 * float(distortion_of(near))

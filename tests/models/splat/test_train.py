@@ -14,7 +14,7 @@ import pytest
 
 from nerfkit.data.loader import load_scene
 from nerfkit.data.procedural.scene import make_scene
-from nerfkit.models.splat import densify
+from nerfkit.models.splat import densify, surface
 from nerfkit.models.splat.optim import LearningRates, init_state, make_optimizers
 from nerfkit.models.splat.strategy import MCMC, Classic, Window
 from nerfkit.models.splat.gaussians import evaluate
@@ -131,10 +131,11 @@ def test_coarse_to_fine_trains_at_half_then_full_resolution(scene):
         initial_params(cfg)[0], val.images, val.poses, val.cameras)["psnr_mean"]
 
 
-def test_the_normal_consistency_term_comes_on_at_its_share_of_the_budget(scene):
+def test_the_surface_terms_come_on_at_their_share_of_the_budget(scene, monkeypatch):
     """normal_consistency_from = 0.5 over 6 steps: steps 0-2 (progress < 0.5) run the step without the term, so
     the photometric losses of steps 0-3 are those of a run without it, bit for bit; from the update of step 3
-    on the term moves the Gaussians, and step 4's loss differs. With the term from the start, step 1's does."""
+    on the term moves the Gaussians, and step 4's loss differs. With the term from the start, step 1's does.
+    The depth-distortion term alone keeps the same schedule and moves them otherwise."""
     train, _ = scene
 
     def losses(**surface) -> list[float]:
@@ -149,6 +150,11 @@ def test_the_normal_consistency_term_comes_on_at_its_share_of_the_budget(scene):
     assert later[:4] == plain[:4] and later[4] != plain[4]
     from_start = losses(normal_consistency=0.1)
     assert from_start[0] == plain[0] and from_start[1] != plain[1]
+    distortion = SplatConfig(depth_distortion=100.0, normal_consistency_from=0.5)  # the same schedule, alone
+    monkeypatch.setattr(surface, "EDGE_SPREAD", np.inf)  # the random start's rays are all depth edges
+    assert [schedule_at(s, s / 6, distortion)["surface"] for s in range(6)] == [False] * 3 + [True] * 3
+    later_d = losses(depth_distortion=100.0, normal_consistency_from=0.5)
+    assert later_d[:4] == plain[:4] and later_d[4] != plain[4] and later_d[4] != later[4]
 
 
 def test_rgba_views_train_on_a_random_background_their_alpha_composites_them_onto():

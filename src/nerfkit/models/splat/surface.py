@@ -29,7 +29,14 @@ blended outer products M(p) = sum_k w_k q_k q_k^T (6 more channels) the rasteris
 and, scaled by D^2 (held constant), the spread of the depths relative to the depth, (dz / z)^2, the same on a
 scene of any size:
 
-    L_d = mean over pixels with A > 1/2 of  2 (A r_p^T M r_p - (Q . r_p)^2) D^2
+    e(p) = 2 (A r_p^T M r_p - (Q . r_p)^2) D^2        (about 2 A^2 var(z) / z^2 over the ray's blend weights)
+    L_d  = mean over pixels with A > 1/2 of  e(p) [e(p) < EDGE_SPREAD]
+
+A pixel whose depths spread wider (a relative std above about 2%) is a depth edge, a ray that passes a
+silhouette onto what lies behind it: 2DGS's term would pull the two surfaces together there and, at any weight
+that flattens the surfaces, tear the colours (the procedural scene fell from 27 to 19 dB at weight 100). Those
+pixels are left to the photometric loss, and the term thins the surfaces: on the procedural scene at weight 100
+the mesh's distance to the exact surfaces went from 0.58 to 0.47 grid cells (docs: Export).
 """
 
 from __future__ import annotations
@@ -41,6 +48,7 @@ from nerfkit.models.splat.project import quaternion_to_rotation, world_to_camera
 
 SURFACE_CHANNELS = 6  # N (3) and Q (3), after the colour channels
 DISTORTION_CHANNELS = 6  # M's entries (00, 01, 02, 11, 12, 22), after those
+EDGE_SPREAD = 1e-3  # pixels whose relative depth spread e(p) reaches this are depth edges, not in L_d
 DELTA_MIN = 0.05  # |delta_k| >= this x z_k: a plane seen edge-on does not send 1 / t towards 0
 INV_DEPTH_MIN = 1e-3  # pixels where Q . r_p falls below this (no plane in front) are left out
 
@@ -110,7 +118,7 @@ def normal_consistency(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax
 
 def depth_distortion(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax.Array:
     """L_d (module docstring) of a render's surface channels [H, W, 12] (N, Q, M blended on a zero background) and
-    opacity alpha [H, W]; 0 where no pixel is more than half opaque."""
+    opacity alpha [H, W]: the mean over the pixels more than half opaque, depth edges counting 0."""
     height, width = alpha.shape
     x, y, _ = jnp.moveaxis(pixel_directions(intrinsics, width, height), -1, 0)
     inv = x * channels[..., 3] + y * channels[..., 4] + channels[..., 5]  # Q . r_p = A / D
@@ -119,4 +127,5 @@ def depth_distortion(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax.A
     ok = jax.lax.stop_gradient((alpha > 0.5) & (inv > INV_DEPTH_MIN * alpha))
     depth = jax.lax.stop_gradient(jnp.where(ok, alpha / jnp.where(ok, inv, 1.0), 0.0))
     spread = 2 * (alpha * second - inv * inv) * depth * depth
-    return jnp.sum(jnp.where(ok, spread, 0.0)) / jnp.maximum(jnp.sum(ok), 1)
+    counted = ok & (jax.lax.stop_gradient(spread) < EDGE_SPREAD)
+    return jnp.sum(jnp.where(counted, spread, 0.0)) / jnp.maximum(jnp.sum(ok), 1)
