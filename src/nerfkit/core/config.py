@@ -298,9 +298,9 @@ class SplatSettings:
     depth), for runs meant for `export mesh`; 0: off. Costs steps per second and some PSNR (docs: Export)."""
     normal_consistency_from: float = 0.0
     """The share of the budget trained before the --normal-consistency and --depth-distortion terms come on (2DGS
-    starts them after a warm-up, so that the Gaussians find the colours first): 0 (default) from the first step. lego, 10
-    minutes, weight 0.15 from 0.3: 31.0 dB held out (28.2 with 0.15 from the start) and a mesh that keeps both
-    the silhouettes and the depth (docs: Export)."""
+    starts them after a warm-up, so that the Gaussians find the colours first): 0 (default) from the first step.
+    lego, 10 minutes, weight 0.15 from 0.3: 31.0 dB held out (28.2 with 0.15 from the start) and a mesh that keeps
+    both the silhouettes and the depth (docs: Export)."""
     depth_distortion: float = 0.0
     """Weight of a training term that draws the Gaussians a ray passes together in depth (2DGS's depth distortion:
     the blended squared differences of their depths along each ray, relative to the depth), for runs meant for
