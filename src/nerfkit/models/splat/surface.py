@@ -102,14 +102,21 @@ def depth_normals(depth: jax.Array, rays: jax.Array) -> jax.Array:
     return n * jax.lax.rsqrt(jnp.maximum(jnp.sum(n * n, -1, keepdims=True), 1e-24))  # finite gradients at n = 0
 
 
+def plane_depth(channels: jax.Array, alpha: jax.Array, rays: jax.Array):
+    """(Q . r_p [H, W], ok [H, W], D [H, W]) of a render's surface channels [H, W, >= 6] and opacity alpha [H, W],
+    rays r_p [H, W, 3] (pixel_directions): the depth D = A / (Q . r_p) on the blended planes, at the pixels more
+    than half opaque with a plane in front (ok; D = 0 elsewhere)."""
+    inv = jnp.sum(channels[..., 3:6] * rays, -1)  # Q . r_p = A / D
+    ok = (alpha > 0.5) & (inv > INV_DEPTH_MIN * alpha)
+    return inv, ok, jnp.where(ok, alpha / jnp.where(ok, inv, 1.0), 0.0)
+
+
 def normal_consistency(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax.Array:
     """L_n (module docstring) of a render's surface channels [H, W, 6] (N, Q blended on a zero background) and
     opacity alpha [H, W]; 0 where no interior pixel is more than half opaque."""
     height, width = alpha.shape
     rays = pixel_directions(intrinsics, width, height)
-    inv = jnp.sum(channels[..., 3:6] * rays, -1)  # Q . r_p = A / D
-    ok = (alpha > 0.5) & (inv > INV_DEPTH_MIN * alpha)
-    depth = jnp.where(ok, alpha / jnp.where(ok, inv, 1.0), 0.0)
+    _, ok, depth = plane_depth(channels, alpha, rays)
     nd = depth_normals(depth, rays)
     inner = jax.lax.stop_gradient(ok[1:-1, 1:-1] & ok[2:, 1:-1] & ok[:-2, 1:-1] & ok[1:-1, 2:] & ok[1:-1, :-2])
     term = alpha[1:-1, 1:-1] - jnp.sum(channels[1:-1, 1:-1, :3] * nd, -1)
@@ -120,12 +127,12 @@ def depth_distortion(channels: jax.Array, alpha: jax.Array, intrinsics) -> jax.A
     """L_d (module docstring) of a render's surface channels [H, W, 12] (N, Q, M blended on a zero background) and
     opacity alpha [H, W]: the mean over the pixels more than half opaque, depth edges counting 0."""
     height, width = alpha.shape
-    x, y, _ = jnp.moveaxis(pixel_directions(intrinsics, width, height), -1, 0)
-    inv = x * channels[..., 3] + y * channels[..., 4] + channels[..., 5]  # Q . r_p = A / D
+    rays = pixel_directions(intrinsics, width, height)
+    inv, ok, depth = plane_depth(channels, alpha, rays)
+    depth = jax.lax.stop_gradient(depth)
+    x, y = rays[..., 0], rays[..., 1]
     m = [channels[..., 6 + c] for c in range(DISTORTION_CHANNELS)]
     second = m[0] * x * x + 2 * m[1] * x * y + 2 * m[2] * x + m[3] * y * y + 2 * m[4] * y + m[5]  # r^T M r
-    ok = jax.lax.stop_gradient((alpha > 0.5) & (inv > INV_DEPTH_MIN * alpha))
-    depth = jax.lax.stop_gradient(jnp.where(ok, alpha / jnp.where(ok, inv, 1.0), 0.0))
     spread = 2 * (alpha * second - inv * inv) * depth * depth
     counted = ok & (jax.lax.stop_gradient(spread) < EDGE_SPREAD)
     return jnp.sum(jnp.where(counted, spread, 0.0)) / jnp.maximum(jnp.sum(ok), 1)
