@@ -37,6 +37,7 @@ def main() -> None:
                               "views": rec.get("n_views"), "random_background": splat.get("random_background"),
                               "normal_consistency": splat.get("normal_consistency", 0.0),
                               "normal_consistency_from": splat.get("normal_consistency_from", 0.0),
+                              "depth_distortion": splat.get("depth_distortion", 0.0),
                               "max_minutes": cfg["train"]["max_minutes"]}
         print(f"{label}: {rec['psnr']:.2f} dB, SSIM {rec['ssim']:.4f} at step {rec['step']}")
     a.results.mkdir(parents=True, exist_ok=True)
