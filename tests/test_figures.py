@@ -129,6 +129,9 @@ DDL, MDDL = "splat_depth_distortion_lego.json", "mesh_mesh_lego_dd100_288.json"
 SEEN4, DD100, DD10, DD1000 = ("mesh_procedural_seen_4min.json", "mesh_procedural_dd100cap.json",
                               "mesh_procedural_dd10.json", "mesh_procedural_dd1000cap.json")
 PDD = "mesh_procedural_dd.json"  # weights 100 and 1000 without the depth-edge rule
+DDM, MDDM = "splat_depth_distortion_maryrose.json", "mesh_maryrose_splat_watertight_dd100.json"
+PB40, LDB40, MDB40 = ("mesh_procedural_dd100cap_bil40.json", "mesh_lego_dd100_288_bil40.json",
+                      "mesh_maryrose_splat_watertight_dd100_bil40.json")
 NUMBA = "numba_first_run.json"  # a splat run with numba's kernel cache empty, then filled
 HUGE = "malloc_hugepages.json"  # nerfkit train with and without huge pages for malloc's large blocks
 LT0, LT20 = "mesh_lego_splat_d3f8ca1_nc01_taubin0.json", "mesh_lego_splat_d3f8ca1_nc01_taubin20.json"
@@ -838,6 +841,33 @@ CHECKS = [
      "surface;", [((DD10, "runs", "splat_dd10", "normals_seen_within_10deg"), pct1)]),
     ("docs/verbs/export.md", "On the procedural scene's exact surfaces (4-minute runs;", "1000 lost the colours ({} dB;",
      [((DD1000, "runs", "splat_dd1000cap", "val_psnr"), f1)]),
+    ("docs/verbs/export.md", "maryrose the same way (`--downscale 2`, the late term and `--depth-distortion 100`",
+     "10 minutes, {} steps, {} dB on its 9 held-out photos against {} for the late term alone",
+     [((DDM, "runs", "maryrose_late_depth_distortion_100", "step"), d),
+      ((DDM, "runs", "maryrose_late_depth_distortion_100", "psnr"), f1),
+      ((NCLM, "runs", "maryrose_normal_consistency_0.15_from_0.3", "psnr"), f1)]),
+    *[("docs/verbs/export.md", row, "| {} ({}) | {} | {}% ({} deg) | {} deg | {} | {} s |",
+       [((rec, "methods", "tsdf", "iou_mean"), f3), (lambda rec=rec: views_mean(rec, "iou", range(8)), f3),
+        ((rec, "methods", "tsdf", "depth_within_tol_median_mean"), f3),
+        ((rec, "methods", "tsdf", "normals_within_deg_mean"), pct1),
+        ((rec, "methods", "tsdf", "normal_median_deg_mean"), f1), ((rec, "methods", "tsdf", "dihedral_median_deg"), f1),
+        ((rec, "methods", "tsdf", "pieces"), d), ((rec, "methods", "tsdf", "cli_seconds"), f0)])
+      for row, rec in (("| ngp (`mesh_maryrose_ngp_watertight.json`) |", "mesh_maryrose_ngp_watertight.json"),
+                       ("| splat, late term (`mesh_maryrose_splat_watertight_9fdf2f0_nc015_from03.json`) |", NCLMM),
+                       ("| splat, late term, `--depth-distortion 100` |", MDDM))],
+    ("docs/verbs/export.md", "The same silhouettes, a surface that agrees better with the run's depth",
+     "mesh covers {}% of the run's own silhouettes", [((MDDM, "methods", "tsdf", "recall_of_field_mean"), pct1)]),
+    ("docs/verbs/export.md", "More rounds of bilateral filtering suit smooth solids", "within 10 degrees on {}% of the "
+     "surface and {}% of the seen surface (`mesh_procedural_dd100cap_bil40.json`; the exact depth maps' mesh with the "
+     "same rounds: {}% and {}%), but lowers the lego and maryrose meshes' agreement with their runs' depth normals ({}% "
+     "to {}% and {}% to {}%;",
+     [((PB40, "runs", "splat_dd100cap", "normals_within_10deg"), pct1),
+      ((PB40, "runs", "splat_dd100cap", "normals_seen_within_10deg"), pct1),
+      ((PB40, "runs", "exact", "normals_within_10deg"), pct1), ((PB40, "runs", "exact", "normals_seen_within_10deg"), pct1),
+      ((MDDL, "methods", "tsdf", "normals_within_deg_mean"), pct1),
+      ((LDB40, "methods", "tsdf", "normals_within_deg_mean"), pct1),
+      ((MDDM, "methods", "tsdf", "normals_within_deg_mean"), pct1),
+      ((MDB40, "methods", "tsdf", "normals_within_deg_mean"), pct1)]),
     ("docs/splats.md", "**Depth distortion** (`--depth-distortion W`", "scored {} dB held out instead of {}.",
      [((PDD, "runs", "splat_dd100", "val_psnr"), f1), ((SEEN4, "runs", "splat_late", "val_psnr"), f1)]),
     ("docs/splats.md", "**Depth distortion** (`--depth-distortion W`", "scores {} dB against {} without it (10 "
@@ -848,6 +878,13 @@ CHECKS = [
                         ((NCL342, "runs", "lego_normal_consistency_0.15_from_0.3", "step"), d),
                         ((MDDL, "methods", "tsdf", "depth_within_tol_median_mean"), pct1),
                         ((LB10, "methods", "tsdf", "depth_within_tol_median_mean"), pct1)]),
+    ("docs/splats.md", "**Depth distortion** (`--depth-distortion W`", "maryrose the same way: {} dB against {}, its "
+     "`--watertight` mesh at the same IoU ({}) and smoother (normals within 10 degrees of the run's depth on {}% of its "
+     "pixels instead of {}%)", [((DDM, "runs", "maryrose_late_depth_distortion_100", "psnr"), f1),
+                               ((NCLM, "runs", "maryrose_normal_consistency_0.15_from_0.3", "psnr"), f1),
+                               ((MDDM, "methods", "tsdf", "iou_mean"), f3),
+                               ((MDDM, "methods", "tsdf", "normals_within_deg_mean"), pct1),
+                               ((NCLMM, "methods", "tsdf", "normals_within_deg_mean"), pct1)]),
     ("docs/splats.md", "**Depth distortion** (`--depth-distortion W`", "1000 loses the colours ({} dB",
      [((DD1000, "runs", "splat_dd1000cap", "val_psnr"), f1)]),
     ("docs/verbs/export.md", "Against exact surfaces (the procedural scene", "default (`mesh_procedural_taubin20.json`): "
