@@ -63,25 +63,25 @@ def nerfkit(*args: str) -> float:
     return time.perf_counter() - t0
 
 
-def seen_surface(scene: Path, size: int) -> np.ndarray:
-    """The true surface points [N, 3] the training cameras see (exact ray tracing at their pixel centres)."""
+def training_poses(scene: Path) -> np.ndarray:
+    """The training cameras' c2w [C, 4, 4] (float64) of the capture in `scene`."""
+    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
+    return np.array([f["transform_matrix"] for f in frames], np.float64)
+
+
+def seen_surface(poses: np.ndarray, size: int) -> np.ndarray:
+    """The true surface points [N, 3] the training cameras c2w poses [C, 4, 4] see (exact ray tracing at their
+    pixel centres)."""
     from nerfkit.data.procedural import scene as proc
 
-    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
     focal = 0.5 * size / np.tan(0.5 * proc.CAMERA_ANGLE_X)
     pts = []
-    for f in frames:
-        o, d = proc.camera_rays(np.array(f["transform_matrix"]), size, size, focal)
+    for pose in poses:
+        o, d = proc.camera_rays(pose, size, size, focal)
         _, alpha, t = proc.trace(o, d)
         hit = alpha > 0.5
         pts.append(o[hit] + t[hit][:, None] * d[hit])
     return np.concatenate(pts)
-
-
-def camera_centres(scene: Path) -> np.ndarray:
-    """The training cameras' centres [C, 3]."""
-    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
-    return np.array([np.array(f["transform_matrix"])[:3, 3] for f in frames])
 
 
 def seen_by(q: np.ndarray, normal: np.ndarray, cams: np.ndarray, h: float) -> np.ndarray:
@@ -124,11 +124,11 @@ def measure(mesh_file: Path, seen: np.ndarray, h: float, cams: np.ndarray) -> di
             "normals_seen_off_creases_within_10deg": float(np.mean(ang[vis & off] <= NORMAL_DEG))}
 
 
-def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int, bilateral: int) -> float:
-    """Fuses the training views' exact depth maps (PIXELS_PER_CELL x resolution px) with export/tsdf.py's
-    fused_surface, as tsdf_surface does its renders (the same truncation and smoothing), smooths it by `taubin` rounds
-    and then `bilateral` rounds as the export does (surface.taubin_smooth, denoise.bilateral_smooth), writes the
-    surface to `out`; returns the seconds taken."""
+def exact_mesh(poses: np.ndarray, resolution: int, out: Path, taubin: int, bilateral: int) -> float:
+    """Fuses the exact depth maps of the training views c2w poses [C, 4, 4] (PIXELS_PER_CELL x resolution px) with
+    export/tsdf.py's fused_surface, as tsdf_surface does its renders (the same truncation and smoothing), smooths it
+    by `taubin` rounds and then `bilateral` rounds as the export does (surface.taubin_smooth,
+    denoise.bilateral_smooth), writes the surface to `out`; returns the seconds taken."""
     import trimesh
 
     from nerfkit.data.procedural import scene as proc
@@ -138,10 +138,9 @@ def exact_mesh(scene: Path, resolution: int, out: Path, taubin: int, bilateral: 
     from nerfkit.export.surface import taubin_smooth
 
     t0 = time.perf_counter()
-    frames = json.loads((scene / "transforms_train.json").read_text())["frames"]
     size = tsdf.PIXELS_PER_CELL * resolution
     focal = 0.5 * size / np.tan(0.5 * proc.CAMERA_ANGLE_X)
-    c2w = np.array([f["transform_matrix"] for f in frames], np.float32)
+    c2w = poses.astype(np.float32)
     depth, alpha = [], []
     for pose in c2w:
         _, a, t = proc.trace(*proc.camera_rays(pose, size, size, focal))
@@ -200,8 +199,9 @@ def main() -> None:
     scene = a.out / "scene"
     if not (scene / "transforms_train.json").is_file():
         make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
-    seen = seen_surface(scene, a.size)
-    cams = camera_centres(scene)
+    poses = training_poses(scene)
+    seen = seen_surface(poses, a.size)
+    cams = poses[:, :3, 3]
     result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
               "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "bilateral": bilateral,
               "runs": {}}
@@ -211,7 +211,7 @@ def main() -> None:
         if preset == "exact":
             h = 2 * EXACT_BOUND / (a.resolution - 1)
             mesh = a.out / "exact.ply"
-            export_s = exact_mesh(scene, a.resolution, mesh, taubin, bilateral)
+            export_s = exact_mesh(poses, a.resolution, mesh, taubin, bilateral)
             scores = measure(mesh, seen, h, cams)
             result["runs"][preset] = {"args": "exact depth maps", "export_wall_s": round(export_s, 1), "cell": h,
                                       **scores}
