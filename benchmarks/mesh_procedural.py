@@ -1,11 +1,12 @@
 """Meshes against exact surfaces: the procedural scene, trained and exported through the CLI, measured both
 ways against its analytic solids, and for roughness by the normals.
 
-    python benchmarks/mesh_procedural.py [--size 128] [--views 48] [--minutes 5] [--resolution 128]
+    python benchmarks/mesh_procedural.py [--size 128] [--views 48] [--supersample 1] [--minutes 5] [--resolution 128]
                                          [--runs "splat=--preset splat --random-background on" ngp]
                                          [--out runs/mesh_procedural] [--skip-train] [--export-args "--taubin 0"]
 
-Makes the procedural capture (SIZE px, VIEWS training views around it), then per run LABEL[=ARGS] (ARGS default:
+Makes the procedural capture (SIZE px, VIEWS training views around it; --supersample S > 1: each pixel integrates
+S x S samples, as a sensor does, where 1 point-samples the pixel centres), then per run LABEL[=ARGS] (ARGS default:
 --preset LABEL; `exact`: see below) what a user types (--skip-train: only the export, of runs already there):
 
     nerfkit train SCENE ARGS --max-minutes M --out OUT/LABEL
@@ -181,6 +182,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--views", type=int, default=48)
+    ap.add_argument("--supersample", type=int, default=1, help="samples per pixel side of the photos (1: centres)")
     ap.add_argument("--minutes", type=float, default=5.0)
     ap.add_argument("--runs", nargs="+", default=["splat=--preset splat --random-background on", "ngp"])
     ap.add_argument("--resolution", type=int, default=128)
@@ -196,13 +198,14 @@ def main() -> None:
     extra = shlex.split(a.export_args)
     taubin, bilateral = smoothing_rounds(extra)
 
-    scene = a.out / "scene"
+    scene = a.out / ("scene" if a.supersample == 1 else f"scene_ss{a.supersample}")
     if not (scene / "transforms_train.json").is_file():
-        make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4)
+        make_scene(scene, size=a.size, n_train=a.views, n_val=4, n_test=4, supersample=a.supersample)
     poses = training_poses(scene)
     seen = seen_surface(poses, a.size)
     cams = poses[:, :3, 3]
-    result = {"provenance": provenance(), "size": a.size, "views": a.views, "minutes": a.minutes,
+    result = {"provenance": provenance(), "size": a.size, "views": a.views, "supersample": a.supersample,
+              "minutes": a.minutes,
               "resolution": a.resolution, "export_args": a.export_args, "taubin": taubin, "bilateral": bilateral,
               "runs": {}}
     a.results.mkdir(parents=True, exist_ok=True)

@@ -173,3 +173,22 @@ def test_geometry_constants_inside_bounds():
 def test_make_scene_rejects_bad_size(tmp_path):
     with pytest.raises(DataError, match="size"):
         scene.make_scene(tmp_path, size=0)
+
+
+def test_render_view_supersample_integrates_the_pixel_area():
+    """Each supersampled pixel is the mean of S x S point samples: its alpha is the mean of the fine render's, its
+    colour the mean of the premultiplied colour over that alpha. So the edges get fractional alpha, the interior
+    keeps the point-sampled colour, and the depth stays the pixel centre's."""
+    c2w = scene.look_at((0.0, -scene.CAMERA_RADIUS, 1.0))
+    point, depth = scene.render_view(c2w, 16)
+    area, depth_area = scene.render_view(c2w, 16, supersample=3)
+    fine, _ = scene.render_view(c2w, 48)
+    np.testing.assert_array_equal(depth_area, depth)
+    want_alpha = fine[..., 3].astype(np.float64).reshape(16, 3, 16, 3).mean((1, 3))
+    np.testing.assert_allclose(area[..., 3], want_alpha, atol=1.01)
+    edge = (area[..., 3] > 0) & (area[..., 3] < 255)
+    assert edge.sum() >= 16  # the objects' outlines, not a point-sampled 0/1 mask
+    assert set(np.unique(point[..., 3])) <= {0, 255}
+    inner = (area[..., 3] == 255)
+    premult = (fine[..., :3].astype(np.float64) * fine[..., 3:] / 255.0).reshape(16, 3, 16, 3, 3).mean((1, 3))
+    np.testing.assert_allclose(area[inner][:, :3], premult[inner], atol=1.01)  # two roundings to uint8

@@ -336,16 +336,25 @@ def _split_poses(split: str, n: int, seed: int) -> list[np.ndarray]:
     return [orbit_pose(a, e) for a, e in zip(az, el)]
 
 
-def render_view(c2w: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
-    """Render a size x size view: RGBA uint8 [H, W, 4] (straight alpha) and z-depth float32 [H, W]."""
+def render_view(c2w: np.ndarray, size: int, supersample: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Render a size x size view: RGBA uint8 [H, W, 4] (straight alpha) and z-depth float32 [H, W] at the pixel
+    centres. supersample S > 1 integrates each pixel's area as a sensor does: alpha and the premultiplied colour are
+    the means of S x S samples on a regular grid inside the pixel, rgb = mean(rgb alpha) / mean(alpha)."""
     focal = 0.5 * size / math.tan(0.5 * CAMERA_ANGLE_X)
     rgb, alpha, t = trace(*camera_rays(c2w, size, size, focal))
-    rgba = np.concatenate([rgb * alpha[..., None], alpha[..., None]], axis=-1)
-    return np.round(rgba * 255.0).astype(np.uint8), t
+    if supersample > 1:
+        s = supersample
+        fine_rgb, fine_alpha, _ = trace(*camera_rays(c2w, size * s, size * s, focal * s))
+        alpha = fine_alpha.reshape(size, s, size, s).mean((1, 3))
+        premult = (fine_rgb * fine_alpha[..., None]).reshape(size, s, size, s, 3).mean((1, 3))
+        rgb = premult / np.maximum(alpha, 1e-8)[..., None]
+    rgba = np.concatenate([rgb * (alpha[..., None] > 0), alpha[..., None]], axis=-1)
+    return np.round(np.clip(rgba, 0.0, 1.0) * 255.0).astype(np.uint8), t
 
 
 def make_scene(
-    out_dir, *, size: int = 100, n_train: int = 60, n_val: int = 10, n_test: int = 10, seed: int = 0
+    out_dir, *, size: int = 100, n_train: int = 60, n_val: int = 10, n_test: int = 10, seed: int = 0,
+    supersample: int = 1,
 ) -> Path:
     """Write the demo scene in the NeRF Blender-synthetic layout and return out_dir.
 
@@ -353,7 +362,8 @@ def make_scene(
     {"camera_angle_x": CAMERA_ANGLE_X, "frames": [{"file_path": "./{split}/r_k",
     "rotation": 0.0, "transform_matrix": c2w 4x4}]}, the RGBA uint8 PNG
     {split}/r_k.png and the float32 [size, size] z-depth {split}/r_k_depth.npy
-    (inf on background). Cameras look at the origin from radius CAMERA_RADIUS.
+    (inf on background). Cameras look at the origin from radius CAMERA_RADIUS. supersample S > 1: each
+    pixel integrates S x S samples (render_view), as a camera's sensor does.
     """
     if size < 1 or min(n_train, n_val, n_test) < 0:
         raise DataError(
@@ -365,7 +375,7 @@ def make_scene(
         (out / split).mkdir(parents=True, exist_ok=True)
         frames = []
         for k, c2w in enumerate(_split_poses(split, n, seed)):
-            rgba, depth = render_view(c2w, size)
+            rgba, depth = render_view(c2w, size, supersample)
             iio.imwrite(out / split / f"r_{k}.png", rgba)
             np.save(out / split / f"r_{k}_depth.npy", depth)
             frames.append(
