@@ -72,6 +72,7 @@ def write_splat_page(run_dir: Path, out: Path, overwrite: bool = False, log=prin
     (out / "splats.json").unlink(missing_ok=True)
     packed.astype("<f4").tofile(out / "splats.bin")
     meta = {"format": FORMAT, "count": int(len(packed)), "sh_degree": degree,
+            "dilation": run.cfg.splat.screen_dilation,
             "background": list(run.model.background), "camera": run.scene["camera"],
             "pose": run.scene["train_poses"][0], "run": str(Path(run_dir).resolve()), "step": run.step,
             "frame": "the run's normalised frame (scene.json transform)"}

@@ -30,6 +30,7 @@ from nerfkit.export.files import check_out, write_atomic
 from nerfkit.export.registry import Exporter, check_accepts
 from nerfkit.models.splat.formats import FORMATS, read_gaussians, splat_format
 from nerfkit.models.splat.gaussians import held_out_gaussians, render_frame
+from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.transform import invert_similarity, transform_gaussians
 from nerfkit.rays.cameras import Camera
 from nerfkit.run.folder import RunFolder
@@ -62,11 +63,17 @@ def export_splat(run_dir: Path, out: Path | None = None, overwrite: bool = False
     back = transform_gaussians(read_gaussians(out)[0], run.transform)
     pose = np.asarray(run.scene["train_poses"][0], np.float64)
     camera, background = Camera.from_json(run.scene["camera"]), run.model.background
-    shown = render_frame(back, pose, camera, background, degree, depth=False)["rgb"]
-    own = render_frame(gaussians, pose, camera, background, run.cfg.splat.sh_degree, depth=False)["rgb"]
+    shown = render_frame(back, pose, camera, background, degree, depth=False)["rgb"]  # as viewers draw it (0.3 px^2)
+    dilation = run.cfg.splat.screen_dilation
+    own = render_frame(gaussians, pose, camera, background, run.cfg.splat.sh_degree, depth=False,
+                       dilation=dilation)["rgb"]
     picture = folder.exports / "splat.png"
     save_png(picture, shown)
     log(f"splat: {len(gaussians['means'])} Gaussians, SH degree {degree}, {fmt.name}, capture coordinates")
+    if dilation != LOWPASS_DILATION:
+        log(f"note: the run drew its splats with --screen-dilation {dilation:g} px^2 and viewers draw them with "
+            f"{LOWPASS_DILATION:g}: a training photo drawn so is {psnr(own, shown):.1f} dB from the run's own render "
+            f"(picture: {picture})")
     record = {"kind": "splat", "file": str(out.resolve()), "format": fmt.name, "opens": fmt.opens,
               "bytes": out.stat().st_size, "gaussians": int(len(gaussians["means"])), "sh_degree": degree,
               "psnr_vs_run": round(float(psnr(own, shown)), 2), "coordinates": "capture (scene.json transform undone)",

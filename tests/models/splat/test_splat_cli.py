@@ -328,3 +328,37 @@ def test_coarse_to_fine_by_default_only_on_photos_large_enough(tmp_path):
         assert model.sc.coarse_until == want
     assert "full resolution throughout (photos of 576 pixels < 100,000; set --coarse)" in lines[0]
     assert lines[1].endswith("half resolution for the first 25% of the budget")
+
+
+def test_the_runs_screen_dilation_reaches_its_renders_depth_and_exports(run, tmp_path, capsys):
+    """A run's --screen-dilation (config.json) is the floor its renders, median depth (export mesh) and the
+    export's comparison draw with; `export splat` says that viewers draw with 0.3. A floor of 0 is refused."""
+    from nerfkit.models.splat.depth import median_depth
+    from nerfkit.models.splat.gaussians import intrinsics_of, render_frame
+    from nerfkit.rays.cameras import Camera
+    from nerfkit.render.images import make_renderer
+
+    scene, out = run
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["splat"]["screen_dilation"] == 0.3
+    cfg["splat"]["screen_dilation"] = 2.0  # as if trained with --screen-dilation 2
+    (out / "config.json").write_text(json.dumps(cfg))
+    run_ = RunFolder(out).load()
+    renderer = make_renderer(run_.model)
+    c2w, cam = np.asarray(run_.scene["train_poses"][0]), Camera.pinhole(32, 32, 40.0)
+    got = renderer.render_camera(run_.params, run_.aux, c2w, cam, median=True)
+    p, on_device = renderer.gaussians(run_.params, run_.aux)
+    at = {d: render_frame(on_device, c2w, cam, run_.model.background, run_.cfg.splat.sh_degree, dilation=d)
+          for d in (2.0, 0.3)}
+    np.testing.assert_array_equal(got["rgb"], at[2.0]["rgb"])
+    assert np.abs(got["rgb"] - at[0.3]["rgb"]).max() > 0.05
+    depth = {d: median_depth(p, c2w, intrinsics_of(cam), 32, 32, at[d]["alpha"], dilation=d) for d in (2.0, 0.3)}
+    np.testing.assert_array_equal(got["depth_median"], depth[2.0])
+    assert not np.array_equal(depth[2.0], depth[0.3])
+    assert main(["export", "splat", str(out), "--out", str(tmp_path / "s.ply")]) == 0
+    said = capsys.readouterr().out
+    assert "--screen-dilation 2 px^2" in said and "viewers draw them with 0.3" in said
+    record = json.loads((out / "exports" / "export_splat.json").read_text())
+    assert record["psnr_vs_run"] < 40.0  # the file drawn at 0.3 against the run's own render at 2
+    assert main(["train", str(scene), "--out", str(tmp_path / "r"), *TRAIN, "--screen-dilation", "0"]) == 1
+    assert "--screen-dilation must be > 0" in capsys.readouterr().err and not (tmp_path / "r").exists()

@@ -23,6 +23,7 @@ from nerfkit.bake import web
 from nerfkit.cli.main import main
 from nerfkit.core.metrics import psnr
 from nerfkit.data.loader import load_scene
+from nerfkit.models.splat.gaussians import render_frame
 from nerfkit.rays.cameras import Camera
 from nerfkit.render.images import make_renderer
 from nerfkit.run.folder import RunFolder
@@ -84,3 +85,36 @@ def test_page_draws_what_the_rasteriser_renders(chromium, baked, tmp_path):
     keep = os.environ.get("NERFKIT_SPLAT_SCREENSHOT")
     if keep:
         shutil.copy(shot, keep)
+
+
+def test_page_draws_with_the_runs_screen_dilation(chromium, baked, tmp_path):
+    """splats.json's "dilation" (the run's --screen-dilation) reaches the shader: a page whose value is 3 px^2
+    draws what the rasteriser draws at 3, far from its drawing at 0.3."""
+    scene, run, page = baked
+    wide = tmp_path / "wide"
+    shutil.copytree(page, wide)
+    meta = json.loads((wide / "splats.json").read_text())
+    assert meta["dilation"] == 0.3  # the run's setting, written by the bake
+    (wide / "splats.json").write_text(json.dumps({**meta, "dilation": 3.0}))
+    run_ = RunFolder(run).load()
+    _, on_device = make_renderer(run_.model).gaussians(run_.params, run_.aux)
+    test = load_scene(scene, "test")
+    cam = Camera.pinhole(SIZE, SIZE, test.cameras[0].fx * SIZE / test.cameras[0].width)
+    want = {d: render_frame(on_device, test.poses[0], cam, run_.model.background, run_.cfg.splat.sh_degree,
+                            dilation=d)["rgb"] for d in (0.3, 3.0)}
+    server, url = web.start_server(wide)
+    browser = Chromium(chromium, tmp_path / "profile", 640, 480, webgl=True)
+    try:
+        browser.open_page()
+        browser.navigate(url)
+        browser.evaluate("window.nerfkitSplat.ready", timeout=120)
+        arg = json.dumps({"c2w": np.asarray(test.poses[0], float).tolist(), "width": SIZE, "height": SIZE,
+                          "fx": cam.fx, "fy": cam.fy, "cx": cam.cx, "cy": cam.cy})
+        px = base64.b64decode(browser.evaluate(f"window.nerfkitSplat.render({arg})", timeout=120))
+    finally:
+        browser.close()
+        web.stop_server(server)
+    got = np.frombuffer(px, np.uint8).reshape(SIZE, SIZE, 4)[..., :3].astype(np.float32) / 255.0
+    at3, at03 = psnr(got, want[3.0]), psnr(got, want[0.3])
+    print(f"page at 3 px^2 vs rasteriser at 3: {at3:.2f} dB, at 0.3: {at03:.2f} dB")
+    assert at3 >= 35.0 and at3 > at03 + 5.0, (at3, at03)

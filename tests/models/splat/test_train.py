@@ -185,3 +185,29 @@ def test_rgba_views_train_on_a_random_background_their_alpha_composites_them_ont
     costs = [loss(opaque, s) for s in range(3)]
     assert min(costs) > 1e-3 and max(costs) - min(costs) > 1e-3
     assert loss(opaque[..., :3], 0) == pytest.approx(0.7, abs=1e-4)  # RGB views: the white background as before
+
+
+def test_the_steps_draw_with_the_configs_screen_dilation(scene, monkeypatch):
+    """--screen-dilation reaches the training step: _loss_fn is traced with cfg.screen_dilation px^2 at full
+    resolution and a quarter of it at half resolution (coarse to fine: the same footprint in the photos' pixels),
+    and a smaller floor renders, so scores, the same Gaussians otherwise."""
+    from nerfkit.models.splat import train as train_module
+
+    train, _ = scene
+    seen = []
+    real = train_module._loss_fn
+
+    def spy(*args, dilation, **kwargs):
+        seen.append(dilation)
+        return real(*args, dilation=dilation, **kwargs)
+
+    monkeypatch.setattr(train_module, "_loss_fn", spy)
+
+    def first_loss(**settings) -> float:
+        cfg = SplatConfig(capacity=300, strategy="none", log_every=1, **settings)
+        return train_splats(train.images[:2], train.poses[:2], train.cameras[:2], (1.0, 1.0, 1.0), cfg,
+                            steps=2)[1][0][2]
+
+    first_loss(screen_dilation=0.7, coarse_until=0.5)
+    assert sorted(set(seen)) == [pytest.approx(0.175), pytest.approx(0.7)]
+    assert first_loss(screen_dilation=0.05) != first_loss()

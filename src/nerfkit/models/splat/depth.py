@@ -70,21 +70,22 @@ def rotations(quats: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=16)
-def _project_jit(width: int, height: int):
+def _project_jit(width: int, height: int, dilation: float):
     def run(means, log_scales, quats, c2w, intrinsics):
         p = project_gaussians(means, log_scales, quats, c2w, tuple(intrinsics[i] for i in range(4)), width, height,
-                              LOWPASS_DILATION)
+                              dilation)
         return p["means2d"], p["conics"], p["depths"], p["radii"]
     return jax.jit(run)
 
 
 def median_depth(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int, alpha: np.ndarray,
-                 threads: int | None = None, band: float = BAND) -> np.ndarray:
+                 threads: int | None = None, band: float = BAND, dilation: float = LOWPASS_DILATION) -> np.ndarray:
     """The median depth [H, W] (float32; 0 where alpha = 0) of the Gaussians params (numpy, PARAM_NAMES) seen
     by the pinhole camera (c2w [4, 4] OpenGL, intrinsics (fx, fy, cx, cy), width x height) whose render has
     opacity alpha [H, W]: the mean over the opacity band of half-width `band` around A / 2 (0: the median
-    itself; module docstring). Runs the CPU tile kernel whatever backend rendered alpha."""
-    means2d, conics, depths, radii = (np.asarray(a) for a in _project_jit(int(width), int(height))(
+    itself; module docstring), the Gaussians drawn with the screen floor `dilation` px^2 that rendered alpha. Runs
+    the CPU tile kernel whatever backend rendered alpha."""
+    means2d, conics, depths, radii = (np.asarray(a) for a in _project_jit(int(width), int(height), float(dilation))(
         *(jnp.asarray(params[k], jnp.float32) for k in ("means", "log_scales", "quats")),
         jnp.asarray(c2w, jnp.float32), jnp.asarray(intrinsics, jnp.float32)))
     opac = 1.0 / (1.0 + np.exp(-np.asarray(params["opacity"], np.float64)))

@@ -167,12 +167,14 @@ def band_mask(degree) -> jax.Array:
     return (jnp.arange(16) < (jnp.asarray(degree) + 1) ** 2).astype(jnp.float32)[:, None]
 
 
-def raster_inputs(params: dict, c2w, intrinsics, background, sh_degree, width: int, height: int, depth: bool = True):
+def raster_inputs(params: dict, c2w, intrinsics, background, sh_degree, width: int, height: int, depth: bool = True,
+                  dilation: float = LOWPASS_DILATION):
     """The rasteriser's arguments (means2d, conics, colours, opacities, depths, radii, background) for one view
-    (jittable; width, height, depth static): splat_inputs with the bands above sh_degree zeroed and, if depth, a
-    fourth colour channel z (background 0), so that the blend's fourth channel is sum_k w_k z_k."""
+    (jittable; width, height, depth, dilation static): splat_inputs with the bands above sh_degree zeroed and, if
+    depth, a fourth colour channel z (background 0), so that the blend's fourth channel is sum_k w_k z_k."""
     fx, fy, cx, cy = (intrinsics[i] for i in range(4))
-    proj, colors, opac = splat_inputs(params, c2w, (fx, fy, cx, cy), width, height, all_sh(params) * band_mask(sh_degree))
+    sh = all_sh(params) * band_mask(sh_degree)
+    proj, colors, opac = splat_inputs(params, c2w, (fx, fy, cx, cy), width, height, sh, dilation)
     bg = jnp.asarray(background, jnp.float32)
     if depth:
         colors = jnp.concatenate([colors, proj["depths"][:, None]], axis=-1)
@@ -181,13 +183,13 @@ def raster_inputs(params: dict, c2w, intrinsics, background, sh_degree, width: i
 
 
 def render_arrays(params: dict, c2w, intrinsics, background, sh_degree, width: int, height: int,
-                  backend: str = "auto", depth: bool = True) -> dict:
-    """Render (jittable; width, height, backend, depth static).
+                  backend: str = "auto", depth: bool = True, dilation: float = LOWPASS_DILATION) -> dict:
+    """Render (jittable; width, height, backend, depth, dilation static; dilation: the screen floor in px^2).
 
     c2w [4, 4] OpenGL camera-to-world; intrinsics [4] (fx, fy, cx, cy); background [3];
     sh_degree 0..3 (may be traced). Returns rgb [H, W, 3], alpha [H, W] and, if depth,
     depth [H, W] = sum_k w_k z_k (blending weights w_k = T_k alpha_k)."""
-    inputs = raster_inputs(params, c2w, intrinsics, background, sh_degree, width, height, depth)
+    inputs = raster_inputs(params, c2w, intrinsics, background, sh_degree, width, height, depth, dilation)
     image, alpha = rasterize(*inputs, width, height, backend=backend)
     out = {"rgb": image[..., :3], "alpha": alpha}
     if depth:
@@ -196,13 +198,14 @@ def render_arrays(params: dict, c2w, intrinsics, background, sh_degree, width: i
 
 
 @lru_cache(maxsize=32)
-def _render_jit(width: int, height: int, backend: str, depth: bool):
-    return jax.jit(partial(render_arrays, width=width, height=height, backend=backend, depth=depth))
+def _render_jit(width: int, height: int, backend: str, depth: bool, dilation: float):
+    return jax.jit(partial(render_arrays, width=width, height=height, backend=backend, depth=depth,
+                           dilation=dilation))
 
 
 @lru_cache(maxsize=32)
-def _inputs_jit(width: int, height: int, depth: bool):
-    return jax.jit(partial(raster_inputs, width=width, height=height, depth=depth))
+def _inputs_jit(width: int, height: int, depth: bool, dilation: float):
+    return jax.jit(partial(raster_inputs, width=width, height=height, depth=depth, dilation=dilation))
 
 
 def _view_args(params: dict, c2w, camera, background, sh_degree: int) -> tuple:
@@ -211,38 +214,41 @@ def _view_args(params: dict, c2w, camera, background, sh_degree: int) -> tuple:
 
 
 def render(params: dict, c2w, camera, background=(1.0, 1.0, 1.0), sh_degree: int = SH_DEGREE,
-           backend: str = "auto", depth: bool = True) -> dict:
-    """Render N Gaussians seen by a nerfkit Camera (pinhole) at pose c2w [4, 4] (OpenGL).
+           backend: str = "auto", depth: bool = True, dilation: float = LOWPASS_DILATION) -> dict:
+    """Render N Gaussians seen by a nerfkit Camera (pinhole) at pose c2w [4, 4] (OpenGL), with a screen floor of
+    `dilation` px^2 (the run's --screen-dilation; project.py).
 
     Returns numpy rgb [H, W, 3] (on `background` [3]), depth [H, W] (sum_k w_k z_k; omitted
-    when depth=False) and alpha [H, W]. One compiled function per (size, backend, depth)."""
-    fn = _render_jit(int(camera.width), int(camera.height), backend, bool(depth))
+    when depth=False) and alpha [H, W]. One compiled function per (size, backend, depth, dilation)."""
+    fn = _render_jit(int(camera.width), int(camera.height), backend, bool(depth), float(dilation))
     out = fn(*_view_args(params, c2w, camera, background, sh_degree))
     return {k: np.asarray(v) for k, v in out.items()}
 
 
 def render_frame(params: dict, c2w, camera, background=(1.0, 1.0, 1.0), sh_degree: int = SH_DEGREE,
-                 backend: str = "auto", depth: bool = True) -> dict:
+                 backend: str = "auto", depth: bool = True, dilation: float = LOWPASS_DILATION) -> dict:
     """render() for a view that is only looked at, with rgb clipped to [0, 1]: where the backend renders on the
     host (its `frame`, backends.py), the projection is jitted and the blend called directly, with no callback,
     no gradient bookkeeping and no copies of the image after (lego at 800 x 800: about a tenth of the frame);
     elsewhere render() clipped."""
     b = backend_named(backend)
     if b.frame is None:
-        out = render(params, c2w, camera, background, sh_degree, backend, depth)
+        out = render(params, c2w, camera, background, sh_degree, backend, depth, dilation)
         return {**out, "rgb": np.clip(out["rgb"], 0.0, 1.0)}
     width, height = int(camera.width), int(camera.height)
-    inputs = _inputs_jit(width, height, bool(depth))(*_view_args(params, c2w, camera, background, sh_degree))
+    inputs = _inputs_jit(width, height, bool(depth), float(dilation))(*_view_args(params, c2w, camera, background,
+                                                                                   sh_degree))
     rgb, extra, alpha = b.frame(*(np.asarray(a) for a in inputs), width, height)
     return {"rgb": rgb, "alpha": alpha, **({"depth": extra[..., 0]} if depth else {})}
 
 
 def evaluate(params: dict, images, poses, cameras, background=(1.0, 1.0, 1.0), sh_degree: int = 3,
-             backend: str = "auto") -> dict:
-    """Render every camera and score it: {"psnr": [V], "ssim": [V], "psnr_mean", "ssim_mean"} (nerfkit.core.metrics)."""
+             backend: str = "auto", dilation: float = LOWPASS_DILATION) -> dict:
+    """Render every camera (screen floor `dilation` px^2) and score it: {"psnr": [V], "ssim": [V], "psnr_mean",
+    "ssim_mean"} (nerfkit.core.metrics)."""
     ps, ss = [], []
     for k, cam in enumerate(cameras):
-        rgb = render_frame(params, poses[k], cam, background, sh_degree, backend, depth=False)["rgb"]
+        rgb = render_frame(params, poses[k], cam, background, sh_degree, backend, depth=False, dilation=dilation)["rgb"]
         target = np.asarray(images[k])[: cam.height, : cam.width]
         ps.append(psnr(rgb, target))
         ss.append(ssim(rgb, target))

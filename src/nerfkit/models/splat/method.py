@@ -94,7 +94,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
-                       depth_distortion=g.depth_distortion)
+                       depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -138,7 +138,7 @@ class SplatModel:
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
-        "normal_consistency_from", "depth_distortion")) | {"train.pose_refine"}
+        "normal_consistency_from", "depth_distortion", "screen_dilation")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -152,6 +152,7 @@ class SplatModel:
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{_describe_surface(g)}"
+                f"{'' if g.screen_dilation == 0.3 else f'; screen dilation {g.screen_dilation:g} px^2'}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 

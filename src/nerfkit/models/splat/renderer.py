@@ -37,13 +37,15 @@ class SplatRenderer:
             intr = intrinsics_of(camera)
         except ValueError as e:
             raise DataError(str(e)) from None
-        r = render_frame(on_device, c2w, camera, self.model.background, self.model.cfg.splat.sh_degree,
-                         self.model.cfg.splat.backend)
+        g = self.model.cfg.splat
+        r = render_frame(on_device, c2w, camera, self.model.background, g.sh_degree, g.backend,
+                         dilation=g.screen_dilation)
         opacity = r["alpha"]
         out = {"rgb": r["rgb"], "depth": r["depth"], "opacity": opacity,
                "depth_normalized": r["depth"] / np.maximum(opacity, 1e-6)}
         if median:
-            out["depth_median"] = median_depth(p, c2w, intr, camera.width, camera.height, opacity)
+            out["depth_median"] = median_depth(p, c2w, intr, camera.width, camera.height, opacity,
+                                               dilation=g.screen_dilation)
         return out
 
     def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:

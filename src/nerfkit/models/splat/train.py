@@ -40,7 +40,6 @@ from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, init_random, splat_inputs
 from nerfkit.models.splat.optim import LearningRates, adam_step, means_lr, pose_lr, reset_rows
-from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
 from nerfkit.models.splat.surface import depth_distortion, normal_consistency, with_surface_channels
@@ -77,6 +76,7 @@ class SplatConfig:
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
     normal_consistency_from: float = 0.0  # progress from which the surface terms are on (before: steps without)
     depth_distortion: float = 0.0  # weight of surface.depth_distortion in the loss (0: off)
+    screen_dilation: float = _USER.screen_dilation  # px^2 added to each footprint's covariance (project.py)
     n_views: int = 0  # training photos (the corrections' leading axis)
     log_every: int = 10
 
@@ -171,10 +171,11 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
     stay on the device; idx picks the view.
     A step whose loss or gradients are not finite changes nothing (finite: False). with_health also
     returns the view's MSE and that flag (what nerfkit's run loop logs). scale: the views' resolution as a
-    fraction of the photos' (1/2 in the coarse phase); the screen dilation is LOWPASS_DILATION scale^2, the
+    fraction of the photos' (1/2 in the coarse phase); the screen dilation is cfg.screen_dilation scale^2, the
     same footprint in the photos' pixels (project.py). extent: the unit of the pose corrections' translations."""
     loss_grad = jax.value_and_grad(partial(_loss_fn, cfg=cfg, width=width, height=height, extent=extent,
-                                           dilation=LOWPASS_DILATION * scale * scale), argnums=(0, 1), has_aux=True)
+                                           dilation=cfg.screen_dilation * scale * scale), argnums=(0, 1),
+                                   has_aux=True)
 
     @jax.jit
     def step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree,

@@ -7,10 +7,10 @@
 // Gaussians per row. Each frame the Gaussians are sorted by view depth on the CPU (a 16-bit
 // counting sort), and one quad per Gaussian is drawn back to front (premultiplied alpha, "over").
 // The vertex shader projects as nerfkit/models/splat/project.py does (EWA, Jacobian at x/z, y/z clamped
-// to 1.3 x the half-extent, +0.3 px^2 dilation, 3-sigma square); the fragment shader evaluates
-// alpha = min(0.99, o exp(-sigma)) at the pixel centre with the rasteriser's skip rules
-// (sigma outside [0, 4.5] or alpha < 1/255). window.nerfkitSplat.render(camera) returns the RGBA8
-// pixels of exactly that camera (base64), for tests.
+// to 1.3 x the half-extent, + the run's screen dilation splats.json "dilation" in px^2 (3DGS: 0.3), 3-sigma
+// square); the fragment shader evaluates alpha = min(0.99, o exp(-sigma)) at the pixel centre with the
+// rasteriser's skip rules (sigma outside [0, 4.5] or alpha < 1/255). window.nerfkitSplat.render(camera)
+// returns the RGBA8 pixels of exactly that camera (base64), for tests.
 "use strict";
 
 const TEXELS = 16, PER_ROW = 256;
@@ -23,6 +23,7 @@ uniform vec3 u_origin;   // camera centre (world)
 uniform vec4 u_intr;     // fx, fy, cx, cy (pixels)
 uniform vec2 u_size;     // width, height (pixels)
 uniform int u_degree;
+uniform float u_dilation; // px^2 added to the footprint's covariance (the run's --screen-dilation)
 in uint a_index;
 out vec3 v_color; out float v_opacity; out vec3 v_conic; out vec2 v_center;
 vec4 texel(int g, int k) { int t = g * ${TEXELS} + k; return texelFetch(u_data, ivec2(t % ${TEXELS * PER_ROW}, t / ${TEXELS * PER_ROW}), 0); }
@@ -40,7 +41,7 @@ void main() {
   float tx = clamp(pc.x / z, -1.3 * cx / fx, 1.3 * (u_size.x - cx) / fx) * z;
   float ty = clamp(pc.y / z, -1.3 * cy / fy, 1.3 * (u_size.y - cy) / fy) * z;
   vec3 j0 = vec3(fx / z, 0.0, -fx * tx / (z * z)), j1 = vec3(0.0, fy / z, -fy * ty / (z * z));
-  float a = dot(j0, C * j0) + 0.3, b = dot(j0, C * j1), c = dot(j1, C * j1) + 0.3;
+  float a = dot(j0, C * j0) + u_dilation, b = dot(j0, C * j1), c = dot(j1, C * j1) + u_dilation;
   float det = a * c - b * b;
   if (det <= 0.0) return;
   float mid = 0.5 * (a + c), lam = mid + sqrt(max(mid * mid - det, 0.0));
@@ -123,7 +124,9 @@ export class SplatRenderer {
     gl.vertexAttribIPointer(loc, 1, gl.UNSIGNED_INT, 0, 0);
     gl.vertexAttribDivisor(loc, 1);
     this.u = {};
-    for (const name of ["u_data", "u_rot", "u_origin", "u_intr", "u_size", "u_degree"]) this.u[name] = gl.getUniformLocation(prog, name);
+    for (const name of ["u_data", "u_rot", "u_origin", "u_intr", "u_size", "u_degree", "u_dilation"]) {
+      this.u[name] = gl.getUniformLocation(prog, name);
+    }
     this.depth = new Float32Array(this.n);
     this.counts = new Uint32Array(65536);
     this.keys = new Uint16Array(this.n);
@@ -168,6 +171,7 @@ export class SplatRenderer {
     gl.uniform4f(this.u.u_intr, cam.fx, cam.fy, cam.cx, cam.cy);
     gl.uniform2f(this.u.u_size, cam.width, cam.height);
     gl.uniform1i(this.u.u_degree, this.meta.sh_degree);
+    gl.uniform1f(this.u.u_dilation, this.meta.dilation ?? 0.3);  // pages baked before the setting: 0.3
     gl.enable(gl.BLEND);
     gl.blendFuncSeparate(gl.ONE, gl.ONE_MINUS_SRC_ALPHA, gl.ZERO, gl.ONE);  // colour "over", alpha stays 1
     gl.disable(gl.DEPTH_TEST);
