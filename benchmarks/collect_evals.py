@@ -38,6 +38,7 @@ def main() -> None:
                               "normal_consistency": splat.get("normal_consistency", 0.0),
                               "normal_consistency_from": splat.get("normal_consistency_from", 0.0),
                               "depth_distortion": splat.get("depth_distortion", 0.0),
+                              "screen_dilation": splat.get("screen_dilation", 0.3),
                               "max_minutes": cfg["train"]["max_minutes"]}
         print(f"{label}: {rec['psnr']:.2f} dB, SSIM {rec['ssim']:.4f} at step {rec['step']}")
     a.results.mkdir(parents=True, exist_ok=True)
