@@ -309,7 +309,7 @@ class SplatSettings:
     """px^2 added to each Gaussian's footprint on the screen (3DGS's low-pass floor: 0.3). 0.1 keeps thin parts and
     the surfaces where the photos put them: lego, 10 minutes with the surface terms, 30.4 dB and a mesh at IoU 0.984
     against 29.4 and 0.973 (docs: Export). Other viewers draw with 0.3, where such a run's splats look smeared
-    (lego: 26.2 dB), so keep 0.3 for splats to share."""
+    (`export splat` says how much), so keep 0.3 for splats to share."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
