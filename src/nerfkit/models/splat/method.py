@@ -45,6 +45,7 @@ from nerfkit.models.splat.optim import (
     make_optimizers,
     means_lr,
 )
+from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.models.splat.transform import transform_gaussians
@@ -152,7 +153,7 @@ class SplatModel:
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{_describe_surface(g)}"
-                f"{'' if g.screen_dilation == 0.3 else f'; screen dilation {g.screen_dilation:g} px^2'}"
+                f"{'' if g.screen_dilation == LOWPASS_DILATION else f'; screen dilation {g.screen_dilation:g} px^2'}"
                 f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
