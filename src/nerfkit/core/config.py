@@ -307,8 +307,8 @@ class SplatSettings:
     `export mesh`; 0: off. On from --normal-consistency-from, as that term is (docs: Export)."""
     screen_dilation: float = 0.3
     """px^2 added to each Gaussian's footprint on the screen (3DGS's low-pass floor: 0.3). 0.1 keeps thin parts and
-    the surfaces where the photos put them: lego, 10 minutes with the surface terms, 30.4 dB and a mesh at IoU 0.984
-    against 29.4 and 0.973 (docs: Export). Other viewers draw with 0.3, where such a run's splats look smeared
+    the surfaces where the photos put them: lego, 10 minutes with the surface terms, 30.5 dB and a mesh at IoU 0.984
+    against 29.5 and 0.973 (docs: Export). Other viewers draw with 0.3, where such a run's splats look smeared
     (`export splat` says how much), so keep 0.3 for splats to share."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
