@@ -119,3 +119,42 @@ def test_small_photos_are_enlarged_for_features_and_give_more_points_on_the_surf
     noise = rng.normal(size=(2000, 3))
     noise *= 1.5 * rng.uniform(0, 1, (2000, 1)) ** (1 / 3) / np.linalg.norm(noise, axis=1, keepdims=True)
     assert np.mean(surface_distance(noise) < 0.05) < 0.35
+
+
+def test_the_points_cache_is_keyed_by_photos_poses_and_cameras(tmp_path, monkeypatch):
+    """cached_triangulation reads the cache only for the same photos, poses and cameras: a moved pose, another
+    focal length or a re-written photo triangulates again (points at old poses would be silently wrong)."""
+    import dataclasses
+    import os
+
+    from nerfkit.data.procedural.captures import make_capture
+
+    monkeypatch.setenv("NERFKIT_POINTS_CACHE", str(tmp_path / "cache"))
+    calls = []
+
+    def fake(frames, work, log):
+        calls.append(len(calls))
+        return triangulate_module.Triangulated(np.full((5, 3), float(len(calls))), np.zeros((5, 3)), len(frames),
+                                               {"extract": 0.0, "match": 0.0, "triangulate": 0.0}, 0.1)
+
+    monkeypatch.setattr(triangulate_module, "triangulate", fake)
+    frames = read_capture(make_capture(tmp_path / "c", n_views=4, size=24), "train").frames("train")
+    quiet = dict(say=lambda line: None)
+    first, ply = triangulate_module.cached_triangulation(frames, **quiet)
+    again, same = triangulate_module.cached_triangulation(frames, **quiet)
+    assert len(calls) == 1 and same == ply and ply.is_file()
+    np.testing.assert_allclose(again.points, first.points)
+    moved = frames[1].c2w.copy()
+    moved[0, 3] += 1e-3
+    cam = frames[0].camera
+    changed = [
+        [dataclasses.replace(frames[0], c2w=frames[0].c2w), dataclasses.replace(frames[1], c2w=moved), *frames[2:]],
+        [dataclasses.replace(frames[0], camera=dataclasses.replace(cam, fx=cam.fx * 1.01)), *frames[1:]],
+    ]
+    for k, other in enumerate(changed, start=2):
+        got, other_ply = triangulate_module.cached_triangulation(other, **quiet)
+        assert len(calls) == k and other_ply != ply and got.points[0, 0] == k
+    st = frames[2].image.stat()
+    os.utime(frames[2].image, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))  # the photo written again
+    triangulate_module.cached_triangulation(frames, **quiet)
+    assert len(calls) == 4
