@@ -126,6 +126,28 @@ def test_watertight_tsdf_mesh_is_closed_and_still_on_the_surfaces(trained, tmp_p
     assert acc < 1.2 * PIXEL * SCENE_SIZE and comp < 0.8 * PIXEL * SCENE_SIZE
 
 
+def test_textured_mesh_lands_in_the_capture_frame_with_the_vertex_colours(trained, tmp_path):
+    """--texture: the .glb's vertices lie in the capture frame S as the vertex-coloured mesh's do, and its texture,
+    read at each vertex's uv, carries that mesh's colours (not one flat colour)."""
+    _, moved, poses = trained
+    export_mesh(moved, tmp_path / "plain.ply", resolution=64, progress=False)
+    export_mesh(moved, tmp_path / "m.glb", resolution=64, texture=True, texture_size=256, progress=False)
+    plain = trimesh.load(tmp_path / "plain.ply", process=False)
+    glb = trimesh.load(tmp_path / "m.glb", force="mesh")
+    verts = to_scene(np.asarray(glb.vertices))
+    acc, _ = chamfer(verts, visible_surface(poses))
+    assert acc < 1.2 * PIXEL * SCENE_SIZE
+    gap, near = cKDTree(np.asarray(plain.vertices)).query(np.asarray(glb.vertices))
+    assert gap.max() < 1e-4 * SCENE_SIZE  # the same vertices, split along the atlas's seams
+    baked = glb.visual.to_color().vertex_colors[:, :3] / 255.0
+    painted = plain.visual.vertex_colors[:, :3] / 255.0
+    diff, flat = np.abs(baked - painted[near]).mean(), np.abs(painted - painted.mean(0)).mean()
+    print(f"texture against the vertex colours: {diff:.3f}; one flat colour {flat:.3f}")
+    # measured 0.073 against 0.178: texels sampled at a vertex's uv blend the faces around it, whose colours follow
+    # their normals; a flat texture scores 1 x, a shuffled one more
+    assert diff < 0.6 * flat
+
+
 def test_levelset_mesh_lies_on_the_true_surfaces_in_capture_coordinates(trained, tmp_path):
     _, moved, poses = trained
     out = tmp_path / "mesh.ply"
