@@ -141,3 +141,11 @@ def test_similarity_fit_undoes_a_similarity_and_not_noise():
     assert abs(s - s0) < 1e-9 and np.allclose(r, r0) and np.allclose(t, t0)
     assert np.allclose(moved[:, :3, 3], s0 * poses[:, :3, 3] @ r0.T + t0)  # centres: s R o + t
     assert np.allclose(pose_error(apply_similarity(poses, *similarity_fit(poses, poses)), poses), 0.0, atol=1e-5)
+    # independent errors of each pose (1 degree, 2% of the rig's size, random directions) are not a similarity:
+    # the fit over 40 poses stays near the identity, and a similarity on top of them is still found
+    many = _rig(40, seed=2)
+    noisy = perturb_poses(many, 1.0, 0.02 * camera_extent(many), seed=4)
+    s, r, t = similarity_fit(many, noisy)
+    assert abs(s - 1) < 0.01 and _angle(r) < 0.5 and np.linalg.norm(t) < 0.01 * camera_extent(many)
+    s, r, t = similarity_fit(many, apply_similarity(noisy, s0, r0, t0))
+    assert abs(s - s0) < 0.02 and _angle(r.T @ r0) < 0.5
