@@ -62,6 +62,7 @@ def test_corrections_find_the_gains_and_the_poses(capture, tmp_path, capsys):
     with_aligned = aligned_pose_error(np.concatenate([refined, apply_similarity(held, s, r, t)]), truth_all)
     print("held-out given", with_given, "aligned", with_aligned, (s, r, t))
     assert with_aligned[0] <= 1.05 * with_given[0] and with_aligned[1] <= 1.05 * with_given[1]
+    assert not np.allclose(apply_similarity(held, s, r, t), held)  # the move is a move (an identity passes the above)
     ev = evaluate_run(run, None, val, progress=False, write=False)
     assert ev["poses"] == POSE_NOTE
 
