@@ -49,6 +49,24 @@ def test_corrections_are_parameters_learned_from_the_first_step(tmp_path):
     assert set(state["params"]) == set(model.init(jax.random.PRNGKey(0))[0]) | {"cam_pose"}
 
 
+def test_the_pose_optimiser_follows_the_pose_schedule(tmp_path):
+    """Under a constant gradient Adam's update is lr(t) times its sign, so the corrections' updates read the
+    schedule the optimiser really uses (here decaying tenfold every 2 steps), step by step."""
+    import copy
+
+    cfg, model, _, _ = _setup(tmp_path, "on")
+    cfg = copy.deepcopy(cfg)
+    cfg.train.lr_decay_steps = 2
+    opt, _ = make_optimizer(cfg, model)
+    params = init_state(model, opt, 0)["params"]
+    grads = jax.tree_util.tree_map(jnp.ones_like, params)
+    state, lr = opt.init(params), pose_schedule(cfg)
+    for t in range(4):
+        update, state = opt.update(grads, state, params)
+        np.testing.assert_allclose(np.abs(np.asarray(update["cam_pose"])), float(lr(t)), rtol=1e-3)
+    assert float(lr(3)) < 0.1 * POSE_LR
+
+
 def test_off_adds_nothing(tmp_path):
     cfg, model, opt, train = _setup(tmp_path, "off")
     assert cfg.field.appearance_count == 0
