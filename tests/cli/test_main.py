@@ -48,9 +48,26 @@ def test_console_script_entry_point():
             assert flag in out.stdout, (preset, flag)
 
 
-def test_unknown_command_fails(capsys):
-    assert main(["fly"]) == 2
-    assert "unknown command" in capsys.readouterr().err
+def test_unknown_command_fails_in_one_line(capsys):
+    assert main(["fly"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown command 'fly'" in err[0] and "nerfkit --help" in err[0]
+
+
+def test_what_the_machine_refuses_is_one_line_naming_the_path(tmp_path, capsys):
+    """--out under a file (the OS says no) and a size no memory holds: one line each, exit 1, no traceback."""
+    (tmp_path / "a_file").write_text("mine")
+    assert main(["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1",
+                 "--n-test", "0"]) == 0
+    capsys.readouterr()
+    out = tmp_path / "a_file" / "run"
+    assert main(["train", str(tmp_path / "s"), "--out", str(out), "--preset", "tiny", "--max-steps", "1"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(out) in err[0] and "--out" in err[0], err
+    assert (tmp_path / "a_file").read_text() == "mine"
+    assert main(["make-scene", str(tmp_path / "big"), "--size", "5000"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--size" in err[0] and not (tmp_path / "big").exists(), err
 
 
 def test_train_writes_run_folder(run):

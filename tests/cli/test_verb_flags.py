@@ -386,6 +386,15 @@ def test_demo_preset_reaches_the_trainer(monkeypatch, tmp_path):
         assert seen["budget"][0] == minutes and (steps is None or seen["budget"][1] == steps)
 
 
+@pytest.mark.parametrize("bad", [["--max-minutes", "nan"], ["--max-steps", "-1"], ["--orbit-frames", "0"],
+                                 ["--size", "100000"]])
+def test_demo_checks_its_flags_before_it_writes_the_scene(tmp_path, capsys, bad):
+    out = tmp_path / "d"
+    assert main(["demo", "--out", str(out), "--preset", "tiny", "--size", "8", *bad]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and bad[0] in err[0] and not out.exists(), err
+
+
 def test_frames_is_refused_for_images(tmp_path, capsys):
     assert main(["process-data", "images", str(tmp_path), "--out", str(tmp_path / "o"), "--frames", "10"]) == 1
     err = capsys.readouterr().err.strip()

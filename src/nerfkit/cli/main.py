@@ -283,8 +283,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0 if argv else 2
     verb, rest = argv[0], argv[1:]
     if verb not in COMMANDS:
-        print(f"nerfkit: unknown command {verb!r}\n\n{usage()}", file=sys.stderr)
-        return 2
+        print(f"nerfkit: error: unknown command {verb!r}; `nerfkit --help` lists the commands", file=sys.stderr)
+        return 1
     if verb in COMPILING and "--help" not in rest and "-h" not in rest:
         if from_command_line:
             restart_with_huge_pages()  # returns where it changes nothing (hugepages.py)
@@ -300,6 +300,15 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # the reader of our output went away (`nerfkit train --help | head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as e:  # the machine said no: a path that is a file, no permission, a full disk
+        where = f" ({e.filename})" if e.filename else ""
+        print(f"nerfkit {verb}: error: {e.strerror or e}{where}; pick another --out, or free space or "
+              f"permissions there", file=sys.stderr)
+        return 1
+    except MemoryError as e:  # numpy names what it could not allocate
+        print(f"nerfkit {verb}: error: out of memory ({e}); lower the size, resolution or count asked for",
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

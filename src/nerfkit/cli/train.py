@@ -137,7 +137,8 @@ def cmd_train(argv: list[str]) -> int:
 
 
 def cmd_demo(argv: list[str]) -> int:
-    from nerfkit.data.procedural.scene import make_scene
+    from nerfkit.core.config import validate
+    from nerfkit.data.procedural.scene import MAX_SIZE, make_scene
     from nerfkit.evaluation.evaluate import evaluate_run, format_eval_table, render_run
     from nerfkit.training.setup import run_files
     from nerfkit.training.trainer import Trainer
@@ -152,6 +153,10 @@ def cmd_demo(argv: list[str]) -> int:
     cfg = preset(a.preset)
     set_budget(cfg, a.max_minutes if a.max_steps is None or flag_value(argv, "--max-minutes") is not None else None,
                a.max_steps)
+    validate(cfg)  # every flag checked before the scene is written
+    if not 1 <= a.size <= MAX_SIZE or a.orbit_frames < 1:
+        raise ConfigError(f"--size must be 1-{MAX_SIZE} and --orbit-frames at least 1 (got {a.size} and "
+                          f"{a.orbit_frames})")
     scene = make_scene(scene_dir, size=a.size)
     print(f"[1/4] procedural scene: {scene}")
     budget = " or ".join(x for x in (f"{cfg.train.max_minutes:g} min" if cfg.train.max_minutes else "",

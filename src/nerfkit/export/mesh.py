@@ -89,8 +89,8 @@ def check_options(resolution: int, method: str, box: float | None, max_faces: in
         raise ConfigError(f"--threshold must be a positive density (got {threshold})")
     if max_faces is not None and max_faces < 4:
         raise ConfigError(f"--max-faces must be at least 4 (got {max_faces})")
-    if box is not None and not box > 0:
-        raise ConfigError(f"--box must be a positive half-size in the run's normalised units (got {box})")
+    if box is not None and not 1e-3 <= box <= 1e3:
+        raise ConfigError(f"--box must be a half-size between 0.001 and 1000 of the run's normalised units (got {box})")
     if not 64 <= texture_size <= 8192:
         raise ConfigError(f"--texture-size must be between 64 and 8192 texels (got {texture_size})")
     if taubin is not None and not 0 <= taubin <= MAX_ROUNDS:
@@ -122,6 +122,8 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     set)."""
     if not 0 <= smooth <= 8:
         raise ConfigError(f"--smooth must be between 0 and 8 pixel footprints (got {smooth})")
+    if every is not None and every < 1:
+        raise ConfigError(f"--every must be >= 1 (got {every})")
     out = checked_out(run_dir, out, resolution, method, box, max_faces, texture, texture_size, threshold, watertight,
                       overwrite, taubin, bilateral)
     taubin = (TAUBIN_PAIRS if method == "tsdf" else 0) if taubin is None else taubin

@@ -65,8 +65,8 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
         raise ConfigError(f"--every must be >= 1 (got {every})")
     if not 0.0 < min_opacity <= 1.0:
         raise ConfigError(f"--min-opacity must be in (0, 1] (got {min_opacity})")
-    if voxel_size is not None and voxel_size < 0:
-        raise ConfigError(f"--voxel-size must be >= 0 (0: no downsampling; got {voxel_size})")
+    if voxel_size is not None and not 0 <= voxel_size < float("inf"):
+        raise ConfigError(f"--voxel-size must be >= 0 and finite (0: no downsampling; got {voxel_size})")
     check_chunk(chunk)
     out = check_out(Path(out) if out is not None else Path(run_dir) / "exports" / "pointcloud.ply", (".ply",), overwrite)
     t0 = time.perf_counter()

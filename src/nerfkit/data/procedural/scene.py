@@ -352,6 +352,10 @@ def render_view(c2w: np.ndarray, size: int, supersample: int = 1) -> tuple[np.nd
     return np.round(np.clip(rgba, 0.0, 1.0) * 255.0).astype(np.uint8), t
 
 
+MAX_SIZE = 4096  # pixels a side: larger photos of this scene would not fit in memory to train on
+MAX_VIEWS = 10_000
+
+
 def make_scene(
     out_dir, *, size: int = 100, n_train: int = 60, n_val: int = 10, n_test: int = 10, seed: int = 0,
     supersample: int = 1,
@@ -365,10 +369,10 @@ def make_scene(
     (inf on background). Cameras look at the origin from radius CAMERA_RADIUS. supersample S > 1: each
     pixel integrates S x S samples (render_view), as a camera's sensor does.
     """
-    if size < 1 or min(n_train, n_val, n_test) < 0:
+    if not 1 <= size <= MAX_SIZE or not 0 <= min(n_train, n_val, n_test) <= max(n_train, n_val, n_test) <= MAX_VIEWS:
         raise DataError(
-            f"make_scene: size must be >= 1 and view counts >= 0, got size={size}, "
-            f"n_train={n_train}, n_val={n_val}, n_test={n_test}"
+            f"make_scene: --size must be 1-{MAX_SIZE} and the view counts 0-{MAX_VIEWS}, got --size {size}, "
+            f"--n-train {n_train}, --n-val {n_val}, --n-test {n_test}"
         )
     out = Path(out_dir)
     for split, n in (("train", n_train), ("val", n_val), ("test", n_test)):
