@@ -78,6 +78,9 @@ def parse_train_args(argv: list[str]) -> TrainArgs:
         from nerfkit.run.folder import RunFolder
 
         base = RunFolder(Path(out)).config()  # a resumed run keeps its own config
+        if flag_value(argv, "--preset") is not None and preset(name).field.kind != base.field.kind:
+            raise ConfigError(f"--preset {name}: the run in {out} is a {base.field.kind} run and --resume keeps "
+                              f"its own model (config.json); drop --preset, or start a new run with another --out")
     default = TrainArgs(data_dir=tyro.MISSING, out=tyro.MISSING, preset=name, cfg=base)
     args = parse(TrainArgs, argv, "nerfkit train", default=default)
     from nerfkit.models.registry import METHODS

@@ -90,6 +90,18 @@ def test_resume_continues_to_the_total_steps(run, tmp_path):
     assert RunFolder(copy).load().step == 250
 
 
+def test_resume_refuses_a_preset_of_another_family(run, capsys):
+    """--resume keeps the run's own model: the command repeated with its --preset continues, another family's
+    --preset is refused in one line (it would otherwise be ignored) and the run is left as it was."""
+    scene, copy = run
+    before = (copy / "config.json").read_text()
+    assert main(["train", str(scene), "--out", str(copy), "--resume", "--preset", "tiny", "--max-steps", "5"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--preset tiny" in err[0] and "drop --preset" in err[0], err
+    assert (copy / "config.json").read_text() == before
+    assert main(["train", str(scene), "--out", str(copy), "--resume", "--preset", "splat", "--no-progress"]) == 0
+
+
 def test_eval_and_render(run, tmp_path):
     scene, out = run
     assert main(["eval", str(out), "--split", "test"]) == 0
