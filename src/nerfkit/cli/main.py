@@ -302,8 +302,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except OSError as e:  # the machine said no: a path that is a file, no permission, a full disk
         where = f" ({e.filename})" if e.filename else ""
-        print(f"nerfkit {verb}: error: {e.strerror or e}{where}; pick another --out, or free space or "
-              f"permissions there", file=sys.stderr)
+        print(f"nerfkit {verb}: error: {e.strerror or e}{where}; check that path (for an output: another --out, "
+              f"or free space or permissions there)", file=sys.stderr)
         return 1
     except MemoryError as e:  # numpy names what it could not allocate
         print(f"nerfkit {verb}: error: out of memory ({e}); lower the size, resolution or count asked for",
