@@ -71,3 +71,15 @@ def surface_distance(p: np.ndarray) -> np.ndarray:
     (exact outside the solids; inside, the distance to the enclosing solid's own boundary)."""
     return np.abs(signed_distance(p))
 
+
+
+def texture_against_vertex_colours(textured, plain) -> tuple[np.ndarray, float, float]:
+    """A textured mesh (trimesh, uv atlas) against the vertex-coloured export of the same surface: (distance [V'] of
+    each textured vertex to the nearest plain vertex, the mean |texture read at the vertex's uv - that vertex's
+    colour| over the channels, the same for one flat colour (the vertex colours' mean): the score to beat)."""
+    from scipy.spatial import cKDTree
+
+    gap, near = cKDTree(np.asarray(plain.vertices)).query(np.asarray(textured.vertices))
+    baked = textured.visual.to_color().vertex_colors[:, :3] / 255.0
+    painted = plain.visual.vertex_colors[:, :3] / 255.0
+    return gap, float(np.abs(baked - painted[near]).mean()), float(np.abs(painted - painted.mean(0)).mean())

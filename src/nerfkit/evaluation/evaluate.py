@@ -28,7 +28,7 @@ from nerfkit.models import registry
 from nerfkit.models.baked.model import BakedModel
 from nerfkit.rays.camera_path import focal_from_fov_y, read_camera_path
 from nerfkit.rays.cameras import Camera, ellipse_orbit_poses, orbit_poses
-from nerfkit.render.images import check_chunk, make_renderer
+from nerfkit.render.images import check_chunk, check_every, make_renderer
 from nerfkit.run.folder import RunFolder
 from nerfkit.training.trainer import Trainer, TrainResult
 
@@ -71,8 +71,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
     `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
     is replaced only with `overwrite` (otherwise ConfigError before any work)."""
-    if every < 1:
-        raise ConfigError(f"--every must be >= 1 (got {every})")
+    check_every(every)
     check_chunk(chunk)
     run_dir, folder = Path(run_dir), RunFolder(run_dir)
     trained = folder.load(checkpoint, scene=False)

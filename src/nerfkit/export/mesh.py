@@ -54,6 +54,7 @@ from nerfkit.export.surface import (
 from nerfkit.export.texture import bake, textured_files, write_textured
 from nerfkit.export.tsdf import SMOOTH_PIXELS, truncation, tsdf_surface
 from nerfkit.export.viewcolor import view_color_fn
+from nerfkit.render.images import check_every
 from nerfkit.run.folder import RunFolder
 
 METHODS = ("tsdf", "levelset")
@@ -122,8 +123,7 @@ def export_mesh(run_dir: Path, out: Path | None = None, resolution: int = 256, t
     set)."""
     if not 0 <= smooth <= 8:
         raise ConfigError(f"--smooth must be between 0 and 8 pixel footprints (got {smooth})")
-    if every is not None and every < 1:
-        raise ConfigError(f"--every must be >= 1 (got {every})")
+    check_every(every)
     out = checked_out(run_dir, out, resolution, method, box, max_faces, texture, texture_size, threshold, watertight,
                       overwrite, taubin, bilateral)
     taubin = (TAUBIN_PAIRS if method == "tsdf" else 0) if taubin is None else taubin

@@ -25,7 +25,7 @@ from nerfkit.export.registry import Exporter
 from nerfkit.export.splat import active_gaussians
 from nerfkit.export.visibility import render_views, view_points
 from nerfkit.models.splat.project import SH_C0
-from nerfkit.render.images import check_chunk
+from nerfkit.render.images import check_chunk, check_every
 from nerfkit.run.folder import RunFolder
 
 VOXELS_PER_BOX = 512  # default voxel: the box's side / this
@@ -61,8 +61,7 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
                       overwrite: bool = False) -> dict:
     """`nerfkit export pointcloud`: fuse the depth of every `every`-th view of `split` (default:
     the run's training split) into RUN/exports/pointcloud.ply (or `out`), in the capture's units."""
-    if every is not None and every < 1:
-        raise ConfigError(f"--every must be >= 1 (got {every})")
+    check_every(every)
     if not 0.0 < min_opacity <= 1.0:
         raise ConfigError(f"--min-opacity must be in (0, 1] (got {min_opacity})")
     if voxel_size is not None and not 0 <= voxel_size < float("inf"):

@@ -15,6 +15,12 @@ def check_chunk(chunk: int | None) -> None:
         raise ConfigError(f"--chunk must be >= 1 (got {chunk})")
 
 
+def check_every(every: int | None) -> None:
+    """ConfigError unless an --every value is None (the default spacing) or at least 1."""
+    if every is not None and every < 1:
+        raise ConfigError(f"--every must be >= 1 (got {every})")
+
+
 def make_renderer(model, chunk: int = 4096) -> Renderer:
     """The wavefront renderer for models that march an occupancy grid, with 2 * chunk ray slots (a slot is
     small: its window of candidates and up to CAP samples; measured on lego, 2 cores: 800x800 in 3.26 s
