@@ -197,3 +197,25 @@ def test_a_colmap_model_of_garbage(tmp_path, capsys, content):
     code, err = _run(["train", str(tmp_path / "cap"), "--out", str(tmp_path / "run"), "--preset", "tiny"], capsys)
     assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert str(model) in err and not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("flags,named", [(["--fps", "0"], "--fps"), (["--fps", "1000"], "--fps"),
+                                         (["--width", "100000"], "--width"), (["--height", "0"], "--height")])
+def test_render_flags_out_of_range(trained, tmp_path, capsys, flags, named):
+    run, _ = trained
+    before = _snapshot(run)
+    code, err = _run(["render", str(run), "--orbit", "2", "--out", str(tmp_path / "r"), *flags], capsys)
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert named in err and not (tmp_path / "r").exists() and _snapshot(run) == before
+
+
+def test_report_of_a_config_cut_short(trained, tmp_path, capsys):
+    run, data, named = _damaged_copy(trained, tmp_path, "config_not_json")
+    before = _snapshot(run)
+    code, err = _run(["report", str(run)], capsys)
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert named in err and _snapshot(run) == before  # the training's own report.html is left as it was
+    _damaged_copy(trained, tmp_path / "whole", "scene_missing")  # the same verb on a readable config writes its page
+    (tmp_path / "whole" / "run" / "report.html").unlink()
+    assert _run(["report", str(tmp_path / "whole" / "run")], capsys)[0] == 0
+    assert (tmp_path / "whole" / "run" / "report.html").is_file()

@@ -208,7 +208,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     """Render a split's poses, an N-frame orbit or a camera path (nerfstudio's camera_path.json)
     at any resolution: RGB and colour-mapped depth PNGs, depth as float32 .npy (sum_i w_i t_i),
     and an MP4 of each."""
-    check_render_request(split, orbit, camera_path, chunk, width, height)
+    check_render_request(split, orbit, camera_path, chunk, width, height, fps)
     run_dir = Path(run_dir)
     folder = RunFolder(run_dir)
     trained = folder.load()
@@ -244,17 +244,24 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     return info
 
 
+MAX_RENDER_SIZE = 8192  # pixels a side (8K video)
+MAX_FPS = 240
+
+
 def check_render_request(split: str | None, orbit: int | None, camera_path: Path | None, chunk: int | None,
-                         width: int | None, height: int | None) -> None:
-    """ConfigError unless exactly one of split, orbit and camera_path is given, and the sizes are positive."""
+                         width: int | None, height: int | None, fps: int | None = None) -> None:
+    """ConfigError unless exactly one of split, orbit and camera_path is given, the sizes are 1-MAX_RENDER_SIZE
+    and the fps (when given) 1-MAX_FPS."""
     if sum(x is not None for x in (split, orbit, camera_path)) != 1:
         raise ConfigError("pass exactly one of --split SPLIT, --orbit N or --camera-path FILE")
     check_chunk(chunk)
     if orbit is not None and orbit < 1:
         raise ConfigError(f"--orbit must be >= 1 frames (got {orbit})")
     for name, v in (("--width", width), ("--height", height)):
-        if v is not None and v < 1:
-            raise ConfigError(f"{name} must be positive (got {v})")
+        if v is not None and not 1 <= v <= MAX_RENDER_SIZE:
+            raise ConfigError(f"{name} must be 1-{MAX_RENDER_SIZE} pixels (got {v})")
+    if fps is not None and not 1 <= fps <= MAX_FPS:
+        raise ConfigError(f"--fps must be 1-{MAX_FPS} frames a second (got {fps})")
 
 
 def poses_to_render(cap, d, split: str | None, orbit: int | None, camera_path: Path | None, path: dict | None):

@@ -214,6 +214,9 @@ def write_report(run_dir: str | Path) -> Path:
     if not (run / "config.json").is_file():
         raise NerfkitError(f"{run}: not a nerfkit run folder (no config.json)")
     cfg = h.read_json(run / "config.json")
+    if cfg is None:  # cut short or not JSON: a page without the model would look like a run that has none
+        raise NerfkitError(f"{run / 'config.json'}: not readable JSON (cut short?); restore it from a copy of the "
+                           "run folder, or train the run again")
     scene = h.read_json(run / "scene.json")
     rows = read_jsonl(run / "metrics.jsonl")
     vrows = read_jsonl(run / "val_metrics.jsonl")
