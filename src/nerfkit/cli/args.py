@@ -74,7 +74,8 @@ class RenderArgs:
     """Render an orbit of N frames: a circle at the cameras' typical radius and elevation (Blender scenes),
     or an ellipse fitted to the camera centres (photo captures), looking at the scene centre."""
     width: int | None = None
-    """Output width in pixels (default: training width, for --orbit at most 512; height follows the aspect ratio)."""
+    """Output width in pixels, at most 8192 (default: training width, for --orbit at most 512; height follows the
+    aspect ratio)."""
     height: int | None = None
     """Output height in pixels."""
     out: Path | None = None
@@ -83,7 +84,7 @@ class RenderArgs:
     """Render a camera path: nerfstudio's camera_path.json layout (written by `nerfkit view` or nerfstudio's
     viewer); its frames, field of view, resolution and fps unless --width/--height/--fps are given."""
     fps: int | None = None
-    """Video frame rate (default: the camera path's, else 24)."""
+    """Video frame rate, 1-240 (default: the camera path's, else 24)."""
     chunk: int | None = None
     """Rays per rendering chunk (default: the run's --chunk)."""
     overwrite: bool = False
