@@ -210,7 +210,7 @@ def write_report(run_dir: str | Path) -> Path:
     """Write RUN_DIR/report.html: config, curves, latest validation images beside ground
     truth, depth maps, the eval tables if present and the rendered videos. Safe to call on a
     run in progress or a partial run folder (missing parts are left out); a config.json that is
-    not JSON is refused (NerfkitError). Returns the path.""""""
+    not JSON is refused (NerfkitError). Returns the path."""
     run = Path(run_dir)
     if not (run / "config.json").is_file():
         raise NerfkitError(f"{run}: not a nerfkit run folder (no config.json)")
