@@ -249,7 +249,7 @@ MAX_FPS = 240
 
 
 def check_render_request(split: str | None, orbit: int | None, camera_path: Path | None, chunk: int | None,
-                         width: int | None, height: int | None, fps: int | None = None) -> None:
+                         width: int | None, height: int | None, fps: int | None) -> None:
     """ConfigError unless exactly one of split, orbit and camera_path is given, the sizes are 1-MAX_RENDER_SIZE
     and the fps (when given) 1-MAX_FPS."""
     if sum(x is not None for x in (split, orbit, camera_path)) != 1:

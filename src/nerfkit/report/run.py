@@ -210,14 +210,11 @@ def write_report(run_dir: str | Path) -> Path:
     """Write RUN_DIR/report.html: config, curves, latest validation images beside ground
     truth, depth maps, the eval tables if present and the rendered videos. Safe to call on a
     run in progress or a partial run folder (missing parts are left out); a config.json that is
-    not JSON is refused (NerfkitError). Returns the path."""
+    not JSON is refused (RunFolder.config_json). Returns the path."""
     run = Path(run_dir)
     if not (run / "config.json").is_file():
         raise NerfkitError(f"{run}: not a nerfkit run folder (no config.json)")
-    cfg = h.read_json(run / "config.json")
-    if cfg is None:  # cut short or not JSON: a page without the model would look like a run that has none
-        raise NerfkitError(f"{run / 'config.json'}: not readable JSON (cut short?); restore it from a copy of the "
-                           "run folder, or train the run again")
+    cfg = RunFolder(run).config_json()  # refused when cut short: a page without the model would look like none
     scene = h.read_json(run / "scene.json")
     rows = read_jsonl(run / "metrics.jsonl")
     vrows = read_jsonl(run / "val_metrics.jsonl")

@@ -88,15 +88,23 @@ class RunFolder:
     def __repr__(self) -> str:
         return f"RunFolder({str(self.path)!r})"
 
-    def config(self) -> Config:
-        """RUN/config.json as a Config; ConfigError naming the file when missing or broken."""
+    def config_json(self):
+        """RUN/config.json's JSON as read, before it is checked as a Config; ConfigError naming the file when
+        missing or not JSON (cut short, say)."""
         path = self.path / "config.json"
         if not path.is_file():
             raise ConfigError(f"{path}: missing; is {self.path} a nerfkit run folder?")
         try:
-            cfg = Config.from_dict(json.loads(path.read_text(encoding="utf-8")))
+            return json.loads(path.read_text(encoding="utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
             raise ConfigError(f"{path}: not valid JSON ({e}); restore it or start a new run") from None
+
+    def config(self) -> Config:
+        """RUN/config.json as a Config; ConfigError naming the file when missing or broken."""
+        path = self.path / "config.json"
+        raw = self.config_json()
+        try:
+            cfg = Config.from_dict(raw)
         except ConfigError as e:
             raise ConfigError(f"{path}: {e}") from None
         if cfg.field.kind not in METHODS:
