@@ -176,7 +176,13 @@ def test_a_baked_folder_that_is_not_one(trained, tmp_path, capsys):
     assert code == 1 and "--port must be in 0..65535" in err and len(err.strip().splitlines()) == 1
 
 
-@pytest.mark.parametrize("text", ["", "{", json.dumps({"camera_path": [{"camera_to_world": [1, 2]}]})])
+EYE = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 4, 0, 0, 0, 1]  # 4 units up the z axis
+
+
+@pytest.mark.parametrize("text", ["", "{", json.dumps({"camera_path": [{"camera_to_world": [1, 2]}]}),
+                                  json.dumps({"camera_path": [{"camera_to_world": EYE, "fov": 50}], "fps": 0}),
+                                  json.dumps({"camera_path": [{"camera_to_world": EYE, "fov": 50}],
+                                              "render_width": 100000, "render_height": 64})])
 def test_a_camera_path_that_is_not_one(trained, tmp_path, capsys, text):
     run, _ = trained
     path = tmp_path / "path.json"
@@ -200,11 +206,18 @@ def test_a_colmap_model_of_garbage(tmp_path, capsys, content):
 
 
 @pytest.mark.parametrize("flags,named", [(["--fps", "0"], "--fps"), (["--fps", "1000"], "--fps"),
-                                         (["--width", "100000"], "--width"), (["--height", "0"], "--height")])
+                                         (["--width", "100000"], "--width"), (["--height", "0"], "--height"),
+                                         (["--width", "8000", "--camera-path", "TALL"], "--width / --height")])
 def test_render_flags_out_of_range(trained, tmp_path, capsys, flags, named):
+    """The last case: a width within bounds whose height, following a camera path's 1:2 aspect, is not."""
     run, _ = trained
     before = _snapshot(run)
-    code, err = _run(["render", str(run), "--orbit", "2", "--out", str(tmp_path / "r"), *flags], capsys)
+    tall = tmp_path / "tall.json"
+    tall.write_text(json.dumps({"camera_path": [{"camera_to_world": EYE, "fov": 50}], "render_width": 32,
+                                "render_height": 64}))
+    flags = [str(tall) if f == "TALL" else f for f in flags]
+    source = [] if "--camera-path" in flags else ["--orbit", "2"]
+    code, err = _run(["render", str(run), *source, "--out", str(tmp_path / "r"), *flags], capsys)
     assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert named in err and not (tmp_path / "r").exists() and _snapshot(run) == before
 

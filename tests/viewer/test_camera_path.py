@@ -64,14 +64,39 @@ def test_reads_a_path_written_by_nerfstudio(tmp_path):
     np.testing.assert_allclose(got["c2w"][1], c2w)
 
 
+ONE = '{"camera_to_world": [1,0,0,0, 0,1,0,0, 0,0,1,4, 0,0,0,1], "fov": 50}'
+
+
 @pytest.mark.parametrize("text,match", [
     ("{", "not a readable camera path JSON"),
     ('{"camera_path": []}', "no 'camera_path' list"),
     ('{"camera_path": [{"fov": 50}]}', r"camera_path\[0\] needs 'camera_to_world'"),
     ('{"camera_path": [{"camera_to_world": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "fov": 0}]}', "fov outside"),
+    (f'{{"camera_path": [{ONE}], "fps": 0}}', "'fps' must be a number 1-240"),
+    (f'{{"camera_path": [{ONE}], "fps": -24}}', "'fps' must be a number 1-240"),
+    (f'{{"camera_path": [{ONE}], "fps": "24"}}', "'fps' must be a number 1-240"),
+    (f'{{"camera_path": [{ONE}], "render_width": 100000}}', "'render_width' must be a whole number 1-8192"),
+    (f'{{"camera_path": [{ONE}], "render_height": 480.5}}', "'render_height' must be a whole number"),
+    (f'{{"camera_path": [{ONE}], "render_height": true}}', "'render_height' must be a whole number"),
+    ('{"camera_path": [{"camera_to_world": [1,0,0,0, 0,1,0,0, 0,0,1,4, 0,0,0,1], "fov": 50, "aspect": "wide"}]}',
+     "'aspect' must make a width"),
+    ('{"camera_path": [{"camera_to_world": [1,0,0,0, 0,1,0,0, 0,0,1,4, 0,0,0,1], "fov": 50, "aspect": 1000}]}',
+     "'aspect' must make a width"),
 ])
 def test_bad_camera_paths_are_one_line_errors(tmp_path, text, match):
     (tmp_path / "p.json").write_text(text)
     with pytest.raises(DataError, match=match) as e:
         read_camera_path(tmp_path / "p.json")
     assert "\n" not in str(e.value)
+
+
+def test_a_path_may_leave_its_size_and_fps_out_or_give_a_video_rate(tmp_path):
+    p = tmp_path / "p.json"
+    p.write_text(f'{{"camera_path": [{ONE}], "render_height": 240.0, "fps": 29.97}}')
+    got = read_camera_path(p)
+    assert (got["width"], got["height"], got["fps"]) == (240, 240, 29.97) and isinstance(got["height"], int)
+    p.write_text(f'{{"camera_path": [{ONE}], "render_width": null}}')
+    got = read_camera_path(p)
+    assert (got["width"], got["height"], got["fps"]) == (480, 480, 24)
+    p.write_text('{"camera_path": [{"camera_to_world": [1,0,0,0, 0,1,0,0, 0,0,1,4, 0,0,0,1], "fov": 50, "aspect": 2}]}')
+    assert read_camera_path(p)["width"] == 960

@@ -26,7 +26,7 @@ from nerfkit.data.loader import load_frames, read_capture, scene_cameras
 from nerfkit.models.baked.format import load_baked
 from nerfkit.models import registry
 from nerfkit.models.baked.model import BakedModel
-from nerfkit.rays.camera_path import focal_from_fov_y, read_camera_path
+from nerfkit.rays.camera_path import MAX_FPS, MAX_RENDER_SIZE, focal_from_fov_y, read_camera_path
 from nerfkit.rays.cameras import Camera, ellipse_orbit_poses, orbit_poses
 from nerfkit.render.images import check_chunk, check_every, make_renderer
 from nerfkit.run.folder import RunFolder
@@ -209,6 +209,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     at any resolution: RGB and colour-mapped depth PNGs, depth as float32 .npy (sum_i w_i t_i),
     and an MP4 of each."""
     check_render_request(split, orbit, camera_path, chunk, width, height, fps)
+    path = read_camera_path(camera_path) if camera_path is not None else None  # a bad file: before the run loads
     run_dir = Path(run_dir)
     folder = RunFolder(run_dir)
     trained = folder.load()
@@ -218,13 +219,15 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     scene = trained.scene
     d = cfg.data
     cap = read_capture(data_dir, cfg.data.train_split if split is None else split, d.format, d.masks, d.holdout_every)
-    path = read_camera_path(camera_path) if camera_path is not None else None
     sel, poses, name = poses_to_render(cap, d, split, orbit, camera_path, path)
     if path is not None and width is None and height is None:
         width, height = path["width"], path["height"]
     cam0 = sel.cameras[0]
     aspect = cam0.height / cam0.width if path is None else path["height"] / path["width"]
     width, height, capped = output_size(width, height, aspect, scene, orbit)
+    if max(width, height) > MAX_RENDER_SIZE:  # one side given, the other following the aspect ratio
+        raise ConfigError(f"at this aspect ratio that is {width}x{height} pixels, more than {MAX_RENDER_SIZE} a side; "
+                          f"give a smaller --width / --height")
     cams, fps = render_cameras(sel, path, split, len(poses), width, height, fps)
     out = check_new_folder(Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}",
                            overwrite)
@@ -242,10 +245,6 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
             "camera_to_world": capture_poses(sel, poses)}
     (out / "render.json").write_text(json.dumps(info, indent=2))
     return info
-
-
-MAX_RENDER_SIZE = 8192  # pixels a side (8K video)
-MAX_FPS = 240
 
 
 def check_render_request(split: str | None, orbit: int | None, camera_path: Path | None, chunk: int | None,

@@ -71,8 +71,15 @@ def write_camera_path(path: Path, keyframes: list[np.ndarray], fovs: list[float]
     return path
 
 
+MAX_RENDER_SIZE = 8192  # pixels a side (8K video)
+MAX_FPS = 240
+
+
 def read_camera_path(path: Path) -> dict:
-    """Frames of a camera_path.json: {"c2w": [N, 4, 4], "fov_y": [N] degrees, "width", "height", "fps"}."""
+    """Frames of a camera_path.json: {"c2w": [N, 4, 4], "fov_y": [N] degrees, "width", "height", "fps"}. The size
+    and fps are the file's (render_width, render_height at most MAX_RENDER_SIZE, fps 1-MAX_FPS); where it leaves
+    them out, a height of 480, the width from the first frame's aspect ratio, 24 fps. DataError (one line, naming
+    the file) for anything else."""
     path = Path(path)
     try:
         meta = json.loads(path.read_text(encoding="utf-8-sig"))
@@ -96,15 +103,31 @@ def read_camera_path(path: Path) -> dict:
             raise DataError(f"{path}: camera_path[{k}] has a non-finite matrix or a fov outside (0, 180) degrees")
         c2w.append(m)
         fov.append(fv)
-    w, h = meta.get("render_width"), meta.get("render_height")
-    aspect = float(frames[0].get("aspect", 1.0) or 1.0)
-    if not isinstance(h, int) or h < 1:
-        h = 480
-    if not isinstance(w, int) or w < 1:
+    w, h, fps = (_setting(path, meta, key, top) for key, top in (("render_width", MAX_RENDER_SIZE),
+                                                                ("render_height", MAX_RENDER_SIZE), ("fps", MAX_FPS)))
+    h = 480 if h is None else h
+    if w is None:  # the first frame's aspect ratio (width / height) gives it
+        aspect = frames[0].get("aspect", 1.0) if isinstance(frames[0], dict) else 1.0
+        aspect = 1.0 if aspect is None else aspect
+        if isinstance(aspect, bool) or not isinstance(aspect, (int, float)) or not 0 < aspect * h <= MAX_RENDER_SIZE:
+            raise DataError(f"{path}: camera_path[0]'s 'aspect' must make a width of 1-{MAX_RENDER_SIZE} pixels at a "
+                            f"height of {h} (got {json.dumps(aspect)}); give 'render_width' or fix the aspect")
         w = max(1, round(h * aspect))
-    fps = meta.get("fps", 24)
-    return {"c2w": np.stack(c2w), "fov_y": np.asarray(fov), "width": w, "height": h,
-            "fps": int(fps) if isinstance(fps, (int, float)) and fps > 0 else 24}
+    return {"c2w": np.stack(c2w), "fov_y": np.asarray(fov), "width": w, "height": h, "fps": 24 if fps is None else fps}
+
+
+def _setting(path: Path, meta: dict, key: str, top: int) -> int | float | None:
+    """meta[key] as a number 1-top (whole for the sizes; the fps may be 29.97); None when the file leaves it out
+    (or null); DataError naming the file and the key for anything else."""
+    v = meta.get(key)
+    if v is None:
+        return None
+    whole = key != "fps"
+    if (isinstance(v, bool) or not isinstance(v, (int, float)) or not 1 <= v <= top
+            or (whole and not float(v).is_integer())):
+        raise DataError(f"{path}: '{key}' must be a {'whole ' if whole else ''}number 1-{top} (got {json.dumps(v)}); "
+                        f"fix it in the file or save the path again from the viewer")
+    return int(v) if float(v).is_integer() else float(v)
 
 
 def focal_from_fov_y(fov_y_deg: float, height: int) -> float:
