@@ -103,11 +103,12 @@ def read_camera_path(path: Path) -> dict:
             raise DataError(f"{path}: camera_path[{k}] has a non-finite matrix or a fov outside (0, 180) degrees")
         c2w.append(m)
         fov.append(fv)
-    w, h, fps = (_setting(path, meta, key, top) for key, top in (("render_width", MAX_RENDER_SIZE),
-                                                                ("render_height", MAX_RENDER_SIZE), ("fps", MAX_FPS)))
+    w = _setting(path, meta, "render_width", MAX_RENDER_SIZE)
+    h = _setting(path, meta, "render_height", MAX_RENDER_SIZE)
+    fps = _setting(path, meta, "fps", MAX_FPS, whole=False)
     h = 480 if h is None else h
     if w is None:  # the first frame's aspect ratio (width / height) gives it
-        aspect = frames[0].get("aspect", 1.0) if isinstance(frames[0], dict) else 1.0
+        aspect = frames[0].get("aspect")  # (a dict: its "camera_to_world" was read above)
         aspect = 1.0 if aspect is None else aspect
         if isinstance(aspect, bool) or not isinstance(aspect, (int, float)) or not 0 < aspect * h <= MAX_RENDER_SIZE:
             raise DataError(f"{path}: camera_path[0]'s 'aspect' must make a width of 1-{MAX_RENDER_SIZE} pixels at a "
@@ -116,13 +117,12 @@ def read_camera_path(path: Path) -> dict:
     return {"c2w": np.stack(c2w), "fov_y": np.asarray(fov), "width": w, "height": h, "fps": 24 if fps is None else fps}
 
 
-def _setting(path: Path, meta: dict, key: str, top: int) -> int | float | None:
-    """meta[key] as a number 1-top (whole for the sizes; the fps may be 29.97); None when the file leaves it out
-    (or null); DataError naming the file and the key for anything else."""
+def _setting(path: Path, meta: dict, key: str, top: int, whole: bool = True) -> int | float | None:
+    """meta[key] as a number 1-top, a whole one unless `whole` is False (an fps of 29.97); None when the file
+    leaves it out (or null); DataError naming the file and the key for anything else."""
     v = meta.get(key)
     if v is None:
         return None
-    whole = key != "fps"
     if (isinstance(v, bool) or not isinstance(v, (int, float)) or not 1 <= v <= top
             or (whole and not float(v).is_integer())):
         raise DataError(f"{path}: '{key}' must be a {'whole ' if whole else ''}number 1-{top} (got {json.dumps(v)}); "
