@@ -232,3 +232,71 @@ def test_report_of_a_config_cut_short(trained, tmp_path, capsys):
     (tmp_path / "whole" / "run" / "report.html").unlink()
     assert _run(["report", str(tmp_path / "whole" / "run")], capsys)[0] == 0
     assert (tmp_path / "whole" / "run" / "report.html").is_file()
+
+
+def test_a_disk_that_fills_during_render_leaves_nothing_half_written(trained, tmp_path, capsys, monkeypatch):
+    """The frames are written, then the video fails as a full disk does: one line naming the disk's reason, exit 1;
+    a new --out (or the run's renders/ folder) does not appear, and an earlier render replaced with --overwrite
+    keeps its files. The same command with room on the disk writes them all."""
+    import errno
+
+    import nerfkit.evaluation.evaluate as evaluate
+
+    run, _ = trained
+    write_video = evaluate.write_video
+
+    def full(path, *a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    earlier = tmp_path / "earlier"
+    assert _run(["render", str(run), "--orbit", "2", "--out", str(earlier)], capsys)[0] == 0
+    before, run_before = _snapshot(earlier), _snapshot(run)
+    assert "rgb_0001.png" in before and "rgb.mp4" in before
+    monkeypatch.setattr(evaluate, "write_video", full)
+    for out, extra in ((tmp_path / "new" / "r", []), (earlier, ["--overwrite"]), (None, [])):
+        argv = ["render", str(run), "--orbit", "3", *extra] + (["--out", str(out)] if out else [])
+        code, err = _run(argv, capsys)
+        error = [line for line in err.strip().splitlines() if line.startswith("nerfkit render:")]  # not the bar
+        assert code == 1 and "Traceback" not in err and len(error) == 1 and "No space left" in error[0], err
+        assert f"({out or run / 'renders' / 'orbit3_16x16'}/rgb.mp4)" in error[0], error  # not the hidden folder
+    assert not (tmp_path / "new").exists() and _snapshot(earlier) == before and _snapshot(run) == run_before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier"]
+    monkeypatch.setattr(evaluate, "write_video", write_video)
+    assert _run(["render", str(run), "--orbit", "3", "--overwrite", "--out", str(earlier)], capsys)[0] == 0
+    after = _snapshot(earlier)
+    assert "rgb_0002.png" in after and after["rgb_0001.png"] != before["rgb_0001.png"]  # a third of a turn, not half
+    assert json.loads((earlier / "render.json").read_text())["frames"] == 3
+
+
+def test_a_disk_that_fills_during_eval_leaves_the_earlier_evaluation(trained, tmp_path, capsys, monkeypatch):
+    """eval --overwrite of a run evaluated before, the disk filling after the first picture: one line, exit 1, and
+    the run folder as it was (the earlier eval_test/ and eval_test.json); a new evaluation leaves no folder."""
+    import errno
+
+    import nerfkit.evaluation.evaluate as evaluate
+
+    run0, data0 = trained
+    run = tmp_path / "run"
+    shutil.copytree(run0, run)
+    save_png, calls = evaluate.save_png, []
+
+    def fills(path, img):
+        calls.append(path)
+        if len(calls) > 1:
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        save_png(path, img)
+
+    monkeypatch.setattr(evaluate, "save_png", fills)
+    before = _snapshot(run)
+    code, err = _run(["eval", str(run), "--split", "test"], capsys)
+    error = [line for line in err.strip().splitlines() if line.startswith("nerfkit eval:")]  # not the bar
+    assert code == 1 and "Traceback" not in err and len(error) == 1 and "No space left" in error[0], err
+    assert f"({run / 'eval_test'}/" in error[0] and _snapshot(run) == before  # no eval_test/ nor its hidden sibling
+    monkeypatch.setattr(evaluate, "save_png", save_png)
+    assert _run(["eval", str(run), "--split", "test"], capsys)[0] == 0
+    before = _snapshot(run)
+    assert "eval_test/view_000.png" in before and "eval_test.json" in before
+    monkeypatch.setattr(evaluate, "save_png", fills)
+    calls.clear()
+    code, err = _run(["eval", str(run), "--split", "test", "--overwrite"], capsys)
+    assert code == 1 and "No space left" in err and _snapshot(run) == before, err

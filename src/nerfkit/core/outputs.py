@@ -5,11 +5,16 @@ and a refused command leaves nothing behind (no folder is created until there is
                              can be made
     check_new_folder(path)   a folder that does not exist yet or is empty (or --overwrite: its files of the
                              same names are replaced, others stay)
+    staged_folder(path)      write a folder's files beside it and move them in only when all are written, so
+                             that a write that fails half way (a full disk, Ctrl-C) leaves path as it was
 """
 
 from __future__ import annotations
 
 import os
+import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from nerfkit.core.errors import ConfigError
@@ -47,3 +52,41 @@ def check_new_folder(path: Path, overwrite: bool = False, flag: str = "--out") -
                           f"there, or pick a new folder")
     _check_creatable(path, flag)
     return path
+
+
+@contextmanager
+def staged_folder(path: Path) -> Iterator[Path]:
+    """Yield a hidden sibling folder (.NAME.incomplete) to write path's files into; when the block ends without
+    an error they are moved into path (the whole folder renamed when path is new; with --overwrite, files of
+    the same names replaced, others left), else the sibling is removed, with any folder made above it. Either
+    way path holds the old files or all the new ones, and nothing else is left behind."""
+    path = Path(path)
+    made = path.parent
+    while not made.parent.exists() and made.parent != made.parent.parent:
+        made = made.parent  # the topmost folder this creates, removed again on failure
+    made = made if not made.exists() else None
+    tmp = path.parent / f".{path.name}.incomplete"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    try:
+        yield tmp
+        if not path.exists():
+            os.replace(tmp, path)
+        else:
+            _move_into(tmp, path)
+    except BaseException as e:
+        shutil.rmtree(made if made is not None else tmp, ignore_errors=True)
+        if isinstance(e, OSError) and isinstance(e.filename, str) and e.filename.startswith(str(tmp)):
+            e.filename = str(path) + e.filename[len(str(tmp)):]  # the error names the folder the user asked for
+        raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _move_into(src: Path, dst: Path) -> None:
+    """Move src's files into the folder dst, replacing those of the same names, folder by folder."""
+    for f in sorted(src.iterdir()):
+        if f.is_dir() and (dst / f.name).is_dir():
+            _move_into(f, dst / f.name)
+        else:
+            os.replace(f, dst / f.name)

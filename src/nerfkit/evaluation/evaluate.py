@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import re
@@ -13,7 +14,7 @@ from tqdm.auto import tqdm
 
 from nerfkit.core.errors import ConfigError
 from nerfkit.core.metrics import psnr, ssim
-from nerfkit.core.outputs import check_new_folder
+from nerfkit.core.outputs import check_new_folder, staged_folder
 from nerfkit.core.viz import (
     background_rgb,
     colorize_renders,
@@ -70,9 +71,9 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     Multiscale data (data/formats/multiscale.py): every level is scored at its own size, and the mean
     over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
     `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
-    is replaced only with `overwrite` (otherwise ConfigError before any work)."""
-    check_every(every)
-    check_chunk(chunk)
+    is replaced only with `overwrite` (otherwise ConfigError before any work), and only once all the new
+    renders are written (core/outputs.staged_folder: a disk that fills half way leaves the earlier one)."""
+    check_every(every), check_chunk(chunk)
     run_dir, folder = Path(run_dir), RunFolder(run_dir)
     trained = folder.load(checkpoint, scene=False)
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
@@ -96,22 +97,23 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     def score(spec, out_dir, ds, tw):
         data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background, undistort=d.undistort)
         data = dataclasses.replace(data, poses=trained.seen_from(spec, data.poses, data_dir))
-        return score_views(renderer, params, aux, data, every, progress, out_dir if write else None, bg), data
+        return score_views(renderer, params, aux, data, every, progress, out_dir, bg), data
 
-    if levels is None:
-        res, data = score(split, run_dir / name, downscale if downscale is not None else d.downscale,
-                          None if downscale is not None else d.target_width)
-        result = {"split": split, "step": step, "height": data.height, "width": data.width, **res}
-    else:  # multiscale data: every level at its own size (--downscale shrinks them all further)
-        scales = []
-        for lvl, spec in levels:
-            res, data = score(spec, run_dir / name / f"d{lvl}", downscale or 1, None)
-            scales.append({"level": lvl, "spec": spec, "height": data.height, "width": data.width, **res})
-        result = {"split": split, "step": step, "scales": scales, "n_views": sum(r["n_views"] for r in scales),
-                  "psnr": float(np.mean([r["psnr"] for r in scales])),
-                  "ssim": float(np.mean([r["ssim"] for r in scales])),
-                  "seconds_per_view": float(np.mean([r["seconds_per_view"] for r in scales])),
-                  "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
+    with staged_folder(run_dir / name) if write else contextlib.nullcontext() as renders:
+        if levels is None:
+            res, data = score(split, renders, downscale if downscale is not None else d.downscale,
+                              None if downscale is not None else d.target_width)
+            result = {"split": split, "step": step, "height": data.height, "width": data.width, **res}
+        else:  # multiscale data: every level at its own size (--downscale shrinks them all further)
+            scales = []
+            for lvl, spec in levels:
+                res, data = score(spec, renders / f"d{lvl}" if write else None, downscale or 1, None)
+                scales.append({"level": lvl, "spec": spec, "height": data.height, "width": data.width, **res})
+            result = {"split": split, "step": step, "scales": scales, "n_views": sum(r["n_views"] for r in scales),
+                      "psnr": float(np.mean([r["psnr"] for r in scales])),
+                      "ssim": float(np.mean([r["ssim"] for r in scales])),
+                      "seconds_per_view": float(np.mean([r["seconds_per_view"] for r in scales])),
+                      "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
     if appearance_note(cfg):
         result["appearance"] = appearance_note(cfg)
     result.update({"poses": POSE_NOTE} if trained.refined_poses else {})
@@ -237,13 +239,14 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     for k in tqdm(range(len(poses)), desc="render", disable=not progress, unit="view"):
         renders.append(renderer.render_camera(params, aux, poses[k], cams[k]))
     seconds = time.perf_counter() - t0
-    lo, hi = write_frames(out, renders, sel.scale, background_rgb(cfg.data.background), fps)
-    info = {"out": str(out), "frames": len(poses), "width": width, "height": height, "step": step,
-            "seconds_per_frame": seconds / len(poses), "depth_range": [lo / sel.scale, hi / sel.scale],
-            "depth_units": "z-depth in the capture's own units", "camera": cams[0].to_json(),
-            "width_capped_from": scene["width"] if capped else None,
-            "camera_to_world": capture_poses(sel, poses)}
-    (out / "render.json").write_text(json.dumps(info, indent=2))
+    with staged_folder(out) as tmp:  # a disk that fills half way leaves out as it was
+        lo, hi = write_frames(tmp, renders, sel.scale, background_rgb(cfg.data.background), fps)
+        info = {"out": str(out), "frames": len(poses), "width": width, "height": height, "step": step,
+                "seconds_per_frame": seconds / len(poses), "depth_range": [lo / sel.scale, hi / sel.scale],
+                "depth_units": "z-depth in the capture's own units", "camera": cams[0].to_json(),
+                "width_capped_from": scene["width"] if capped else None,
+                "camera_to_world": capture_poses(sel, poses)}
+        (tmp / "render.json").write_text(json.dumps(info, indent=2))
     return info
 
 
