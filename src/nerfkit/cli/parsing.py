@@ -11,21 +11,28 @@ from nerfkit.core.errors import ConfigError
 
 
 def one_line(text: str, prog: str) -> str:
-    """tyro's boxed parse error as one line: the message, its first suggestion, and where the help is."""
+    """tyro's parse error (boxed, or plain where there is no terminal) as one line: the message, its first
+    suggestion, and where the help is."""
     sections, cur = [], []
     for raw in text.splitlines():
         if raw.lstrip().startswith(("╭", "╰")):  # the box's title and bottom
             continue
-        line = raw.strip().strip("│").rstrip()
-        line = line[1:] if line.startswith(" ") else line  # the box's inner margin
-        if not line.strip() or set(line.strip()) <= set("─╭╮╰╯ "):
-            if cur and set(line.strip()) <= set("─ ") and line.strip():
+        if raw.strip().startswith("│"):  # in the box: one space of margin inside its sides
+            line = raw.strip().strip("│").rstrip()
+            line = line[1:] if line.startswith(" ") else line
+        else:  # the plain layout: the title one space in, the text two
+            line = raw.rstrip()
+            line = line[2:] if line.startswith("  ") else line.lstrip()
+        if not line.strip() or set(line.strip()) <= set("─-╭╮╰╯ "):  # a rule: the box's or the plain layout's
+            if cur and set(line.strip()) <= set("─- ") and line.strip():
                 sections.append(cur)
                 cur = []
             continue
         cur.append(line)
     if cur:
         sections.append(cur)
+    if len(sections) > 1 and len(sections[0]) == 1 and ":" not in sections[0][0]:
+        sections = sections[1:]  # the plain layout (no box: a terminal without one) puts the title on a line of its own
     if not sections:
         return f"invalid arguments; see {prog} --help"
     first = sections[0]
