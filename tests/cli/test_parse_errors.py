@@ -3,9 +3,9 @@ terminal; a title line and rules where there is none, as under pytest or in a CI
 
 import pytest
 
+from nerfkit.cli.args import EvalArgs
 from nerfkit.cli.parsing import one_line, parse
 from nerfkit.core.errors import ConfigError
-from nerfkit.cli.args import EvalArgs
 
 BOXED = """╭─ Unrecognized options ──────────────────────╮
 │ Unrecognized options: --no-progress         │
