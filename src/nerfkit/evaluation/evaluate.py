@@ -71,9 +71,9 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     Multiscale data (data/formats/multiscale.py): every level is scored at its own size, and the mean
     over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
     `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
-    is replaced only with `overwrite` (otherwise ConfigError before any work), and only once all the new
-    renders are written (core/outputs.staged_folder: a disk that fills half way leaves the earlier one)."""
-    check_every(every), check_chunk(chunk)
+    is replaced only with `overwrite` (else ConfigError before any work), once all new renders are written."""
+    check_every(every)
+    check_chunk(chunk)
     run_dir, folder = Path(run_dir), RunFolder(run_dir)
     trained = folder.load(checkpoint, scene=False)
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
@@ -99,7 +99,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
         data = dataclasses.replace(data, poses=trained.seen_from(spec, data.poses, data_dir))
         return score_views(renderer, params, aux, data, every, progress, out_dir, bg), data
 
-    with staged_folder(run_dir / name) if write else contextlib.nullcontext() as renders:
+    with staged_folder(run_dir / name) if write else contextlib.nullcontext() as renders:  # all or none
         if levels is None:
             res, data = score(split, renders, downscale if downscale is not None else d.downscale,
                               None if downscale is not None else d.target_width)
