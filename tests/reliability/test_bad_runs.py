@@ -8,10 +8,11 @@ Damage classes (each a copy of one small trained run):
     broken scene.json       not JSON; missing
     missing images          the data folder the run was trained on has gone
 Inputs: a baked folder that is not one (eval --baked, view --baked), a camera path that is not one
-(render --camera-path), a COLMAP model of garbage (train)."""
+(render --camera-path), a COLMAP model of garbage (train); a disk that fills during render and eval."""
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import shutil
@@ -22,6 +23,7 @@ from pathlib import Path
 
 import pytest
 
+import nerfkit.evaluation.evaluate as evaluate
 from nerfkit.cli.main import main
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.training import checkpoint as ckpt_lib
@@ -234,19 +236,20 @@ def test_report_of_a_config_cut_short(trained, tmp_path, capsys):
     assert (tmp_path / "whole" / "run" / "report.html").is_file()
 
 
+def _no_space(path) -> OSError:
+    """What writing `path` raises on a full disk."""
+    return OSError(errno.ENOSPC, "No space left on device", str(path))
+
+
 def test_a_disk_that_fills_during_render_leaves_nothing_half_written(trained, tmp_path, capsys, monkeypatch):
     """The frames are written, then the video fails as a full disk does: one line naming the disk's reason, exit 1;
     a new --out (or the run's renders/ folder) does not appear, and an earlier render replaced with --overwrite
     keeps its files. The same command with room on the disk writes them all."""
-    import errno
-
-    import nerfkit.evaluation.evaluate as evaluate
-
     run, _ = trained
     write_video = evaluate.write_video
 
     def full(path, *a, **k):
-        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        raise _no_space(path)
 
     earlier = tmp_path / "earlier"
     assert _run(["render", str(run), "--orbit", "2", "--out", str(earlier)], capsys)[0] == 0
@@ -271,10 +274,6 @@ def test_a_disk_that_fills_during_render_leaves_nothing_half_written(trained, tm
 def test_a_disk_that_fills_during_eval_leaves_the_earlier_evaluation(trained, tmp_path, capsys, monkeypatch):
     """eval --overwrite of a run evaluated before, the disk filling after the first picture: one line, exit 1, and
     the run folder as it was (the earlier eval_test/ and eval_test.json); a new evaluation leaves no folder."""
-    import errno
-
-    import nerfkit.evaluation.evaluate as evaluate
-
     run0, data0 = trained
     run = tmp_path / "run"
     shutil.copytree(run0, run)
@@ -283,7 +282,7 @@ def test_a_disk_that_fills_during_eval_leaves_the_earlier_evaluation(trained, tm
     def fills(path, img):
         calls.append(path)
         if len(calls) > 1:
-            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+            raise _no_space(path)
         save_png(path, img)
 
     monkeypatch.setattr(evaluate, "save_png", fills)
