@@ -8,7 +8,8 @@ Damage classes (each a copy of one small trained run):
     broken scene.json       not JSON; missing
     missing images          the data folder the run was trained on has gone
 Inputs: a baked folder that is not one (eval --baked, view --baked), a camera path that is not one
-(render --camera-path), a COLMAP model of garbage (train); a disk that fills during render and eval."""
+(render --camera-path), a COLMAP model of garbage (train); a disk that fills during render, eval and
+import."""
 
 from __future__ import annotations
 
@@ -21,7 +22,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from splat_files import gsplat_like_ply
 
 import nerfkit.evaluation.evaluate as evaluate
 from nerfkit.cli.main import main
@@ -299,3 +302,35 @@ def test_a_disk_that_fills_during_eval_leaves_the_earlier_evaluation(trained, tm
     calls.clear()
     code, err = _run(["eval", str(run), "--split", "test", "--overwrite"], capsys)
     assert code == 1 and "No space left" in err and _snapshot(run) == before, err
+
+
+def test_a_disk_that_fills_during_import_leaves_no_half_made_run(tmp_path, capsys, monkeypatch):
+    """import splat, its checkpoint (the last file written, after the capture of renders, config.json and
+    scene.json) failing as on a full disk: one line naming --out, exit 1; a new --out does not appear and an
+    earlier import replaced with --overwrite keeps every file. With room, the run's scene.json names its capture
+    where it lies (not the hidden folder it was made in), and eval scores it."""
+    rng = np.random.default_rng(0)
+    n = 300
+    gsplat_like_ply(tmp_path / "g.ply", {
+        "means": 0.5 * rng.normal(size=(n, 3)), "sh_dc": rng.normal(size=(n, 1, 3)), "sh_rest": np.zeros((n, 3, 3)),
+        "opacity": rng.normal(size=n), "log_scales": np.full((n, 3), -3.0), "quats": np.tile([1.0, 0, 0, 0], (n, 1))})
+    earlier = tmp_path / "earlier"
+    assert _run(["import", "splat", str(tmp_path / "g.ply"), "--out", str(earlier)], capsys)[0] == 0
+    before = _snapshot(earlier)
+    assert "capture/transforms.json" in before and "checkpoints" in before
+
+    def full(ckpt_dir, *a, **k):
+        raise _no_space(Path(ckpt_dir) / "ckpt_000000.npz")
+
+    monkeypatch.setattr(ckpt_lib, "save_checkpoint", full)
+    for out, extra in ((tmp_path / "new" / "run", []), (earlier, ["--overwrite"])):
+        code, err = _run(["import", "splat", str(tmp_path / "g.ply"), "--out", str(out), *extra], capsys)
+        assert code == 1 and err.count("\n") == 1 and "No space left" in err, err
+        assert f"({out / 'checkpoints'}/ckpt_000000.npz)" in err, err  # not the hidden folder
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "g.ply"] and _snapshot(earlier) == before
+    monkeypatch.undo()
+    out = tmp_path / "new" / "run"
+    assert _run(["import", "splat", str(tmp_path / "g.ply"), "--out", str(out)], capsys)[0] == 0
+    assert json.loads((out / "scene.json").read_text())["data_dir"] == str((out / "capture").resolve())
+    assert _run(["eval", str(out), "--split", "test"], capsys)[0] == 0
+    assert json.loads((out / "eval_test.json").read_text())["psnr"] >= 55  # its own renders, to 8-bit rounding

@@ -126,17 +126,21 @@ def test_bad_files_and_folders_are_refused_and_nothing_is_written(exported, tmp_
     broken.write_bytes(files["spz"].read_bytes()[:100])
     done = tmp_path / "done"
     assert main(["import", "splat", str(files["spz"]), "--out", str(done), "--data", str(scene)]) == 0
+    mine = tmp_path / "mine"  # a folder with a capture/ of the user's, no run
+    (mine / "capture").mkdir(parents=True)
+    (mine / "capture" / "notes.txt").write_text("mine")
     capsys.readouterr()
     for argv, says in (
             ([str(broken), "--out", str(tmp_path / "a")], "broken.spz: not a usable Niantic .spz"),
             ([str(tmp_path / "gone.ply"), "--out", str(tmp_path / "a")], "gone.ply: no such file"),
             ([str(files["ply"]), "--out", str(tmp_path / "a"), "--data", str(tmp_path / "nowhere")],
              "--data " + str(tmp_path / "nowhere") + ": no such folder"),
-            ([str(files["ply"]), "--out", str(done), "--data", str(scene)], "already holds a run")):
+            ([str(files["ply"]), "--out", str(done), "--data", str(scene)], "already holds a run"),
+            ([str(files["ply"]), "--out", str(mine)], "already holds capture/, which the import writes")):
         assert main(["import", "splat", *argv]) == 1
         err = capsys.readouterr().err
         assert says in err and err.count("\n") == 1, err
-    assert not (tmp_path / "a").exists()
+    assert not (tmp_path / "a").exists() and [p.name for p in mine.rglob("*")] == ["capture", "notes.txt"]
     assert RunFolder(done).config().splat.init == str(files["spz"])  # the refused import changed nothing
     assert main(["import", "splat", str(files["ply"]), "--out", str(done), "--data", str(scene), "--overwrite"]) == 0
     assert RunFolder(done).config().splat.init == str(files["ply"])

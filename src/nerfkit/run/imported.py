@@ -1,6 +1,6 @@
 """`nerfkit import splat FILE --out RUN`: a splat file made anywhere (.ply from gsplat, 3DGS, Brush, SuperSplat or
-nerfkit; .spz; .splat; .glb / .gltf; .sog) as a run folder, so that view, render, bake, export, eval and train --resume work on it as on
-a trained run.
+nerfkit; .spz; .splat; .glb / .gltf; .sog) as a run folder, so that view, render, bake, export, eval and train
+--resume work on it as on a trained run.
 
 The run is what `nerfkit train CAPTURE --preset splat --init FILE --capacity N --max-steps 0` writes: the
 file's Gaussians, moved into the capture's normalised frame, at step 0, with the capture's cameras and photos.
@@ -15,6 +15,7 @@ convention of the Inria .ply: COLMAP's frames have y down), and the file's own r
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 from pathlib import Path
@@ -22,10 +23,11 @@ from pathlib import Path
 import numpy as np
 
 from nerfkit.core.errors import ConfigError
+from nerfkit.core.outputs import staged_folder
 from nerfkit.core.presets import preset
 from nerfkit.models.splat.formats import read_gaussians
 from nerfkit.rays.cameras import Camera, look_at
-from nerfkit.training.setup import clear_run, refuse_earlier_run
+from nerfkit.training.setup import clear_run, run_files
 
 ORBIT_VIEWS = 16
 ORBIT_SIZE = 512
@@ -74,7 +76,9 @@ def write_orbit_capture(g: dict, degree: int, root: Path) -> Path:
 
 def import_splat(file: Path, out: Path, data: Path | None = None, overwrite: bool = False, log=print) -> dict:
     """Make run folder `out` from splat file `file` (see the module docstring); refuses to replace an earlier run
-    unless `overwrite` (nerfkit train's rules). Returns {gaussians, sh_degree, format, capture}."""
+    (or, without `data`, a capture/ folder in out) unless `overwrite`. The run is made beside out and moved in
+    once whole, so a failure (a full disk, Ctrl-C) leaves out as it was. Returns {gaussians, sh_degree, format,
+    capture}."""
     from nerfkit.training.trainer import Trainer
 
     file, out = Path(file), Path(out)
@@ -83,18 +87,40 @@ def import_splat(file: Path, out: Path, data: Path | None = None, overwrite: boo
         raise ConfigError(f"--data {data}: no such folder; pass the capture the splat file was made from")
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out}: is a file; name a folder for the run")
-    if refuse_earlier_run(out, False, overwrite):
-        clear_run(out)
-    n, own = len(g["means"]), data is None
-    if own:
-        shutil.rmtree(out / "capture", ignore_errors=True)
-        data = write_orbit_capture(g, degree, out / "capture")
-        log(f"import: no capture given; {data} holds {ORBIT_VIEWS} renders of the file on an orbit around it")
+    clear, own = bool(run_files(out)), data is None
+    if clear and not overwrite:  # not train's message: import has no --resume
+        raise ConfigError(f"--out {out}: already holds a run; pass --overwrite to replace it, or pick a new --out")
+    if own and (out / "capture").exists() and not overwrite:
+        raise ConfigError(f"--out {out}: already holds capture/, which the import writes its renders into; pass "
+                          f"--overwrite to replace it, or pick a new --out")
     cfg = preset("splat")
-    cfg.splat.capacity, cfg.splat.sh_degree, cfg.splat.init = n, degree, str(file.resolve())
+    cfg.splat.capacity, cfg.splat.sh_degree, cfg.splat.init = len(g["means"]), degree, str(file.resolve())
     cfg.train.max_steps = 0
     if own:  # renders: one exposure, exact poses
         cfg.splat.appearance, cfg.train.pose_refine = "off", "off"
-    Trainer(data, out, cfg, progress=False).run()
-    log(f"import: {n:,} Gaussians of {file.name} ({fmt.name}, SH degree {degree}), in the frame of {data}")
-    return {"gaussians": n, "sh_degree": degree, "format": fmt.name, "capture": str(data)}
+    with staged_folder(out) as tmp:  # a disk that fills half way leaves out as it was (no half-made run)
+        if own:
+            data = write_orbit_capture(g, degree, tmp / "capture")
+        Trainer(data, tmp, cfg, progress=False).run()
+        if clear:  # only now: a failure above leaves the earlier run as it was
+            clear_run(out)
+        if own:
+            data = _moved_capture(tmp, out)
+            shutil.rmtree(out / "capture", ignore_errors=True)
+    if own:
+        log(f"import: no capture given; {data} holds {ORBIT_VIEWS} renders of the file on an orbit around it")
+    log(f"import: {len(g['means']):,} Gaussians of {file.name} ({fmt.name}, SH degree {degree}), in the frame of "
+        f"{data}")
+    return {"gaussians": len(g["means"]), "sh_degree": degree, "format": fmt.name, "capture": str(data)}
+
+
+def _moved_capture(tmp: Path, out: Path) -> Path:
+    """Point tmp/scene.json, a run made in staging folder tmp around its own capture tmp/capture, at out/capture,
+    where the capture will be once tmp's files are moved into out. Returns out/capture."""
+    scene_file = tmp / "scene.json"
+    scene = json.loads(scene_file.read_text())
+    capture = out.parent.resolve() / out.name / "capture"
+    assert Path(scene["data_dir"]) == (tmp / "capture").resolve(), scene["data_dir"]
+    scene["data_dir"] = str(capture)
+    scene_file.write_text(json.dumps(scene, indent=2))
+    return capture
