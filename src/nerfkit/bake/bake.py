@@ -26,6 +26,7 @@ from tqdm.auto import tqdm
 from nerfkit.bake.finetune import finetune, training_poses
 from nerfkit.bake.web import write_web
 from nerfkit.core.errors import ConfigError, NerfkitError
+from nerfkit.core.outputs import staged_folder
 from nerfkit.encoding.sh import sh_encode
 from nerfkit.models.baked.format import (
     BRICK,
@@ -182,8 +183,9 @@ def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: 
         meta["finetune"] = tuned
     q, meta["sh_range"] = quantise(sh)
     baked = Baked(meta, index, dens.astype(np.float16), q)
-    save_baked(out, baked)
-    write_web(out)
+    with staged_folder(out) as tmp:  # a disk that fills half way leaves out as it was (an earlier bake whole)
+        save_baked(tmp, baked)
+        write_web(tmp)
     seconds = time.perf_counter() - t0
     log(f"baked {len(bricks)} bricks of {BRICK}^3 cells ({len(bricks) / m**3:.1%} of the {resolution}^3 grid) into "
         f"{out}: {mb:.1f} MB, {seconds:.0f} s")

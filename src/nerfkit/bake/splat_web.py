@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.errors import ConfigError
+from nerfkit.core.outputs import staged_folder
 from nerfkit.export.splat import active_gaussians
 from nerfkit.models.splat.project import covariance_3d
 from nerfkit.run.folder import RunFolder
@@ -56,29 +57,28 @@ def check_out(out: Path, overwrite: bool = False) -> None:
         if not (out / "splats.json").exists():
             raise ConfigError(f"--out {out}: folder is not empty and holds no baked splats; pick a new or empty folder")
         if not overwrite:
-            raise ConfigError(f"--out {out}: holds baked splats; pass --overwrite to replace them, or pick a new folder")
+            raise ConfigError(f"--out {out}: holds baked splats; pass --overwrite to replace them, or pick a new "
+                              f"folder")
 
 
 def write_splat_page(run_dir: Path, out: Path, overwrite: bool = False, log=print) -> dict:
-    """Write the page of a splat run into the folder `out` (checked first: check_out); splats.json is
-    written last, so an interrupted bake is never taken for a complete one. Returns its content."""
+    """Write the page of a splat run into the folder `out` (checked first: check_out), all its files or none
+    (core/outputs.staged_folder). Returns the content of its splats.json."""
     check_out(out, overwrite)
     run = RunFolder(run_dir).load()
     g = active_gaussians(run)
     degree = run.cfg.splat.sh_degree
     packed = pack_gaussians(g, degree)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "splats.json").unlink(missing_ok=True)
-    packed.astype("<f4").tofile(out / "splats.bin")
     meta = {"format": FORMAT, "count": int(len(packed)), "sh_degree": degree,
             "dilation": run.cfg.splat.screen_dilation,
             "background": list(run.model.background), "camera": run.scene["camera"],
             "pose": run.scene["train_poses"][0], "run": str(Path(run_dir).resolve()), "step": run.step,
             "frame": "the run's normalised frame (scene.json transform)"}
-    for name in ASSETS:
-        shutil.copyfile(WEB_DIR / name, out / name)
-    (out / "splats.json").write_text(json.dumps(meta, indent=2))
+    with staged_folder(Path(out)) as tmp:  # a disk that fills half way leaves out as it was (an earlier bake whole)
+        packed.astype("<f4").tofile(tmp / "splats.bin")
+        for name in ASSETS:
+            shutil.copyfile(WEB_DIR / name, tmp / name)
+        (tmp / "splats.json").write_text(json.dumps(meta, indent=2))
     log(f"baked {len(packed)} Gaussians (SH degree {degree}) into {out}: index.html, splat.js, splats.json, "
         f"splats.bin ({packed.nbytes / 2**20:.1f} MB)")
     return meta
