@@ -1,10 +1,12 @@
 """What every export does with its output file: the capture-frame transform of exported points, the
---out check before any work, and the atomic write. The trained run and its export records are
-run/folder.py's (RunFolder)."""
+--out check before any work, and the atomic write (of several files together). The trained run and its export
+records are run/folder.py's (RunFolder)."""
 
 from __future__ import annotations
 
 import os
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -33,11 +35,38 @@ def check_out(out: Path, suffixes: tuple[str, ...], overwrite: bool = False, fla
 
 def write_atomic(out: Path, write) -> None:
     """Call write(tmp_path) on a temporary file beside `out` (same extension), then rename it over
-    `out`, so an interrupted export never leaves a truncated file."""
-    tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    `out`, so an interrupted export never leaves a truncated file (write_together)."""
+    write_together([(Path(out), write)])
+
+
+def write_together(files: list[tuple[Path, Callable[[Path], object]]]) -> None:
+    """For each (out, write): write(tmp) on a temporary file beside out (.STEM.partial.EXT); once every one is
+    written, rename each over its out. A failure before that (a full disk, Ctrl-C) removes the temporaries and
+    any folder made for them, and leaves every out as it was; an OSError then names the out, not the
+    temporary."""
+    made = []
+    for out, _ in files:
+        top = out.parent
+        while not top.parent.exists() and top.parent != top.parent.parent:
+            top = top.parent
+        if not top.exists():
+            made.append(top)
+        out.parent.mkdir(parents=True, exist_ok=True)
+    tmps = [out.with_name(f".{out.stem}.partial{out.suffix}") for out, _ in files]
     try:
-        write(tmp)
-        os.replace(tmp, out)
+        for (out, write), tmp in zip(files, tmps):
+            try:
+                write(tmp)
+            except OSError as e:
+                if e.filename is not None and Path(e.filename) == tmp:
+                    e.filename = str(out)  # the error names the file the user asked for
+                raise
+        for (out, _), tmp in zip(files, tmps):
+            os.replace(tmp, out)
+    except BaseException:
+        for top in made:
+            shutil.rmtree(top, ignore_errors=True)
+        raise
     finally:
-        tmp.unlink(missing_ok=True)
+        for tmp in tmps:
+            tmp.unlink(missing_ok=True)

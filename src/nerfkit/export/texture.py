@@ -17,7 +17,7 @@ import numpy as np
 from PIL import Image
 from scipy import ndimage
 
-from nerfkit.export.files import write_atomic
+from nerfkit.export.files import write_atomic, write_together
 from nerfkit.export.raster import rasterize
 
 PADDING = 2  # texels between charts
@@ -102,7 +102,7 @@ def write_textured(out: Path, verts: np.ndarray, faces: np.ndarray, uv: np.ndarr
     mtl = files[mtl_key].decode()
     for k in images:
         mtl = mtl.replace(k, png.name)
-    write_atomic(png, lambda tmp: Image.fromarray(image).save(tmp, format="PNG"))
-    write_atomic(out.with_suffix(".mtl"), lambda tmp: Path(tmp).write_text(mtl))
-    write_atomic(out, lambda tmp: Path(tmp).write_text(text))
+    write_together([(png, lambda tmp: Image.fromarray(image).save(tmp, format="PNG")),  # all three or none
+                    (out.with_suffix(".mtl"), lambda tmp: Path(tmp).write_text(mtl)),
+                    (out, lambda tmp: Path(tmp).write_text(text))])
     return [out, out.with_suffix(".mtl"), png]
