@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import subprocess
 import sys
@@ -172,6 +173,33 @@ def test_make_scene(tmp_path, capsys):
     assert main([*args, "--seed", "5", "--overwrite"]) == 0
     again = json.loads((tmp_path / "s" / "transforms_train.json").read_text())
     assert again["frames"][0]["transform_matrix"] != meta["train"]["frames"][0]["transform_matrix"]
+
+
+def test_make_scene_on_a_disk_that_fills_leaves_nothing_half_written(tmp_path, capsys, monkeypatch):
+    """The third depth map failing as on a full disk: one line naming it, exit 1; a new folder does not appear and
+    one replaced with --overwrite keeps every earlier file."""
+    from nerfkit.data.procedural import scene
+
+    args = ["make-scene", str(tmp_path / "s"), "--size", "8", "--n-train", "2", "--n-val", "1", "--n-test", "3"]
+    assert main([*args, "--seed", "1"]) == 0
+    before = {p: p.read_bytes() for p in sorted((tmp_path / "s").rglob("*")) if p.is_file()}
+    save, calls = scene.np.save, []
+
+    def fills(path, array):
+        calls.append(path)
+        if len(calls) == 3:
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        save(path, array)
+
+    monkeypatch.setattr(scene.np, "save", fills)
+    for out, extra in ((tmp_path / "new", []), (tmp_path / "s", ["--overwrite"])):
+        calls.clear()
+        capsys.readouterr()
+        assert main([*args[:1], str(out), *args[2:], *extra]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"No space left on device ({out / 'val' / 'r_0_depth.npy'})" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
+    assert {p: p.read_bytes() for p in sorted((tmp_path / "s").rglob("*")) if p.is_file()} == before
 
 
 def test_view_bad_input_is_a_one_line_error(tmp_path, run, capsys):

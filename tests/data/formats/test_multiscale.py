@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import shutil
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
@@ -98,6 +100,18 @@ def test_bad_make_multiscale_arguments_are_one_line_errors(multiscale, tmp_path,
     assert main(argv) == 1
     err = capsys.readouterr().err.strip()
     assert match in err and len(err.splitlines()) == 1
+
+
+def test_an_image_refused_half_way_leaves_no_folder(multiscale, tmp_path, capsys):
+    """An odd-sized photo in the last split (val) is refused after the other splits' levels are written: one line,
+    exit 1, and --out does not appear (so the same command is not then refused as a folder that is not empty)."""
+    src = tmp_path / "scene"
+    shutil.copytree(multiscale[0], src)
+    iio.imwrite(src / "val" / "r_0.png", iio.imread(src / "val" / "r_0.png")[:31, :31])
+    assert main(["make-multiscale", str(src), "--out", str(tmp_path / "ms"), "--levels", "2", "--no-progress"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "31x31 is not divisible by 2" in err and len(err.splitlines()) == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene"]
 
 
 def test_training_draws_every_scale_with_area_weights(multiscale, tmp_path):

@@ -29,6 +29,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from nerfkit.core.errors import ConfigError, DataError
+from nerfkit.core.outputs import staged_folder
 from nerfkit.data.capture import Capture, Frame, parse_split_spec
 from nerfkit.data.formats.blender import (
     check_pose,
@@ -110,33 +111,33 @@ def make_multiscale(src: Path, out: Path, levels: int = 4, progress: bool = True
         raise ConfigError(f"--out {out}: exists and is not an empty folder; pick a new one")
     splits = sorted(p.name[len("transforms_"):-len(".json")] for p in src.glob("transforms_*.json"))
     meta, n_images = {}, 0
-    for split in splits:
-        frames = list(iter_frames(src, split))
-        m = {k: [] for k in (*KEYS, "lossmult", "near", "far")}
-        per_level = [[] for _ in range(levels)]
-        for where, frame, pose, fov, _ in tqdm(frames, desc=f"make-multiscale {split}", disable=not progress):
-            image = frame_image_path(src, frame["file_path"], where)
-            rgb, a = read_rgba(image)
-            h, w = a.shape
-            if h % 2 ** (levels - 1) or w % 2 ** (levels - 1):
-                raise ConfigError(f"{image}: {w}x{h} is not divisible by {2 ** (levels - 1)}; use fewer --levels")
-            focal = 0.5 * w / np.tan(0.5 * fov)
-            for lvl in range(levels):
-                s = 2**lvl
-                a_l = area_downscale(a, s)
-                rgb_l = area_downscale(rgb * a[..., None], s) / np.maximum(a_l, 1e-8)[..., None]
-                rgba = np.concatenate([np.clip(rgb_l, 0, 1), a_l[..., None]], -1)
-                rel = f"{split}/{Path(frame['file_path']).name}_d{lvl}.png"
-                (out / split).mkdir(parents=True, exist_ok=True)
-                iio.imwrite(out / rel, np.round(rgba * 255).astype(np.uint8))
-                per_level[lvl].append((rel, pose.tolist(), w // s, h // s, focal / s, lvl, float(s * s)))
-        for rows in per_level:
-            for rel, pose, w_l, h_l, f_l, lvl, mult in rows:
-                for key, v in zip((*KEYS, "lossmult", "near", "far"), (rel, pose, w_l, h_l, f_l, lvl, mult, 2.0, 6.0)):
+    with staged_folder(out) as tmp:  # all the files or none (a full disk, Ctrl-C, an image refused half way)
+        for split in splits:
+            frames = list(iter_frames(src, split))
+            m = {k: [] for k in (*KEYS, "lossmult", "near", "far")}
+            per_level = [[] for _ in range(levels)]
+            for where, frame, pose, fov, _ in tqdm(frames, desc=f"make-multiscale {split}", disable=not progress):
+                image = frame_image_path(src, frame["file_path"], where)
+                rgb, a = read_rgba(image)
+                h, w = a.shape
+                if h % 2 ** (levels - 1) or w % 2 ** (levels - 1):
+                    raise ConfigError(f"{image}: {w}x{h} is not divisible by {2 ** (levels - 1)}; use fewer --levels")
+                focal = 0.5 * w / np.tan(0.5 * fov)
+                for lvl in range(levels):
+                    s = 2**lvl
+                    a_l = area_downscale(a, s)
+                    rgb_l = area_downscale(rgb * a[..., None], s) / np.maximum(a_l, 1e-8)[..., None]
+                    rgba = np.concatenate([np.clip(rgb_l, 0, 1), a_l[..., None]], -1)
+                    rel = f"{split}/{Path(frame['file_path']).name}_d{lvl}.png"
+                    (tmp / split).mkdir(parents=True, exist_ok=True)
+                    iio.imwrite(tmp / rel, np.round(rgba * 255).astype(np.uint8))
+                    per_level[lvl].append((rel, pose.tolist(), w // s, h // s, focal / s, lvl, float(s * s)))
+            for row in (row for rows in per_level for row in rows):
+                for key, v in zip((*KEYS, "lossmult", "near", "far"), (*row, 2.0, 6.0)):
                     m[key].append(v)
-        meta[split] = m
-        n_images += len(frames) * levels
-    (out / METADATA).write_text(json.dumps(meta))
+            meta[split] = m
+            n_images += len(frames) * levels
+        (tmp / METADATA).write_text(json.dumps(meta))
     return {"splits": splits, "images": n_images, "levels": levels, "out": str(out)}
 
 

@@ -28,6 +28,7 @@ import imageio.v3 as iio
 import numpy as np
 
 from nerfkit.core.errors import DataError
+from nerfkit.core.outputs import staged_folder
 
 # --- scene constants -----------------------------------------------------------------------
 
@@ -375,17 +376,15 @@ def make_scene(
             f"--n-train {n_train}, --n-val {n_val}, --n-test {n_test}"
         )
     out = Path(out_dir)
-    for split, n in (("train", n_train), ("val", n_val), ("test", n_test)):
-        (out / split).mkdir(parents=True, exist_ok=True)
-        frames = []
-        for k, c2w in enumerate(_split_poses(split, n, seed)):
-            rgba, depth = render_view(c2w, size, supersample)
-            iio.imwrite(out / split / f"r_{k}.png", rgba)
-            np.save(out / split / f"r_{k}_depth.npy", depth)
-            frames.append(
-                {"file_path": f"./{split}/r_{k}", "rotation": 0.0,
-                 "transform_matrix": c2w.tolist()}
-            )
-        meta = {"camera_angle_x": CAMERA_ANGLE_X, "frames": frames}
-        (out / f"transforms_{split}.json").write_text(json.dumps(meta, indent=2))
+    with staged_folder(out) as tmp:  # all the files or none (a full disk, Ctrl-C)
+        for split, n in (("train", n_train), ("val", n_val), ("test", n_test)):
+            (tmp / split).mkdir(parents=True, exist_ok=True)
+            frames = []
+            for k, c2w in enumerate(_split_poses(split, n, seed)):
+                rgba, depth = render_view(c2w, size, supersample)
+                iio.imwrite(tmp / split / f"r_{k}.png", rgba)
+                np.save(tmp / split / f"r_{k}_depth.npy", depth)
+                frames.append({"file_path": f"./{split}/r_{k}", "rotation": 0.0, "transform_matrix": c2w.tolist()})
+            meta = {"camera_angle_x": CAMERA_ANGLE_X, "frames": frames}
+            (tmp / f"transforms_{split}.json").write_text(json.dumps(meta, indent=2))
     return out
