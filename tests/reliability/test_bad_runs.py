@@ -8,8 +8,8 @@ Damage classes (each a copy of one small trained run):
     broken scene.json       not JSON; missing
     missing images          the data folder the run was trained on has gone
 Inputs: a baked folder that is not one (eval --baked, view --baked), a camera path that is not one
-(render --camera-path), a COLMAP model of garbage (train); a disk that fills during render, eval and
-import."""
+(render --camera-path), a COLMAP model of garbage (train); a disk that fills during render, eval, import,
+bake and a textured export."""
 
 from __future__ import annotations
 
@@ -26,7 +26,9 @@ import numpy as np
 import pytest
 from splat_files import gsplat_like_ply
 
+import nerfkit.bake.bake as bake
 import nerfkit.evaluation.evaluate as evaluate
+import nerfkit.export.texture as texture
 from nerfkit.cli.main import main
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.training import checkpoint as ckpt_lib
@@ -304,16 +306,21 @@ def test_a_disk_that_fills_during_eval_leaves_the_earlier_evaluation(trained, tm
     assert code == 1 and "No space left" in err and _snapshot(run) == before, err
 
 
+def _splat_file(path: Path, n: int = 300) -> Path:
+    """A small .ply of n random Gaussians (gsplat's layout, SH degree 1)."""
+    rng = np.random.default_rng(0)
+    gsplat_like_ply(path, {
+        "means": 0.5 * rng.normal(size=(n, 3)), "sh_dc": rng.normal(size=(n, 1, 3)), "sh_rest": np.zeros((n, 3, 3)),
+        "opacity": rng.normal(size=n), "log_scales": np.full((n, 3), -3.0), "quats": np.tile([1.0, 0, 0, 0], (n, 1))})
+    return path
+
+
 def test_a_disk_that_fills_during_import_leaves_no_half_made_run(tmp_path, capsys, monkeypatch):
     """import splat, its checkpoint (the last file written, after the capture of renders, config.json and
     scene.json) failing as on a full disk: one line naming --out, exit 1; a new --out does not appear and an
     earlier import replaced with --overwrite keeps every file. With room, the run's scene.json names its capture
     where it lies (not the hidden folder it was made in), and eval scores it."""
-    rng = np.random.default_rng(0)
-    n = 300
-    gsplat_like_ply(tmp_path / "g.ply", {
-        "means": 0.5 * rng.normal(size=(n, 3)), "sh_dc": rng.normal(size=(n, 1, 3)), "sh_rest": np.zeros((n, 3, 3)),
-        "opacity": rng.normal(size=n), "log_scales": np.full((n, 3), -3.0), "quats": np.tile([1.0, 0, 0, 0], (n, 1))})
+    _splat_file(tmp_path / "g.ply")
     earlier = tmp_path / "earlier"
     assert _run(["import", "splat", str(tmp_path / "g.ply"), "--out", str(earlier)], capsys)[0] == 0
     before = _snapshot(earlier)
@@ -334,3 +341,57 @@ def test_a_disk_that_fills_during_import_leaves_no_half_made_run(tmp_path, capsy
     assert json.loads((out / "scene.json").read_text())["data_dir"] == str((out / "capture").resolve())
     assert _run(["eval", str(out), "--split", "test"], capsys)[0] == 0
     assert json.loads((out / "eval_test.json").read_text())["psnr"] >= 55  # its own renders, to 8-bit rounding
+
+
+def test_a_disk_that_fills_during_bake_leaves_the_earlier_bake(trained, tmp_path, capsys, monkeypatch):
+    """bake of a fast-field run (the viewer page, its last files, failing as on a full disk) and of a splat run
+    (the page's script failing): one line, exit 1; a new --out does not appear and an earlier bake replaced with
+    --overwrite keeps every file."""
+    run, _ = trained
+    splat_run = tmp_path / "splat"
+    assert _run(["import", "splat", str(_splat_file(tmp_path / "g.ply")), "--out", str(splat_run)], capsys)[0] == 0
+    field = ["--resolution", "32", "--finetune-minutes", "0"]
+    for source, extra, target, attribute in ((run, field, bake, "write_web"), (splat_run, [], shutil, "copyfile")):
+        earlier = tmp_path / "earlier"
+        shutil.rmtree(earlier, ignore_errors=True)
+        assert _run(["bake", str(source), "--out", str(earlier), *extra], capsys)[0] == 0
+        before = _snapshot(earlier)
+        with monkeypatch.context() as m:
+            m.setattr(target, attribute, lambda *a, **k: (_ for _ in ()).throw(_no_space(a[-1])))
+            for out, more in ((tmp_path / "new" / "baked", []), (earlier, ["--overwrite"])):
+                code, err = _run(["bake", str(source), "--out", str(out), *extra, *more], capsys)
+                error = [line for line in err.splitlines() if line.startswith("nerfkit bake:")]  # not the bar
+                assert code == 1 and "Traceback" not in err and len(error) == 1 and "No space left" in error[0], err
+                assert f"({out}" in error[0], error  # not the hidden folder
+        assert not (tmp_path / "new").exists() and _snapshot(earlier) == before, source
+        assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+    assert _run(["bake", str(splat_run), "--out", str(earlier), "--overwrite"], capsys)[0] == 0
+    assert _snapshot(earlier).keys() == before.keys()
+
+
+def test_a_disk_that_fills_during_a_textured_export_leaves_none_of_its_files(trained, tmp_path, capsys, monkeypatch):
+    """export mesh --texture to .obj writes three files (.png, .mtl, .obj); the .obj, the last, failing half written
+    as on a full disk: one line naming it, exit 1; none of the three appears, nor the folder made for them, and an
+    earlier export replaced with --overwrite keeps all three."""
+    run0, _ = trained
+    run = tmp_path / "run"
+    shutil.copytree(run0, run)
+    mesh = ["export", "mesh", str(run), "--method", "levelset", "--resolution", "16", "--threshold", "0.01",
+            "--texture", "--texture-size", "64", "--no-progress", "--out"]
+    earlier = tmp_path / "earlier" / "mesh.obj"
+    assert _run([*mesh, str(earlier)], capsys)[0] == 0
+    before = _snapshot(earlier.parent)
+    assert sorted(before) == ["mesh.mtl", "mesh.obj", "mesh.png"]
+    write_together = texture.write_together
+
+    def fills(files):
+        def half(tmp):
+            Path(tmp).write_text("v 0 0 0\n")
+            raise _no_space(tmp)
+        write_together([*files[:-1], (files[-1][0], half)])
+
+    monkeypatch.setattr(texture, "write_together", fills)
+    for out, extra in ((tmp_path / "new" / "mesh.obj", []), (earlier, ["--overwrite"])):
+        code, err = _run([*mesh, str(out), *extra], capsys)
+        assert code == 1 and err.count("\n") == 1 and f"No space left on device ({out})" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "run"] and _snapshot(earlier.parent) == before
