@@ -395,3 +395,31 @@ def test_a_disk_that_fills_during_a_textured_export_leaves_none_of_its_files(tra
         code, err = _run([*mesh, str(out), *extra], capsys)
         assert code == 1 and err.count("\n") == 1 and f"No space left on device ({out})" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "run"] and _snapshot(earlier.parent) == before
+
+
+def test_a_disk_that_fills_during_training_says_how_to_go_on(trained, tmp_path, capsys, monkeypatch):
+    """The second checkpoint (step 4) failing as on a full disk: one line with the disk's reason, the checkpoint the
+    run keeps (step 2) and the command that resumes from it, exit 1; that command, with room, ends the run. The
+    first checkpoint failing instead: the line says none was saved and how to start again."""
+    _, data = trained
+    run = tmp_path / "run"
+    save, calls = ckpt_lib.save_checkpoint, []
+
+    def fills(ckpt_dir, step, *a, **k):
+        calls.append(step)
+        if len(calls) == fail_at:
+            raise _no_space(ckpt_lib.checkpoint_path(Path(ckpt_dir), step))
+        return save(ckpt_dir, step, *a, **k)
+
+    monkeypatch.setattr(ckpt_lib, "save_checkpoint", fills)
+    for fail_at, says in ((1, "no checkpoint was saved: free space there, then nerfkit train"),
+                          (2, "the run keeps its checkpoint of step 2: free space there, then nerfkit train")):
+        calls.clear()
+        code, err = _run(["train", str(data), "--out", str(run), *SMALL, "--overwrite"], capsys)
+        error = [line for line in err.splitlines() if line.startswith("nerfkit train:")]
+        assert code == 1 and "Traceback" not in err and len(error) == 1 and "No space left" in error[0], err
+        assert says in error[0] and f"({run / 'checkpoints'}/ckpt_0000000{2 * fail_at}.msgpack)" in error[0], error
+    assert error[0].endswith(f"--out {run} --resume")
+    monkeypatch.undo()
+    assert _run(["train", str(data), "--out", str(run), "--resume", "--no-progress"], capsys)[0] == 0
+    assert [ckpt_lib.checkpoint_step(p) for p in ckpt_lib.list_checkpoints(run / "checkpoints")][-1] == 4

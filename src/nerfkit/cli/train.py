@@ -15,7 +15,7 @@ from nerfkit.cli.args import (
     TrainArgs,
 )
 from nerfkit.cli.parsing import flag_value, parse
-from nerfkit.core.errors import ConfigError
+from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.core.outputs import check_new_folder
 from nerfkit.core.presets import (
     DEFAULT_PRESET,
@@ -93,6 +93,21 @@ def parse_train_args(argv: list[str]) -> TrainArgs:
     return args
 
 
+def stopped_by(e: OSError, data_dir: Path, trainer) -> NerfkitError:
+    """The one line for a run that a write stopped (a full disk, a folder that went away): the failure, the
+    newest checkpoint the run keeps, and the command that goes on from it (or starts again without one)."""
+    from nerfkit.training import checkpoint as ckpt_lib
+
+    last = ckpt_lib.latest_checkpoint(trainer.ckpt_dir)
+    where = f" ({e.filename})" if e.filename else ""
+    again = f"nerfkit train {shlex.quote(str(data_dir))} --out {shlex.quote(str(trainer.run_dir))}"
+    if last is None:
+        return NerfkitError(f"{e.strerror or e}{where}; no checkpoint was saved: free space there, then {again} "
+                            f"--overwrite")
+    return NerfkitError(f"{e.strerror or e}{where}; the run keeps its checkpoint of step "
+                        f"{ckpt_lib.checkpoint_step(last)}: free space there, then {again} --resume")
+
+
 def cmd_train(argv: list[str]) -> int:
     from nerfkit.training.setup import refuse_given
     from nerfkit.training.trainer import Trainer
@@ -120,7 +135,10 @@ def cmd_train(argv: list[str]) -> int:
 
         viewer = attach_viewer(trainer, args.viewer_host, args.viewer_port)
     try:
-        res = trainer.run()
+        try:
+            res = trainer.run()
+        except OSError as e:  # the machine stopped the run (a full disk): what it keeps, and how to go on
+            raise stopped_by(e, args.data_dir, trainer) from None
         from nerfkit.report.run import write_report_or_warn
 
         if is_primary():

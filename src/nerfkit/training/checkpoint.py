@@ -197,3 +197,8 @@ def restore_checkpoint(path: Path, target, field_cfg: dict):
 def latest_checkpoint(ckpt_dir: Path) -> Path | None:
     found = list_checkpoints(ckpt_dir)
     return found[-1] if found else None
+
+
+def checkpoint_step(path: Path) -> int:
+    """The step a checkpoint file holds, from its name (checkpoint_path)."""
+    return int(_NAME.match(Path(path).name).group(1))
