@@ -23,10 +23,18 @@ def test_a_wrong_type_names_the_flag():
         Config.from_dict(d)
 
 
-def test_a_value_out_of_range_is_refused():
+@pytest.mark.parametrize("section, name, value, says", [
+    ("train", "precrop_frac", 1.5, r"--precrop-frac must be in \(0, 1\]"),
+    ("field", "hidden", 0, r"--hidden must be >= 1 \(got 0\)"),
+    ("field", "bound", float("nan"), r"--bound must be a finite number \(got nan\)"),
+    ("sampler", "occ_warmup", -1, r"--occ-warmup must be >= 0 \(got -1\)"),
+    ("sampler", "occ_warmup_decay", 1.5, r"--occ-warmup-decay must be in \(0, 1\) \(got 1.5\)"),
+    ("train", "adam_eps", -1.0, r"--adam-eps must be positive"),
+])
+def test_a_value_out_of_range_is_refused(section, name, value, says):
     d = preset("ngp").to_dict()
-    d["train"]["precrop_frac"] = 1.5
-    with pytest.raises(ConfigError, match=r"--precrop-frac must be in \(0, 1\]"):
+    d[section][name] = value
+    with pytest.raises(ConfigError, match=says):
         Config.from_dict(d)
 
 

@@ -135,14 +135,20 @@ def _run(argv: list[str], capsys) -> tuple[int, str]:
     return code, capsys.readouterr().err
 
 
-def _damaged_copy(trained, where: Path, damage: str) -> tuple[Path, Path, str]:
-    """A copy of the trained run and its data in `where` (the run pointing at the copy), damaged."""
+def _copy(trained, where: Path) -> tuple[Path, Path]:
+    """A copy of the trained run and its data in `where`, the run pointing at the copy."""
     run0, data0 = trained
     run, data = where / "run", where / "scene"
     shutil.copytree(run0, run)
     shutil.copytree(data0, data)
     scene = json.loads((run / "scene.json").read_text())
     (run / "scene.json").write_text(json.dumps(dict(scene, data_dir=str(data))))
+    return run, data
+
+
+def _damaged_copy(trained, where: Path, damage: str) -> tuple[Path, Path, str]:
+    """_copy, damaged."""
+    run, data = _copy(trained, where)
     return run, data, DAMAGE[damage](run, data)
 
 
@@ -341,6 +347,11 @@ def test_a_disk_that_fills_during_import_leaves_no_half_made_run(tmp_path, capsy
     assert json.loads((out / "scene.json").read_text())["data_dir"] == str((out / "capture").resolve())
     assert _run(["eval", str(out), "--split", "test"], capsys)[0] == 0
     assert json.loads((out / "eval_test.json").read_text())["psnr"] >= 55  # its own renders, to 8-bit rounding
+    (out / "exports").mkdir()
+    shutil.copy(tmp_path / "g.ply", out / "exports" / "g.ply")  # the input inside what --overwrite would remove
+    code, err = _run(["import", "splat", str(out / "exports" / "g.ply"), "--out", str(out), "--overwrite"], capsys)
+    assert code == 1 and "which --overwrite removes with the earlier run" in err, err
+    assert (out / "exports" / "g.ply").is_file()
 
 
 def test_a_disk_that_fills_during_bake_leaves_the_earlier_bake(trained, tmp_path, capsys, monkeypatch):
@@ -423,3 +434,27 @@ def test_a_disk_that_fills_during_training_says_how_to_go_on(trained, tmp_path, 
     monkeypatch.undo()
     assert _run(["train", str(data), "--out", str(run), "--resume", "--no-progress"], capsys)[0] == 0
     assert [ckpt_lib.checkpoint_step(p) for p in ckpt_lib.list_checkpoints(run / "checkpoints")][-1] == 4
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["export", "cameras", "{run}", "--out", "{run}/config.json", "--overwrite"],
+     "config.json: is one of the run's own files, which the export reads; name another file"),
+    (["export", "cameras", "{run}", "--out", "{data}/transforms_train.json", "--overwrite"],
+     "transforms_train.json: is a file of the capture"),
+    (["eval", "{run}", "--split", "test", "--downscale", "8"], "the photos are 2x2 px at this scale, too small to "
+                                                               "score (at least 3x3); use a smaller --downscale"),
+    (["bake", "{run}", "--out", "{tmp}/b", "--finetune-minutes", "nan"], "--finetune-minutes must be a number of "
+                                                                         "minutes >= 0 (got nan)"),
+    (["experiment", "pe-ablation", "{data}", "--out", "{run}", "--max-steps", "1"], "holds a run or a capture"),
+    (["make-scene", "{tmp}/s", "--seed", "-1"], "--seed must be >= 0 (got -1)"),
+])
+def test_outputs_that_are_inputs_and_values_out_of_range(trained, tmp_path, capsys, argv, says):
+    """An output that would replace a file the command reads, or a value it cannot use: one line, exit 1, the run
+    and its capture unchanged, nothing written."""
+    run, data = _copy(trained, tmp_path)
+    before = _snapshot(run), _snapshot(data)
+    code, err = _run([a.format(run=run, data=data, tmp=tmp_path) for a in argv], capsys)
+    error = [line for line in err.splitlines() if line.startswith("nerfkit ")]  # not the bar
+    assert code == 1 and "Traceback" not in err and len(error) == 1 and says in error[0], err
+    assert (_snapshot(run), _snapshot(data)) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run", "scene"]

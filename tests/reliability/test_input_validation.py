@@ -192,6 +192,8 @@ def test_broken_png_bytes(scene, data, match):
     (lambda m: m["frames"][1]["transform_matrix"][0].__setitem__(3, 10**400), r"frame 1: transform_matrix is not a 4x4 matrix"),
     (lambda m: m["frames"][1].update(transform_matrix=[["a"] * 4] * 4), r"frame 1: transform_matrix is not a 4x4 matrix"),
     (lambda m: m["frames"][1].update(transform_matrix=None), r"frame 1: transform_matrix must be 4x4"),
+    (lambda m: m["frames"][1]["transform_matrix"][0].__setitem__(3, 1e300), r"frame 1: transform_matrix has values "
+                                                                           r"beyond 1e12"),
     (lambda m: m["frames"][1]["transform_matrix"][3].__setitem__(0, 0.5), r"frame 1: transform_matrix last row"),
     (lambda m: m["frames"][1].update(file_path="./train/r\x00"), r"frame 1: file_path .* contains a NUL"),
     (lambda m: m["frames"][1].update(file_path="x" * 5000), r"x\.png: missing image for .*frame 1"),
@@ -235,13 +237,16 @@ def test_pose_only_reader_checks_ranges_too(scene):
     (["--near", "2", "--far", "2"], "--near must be smaller than --far"),
     (["--n-samples", "0"], "--n-samples must be at least 2 (got 0)"),
     (["--batch-rays", "0"], "--batch-rays must be >= 1 (got 0)"),
-    (["--lr", "nan"], "--lr must be a positive number (got nan)"),
+    (["--lr", "nan"], "--lr must be a finite number (got nan)"),
     (["--chunk", "0"], "--chunk must be >= 1 (got 0)"),
     (["--downscale", "0"], "--downscale must be a positive integer (got 0)"),
     (["--downscale", "3"], "--downscale 3 does not divide the image size 8x8"),
     (["--train-split", "train[0:9]"], "index 9 in 'train[0:9]' is out of range"),
     (["--preset", "splat"], "--preset given 2 times (tiny, splat); give it once"),
     (["--out", "elsewhere"], "--out given 2 times ("),  # read before tyro parses (--resume), as --preset is
+    (["--lr-decay-rate", "inf"], "--lr-decay-rate must be a finite number (got inf)"),
+    (["--adam-b2", "1"], "--adam-b2 must be in [0, 1) (got 1.0)"),
+    (["--adam-eps", "0"], "--adam-eps must be positive (got 0.0)"),
 ])
 def test_bad_config_values_fail_with_one_line(base, tmp_path, capsys, flags, message):
     rc = main(["train", str(base), "--out", str(tmp_path / "run"), "--preset", "tiny", "--no-progress", *flags])
@@ -258,6 +263,7 @@ def test_bad_config_values_fail_with_one_line(base, tmp_path, capsys, flags, mes
     (["--normal-consistency-from", "0.3"], "--normal-consistency-from has no effect: the surface terms are off; give "
                                            "one a weight (--normal-consistency 0.15)"),
     (["--depth-distortion", "-1"], "--depth-distortion must be >= 0 (got -1.0)"),
+    (["--screen-dilation", "inf"], "--screen-dilation must be a finite number (got inf)"),
 ])
 def test_bad_splat_values_fail_with_one_line(base, tmp_path, capsys, flags, message):
     rc = main(["train", str(base), "--out", str(tmp_path / "run"), "--preset", "splat", "--no-progress", *flags])
@@ -280,3 +286,21 @@ def test_bad_run_config_json_is_a_one_line_error(base, tmp_path, capsys):
         assert main(["eval", str(run), "--data", str(base), "--split", "val"]) == 1
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and "config.json" in err and match in err, err
+
+
+def test_a_run_folder_that_is_a_capture_or_a_file_is_refused(base, tmp_path, capsys):
+    """--out naming the capture itself (whose val/ photos --overwrite would remove as a run's val/ renders) or a
+    file: one line, exit 1, the capture unchanged."""
+    scene = tmp_path / "scene"
+    shutil.copytree(base, scene)
+    before = sorted(p.relative_to(scene) for p in scene.rglob("*"))
+    (tmp_path / "afile").write_text("x")
+    for out, says in ((scene, f"--out {scene}: holds a capture (transforms_train.json); write the run to a folder "
+                              f"of its own, such as {scene / 'run'}"),
+                      (tmp_path / "afile", "is a file; name a folder for the run")):
+        rc = main(["train", str(scene), "--out", str(out), "--preset", "tiny", "--no-progress", "--overwrite"])
+        err = capsys.readouterr().err.strip()
+        assert rc == 1 and err.count("\n") == 0 and says in err, err
+    assert sorted(p.relative_to(scene) for p in scene.rglob("*")) == before
+    assert main(["train", str(tmp_path / "afile"), "--out", str(tmp_path / "r")]) == 1
+    assert "afile: is a file, not a data folder" in capsys.readouterr().err

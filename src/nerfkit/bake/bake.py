@@ -154,6 +154,8 @@ def bake_run(run_dir: Path, out: Path, resolution: int | None = None, sh_bands: 
         raise ConfigError(f"--resolution must be a multiple of {BRICK} between {2 * BRICK} and 1024 (got {resolution})")
     if not 1 <= sh_bands <= 3:
         raise ConfigError(f"--sh-bands must be 1, 2 or 3 (got {sh_bands})")
+    if not 0 <= finetune_minutes < 1e6:  # also refuses NaN
+        raise ConfigError(f"--finetune-minutes must be a number of minutes >= 0 (got {finetune_minutes})")
     check_out(out, overwrite)
     t0 = time.perf_counter()
     run = RunFolder(run_dir).load()

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from nerfkit.cli.parsing import parse
 from nerfkit.core.errors import ConfigError
+from nerfkit.export.files import refuse_own_input
 from nerfkit.export.registry import EXPORTERS, check_accepts, exporter
 
 
@@ -29,6 +30,7 @@ def cmd_export(argv: list[str]) -> int:
     ex, rest = exporter(argv[0]), argv[1:]
     a = parse(ex.args, rest, f"nerfkit export {ex.name}")
     run_dir = Path(a.run_dir)
+    refuse_own_input(getattr(a, "out", None), run_dir, getattr(a, "data", None))
     if (run_dir / "config.json").is_file():  # refuse a run it cannot export before loading it
         from nerfkit.models.registry import method_class
         from nerfkit.run.folder import RunFolder

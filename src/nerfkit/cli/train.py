@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import shlex
@@ -100,12 +101,12 @@ def stopped_by(e: OSError, data_dir: Path, trainer) -> NerfkitError:
 
     last = ckpt_lib.latest_checkpoint(trainer.ckpt_dir)
     where = f" ({e.filename})" if e.filename else ""
+    mend = "free space there" if e.errno in (errno.ENOSPC, errno.EDQUOT) else "mend that"
     again = f"nerfkit train {shlex.quote(str(data_dir))} --out {shlex.quote(str(trainer.run_dir))}"
     if last is None:
-        return NerfkitError(f"{e.strerror or e}{where}; no checkpoint was saved: free space there, then {again} "
-                            f"--overwrite")
+        return NerfkitError(f"{e.strerror or e}{where}; no checkpoint was saved: {mend}, then {again} --overwrite")
     return NerfkitError(f"{e.strerror or e}{where}; the run keeps its checkpoint of step "
-                        f"{ckpt_lib.checkpoint_step(last)}: free space there, then {again} --resume")
+                        f"{ckpt_lib.checkpoint_step(last)}: {mend}, then {again} --resume")
 
 
 def cmd_train(argv: list[str]) -> int:

@@ -69,6 +69,8 @@ def _check_types(cfg) -> None:
             if not _matches(v, hints[f.name]):
                 raise ConfigError(f"{section}.{f.name} must be {_type_name(hints[f.name])} (got {v!r}); "
                                   f"set --{f.name.replace('_', '-')}")
+            if isinstance(v, float) and not math.isfinite(v):
+                raise ConfigError(f"--{f.name.replace('_', '-')} must be a finite number (got {v})")
 
 
 def _need(ok: bool, msg: str) -> None:
@@ -107,12 +109,17 @@ def _check_training(t) -> None:
         v = getattr(t, name)
         _need(v >= 1, f"--{name.replace('_', '-')} must be >= 1 (got {v})")
     _need(t.devices is None or t.devices >= 1, f"--devices must be >= 1 (got {t.devices})")
+    _need(0 <= t.adam_b2 < 1, f"--adam-b2 must be in [0, 1) (got {t.adam_b2})")
+    _need(t.adam_eps > 0, f"--adam-eps must be positive (got {t.adam_eps})")
 
 
 def _check_field_sizes(f, s) -> None:
     """The MLP's size and frequencies (the methods check their own settings: their `check`)."""
     _need(f.depth >= 1, f"--depth must be >= 1 (got {f.depth})")
     _need(f.width >= 1, f"--width must be >= 1 (got {f.width})")
+    _need(f.hidden >= 1, f"--hidden must be >= 1 (got {f.hidden})")
+    _need(s.occ_warmup >= 0, f"--occ-warmup must be >= 0 (got {s.occ_warmup})")
+    _need(0 < s.occ_warmup_decay < 1, f"--occ-warmup-decay must be in (0, 1) (got {s.occ_warmup_decay})")
     _need(f.l_xyz >= 0 and f.l_dir >= 0, f"--l-xyz and --l-dir must be >= 0 (got {f.l_xyz}, {f.l_dir})")
 
 

@@ -41,6 +41,12 @@ class SplitItem:
         return f"{self.split}[{a}:{b}]"
 
 
+def no_data_folder(root: Path) -> DataError:
+    """The one-line error for a data folder `root` that is missing or is a file."""
+    return DataError(f"{root}: " + ("is a file, not a data folder" if Path(root).exists() else
+                                    "data folder does not exist"))
+
+
 def parse_split_spec(spec: str) -> list[SplitItem]:
     """Parse "train,val[0:50]" into split items (Python slice semantics on frame lists)."""
     if not isinstance(spec, str) or not spec.strip():

@@ -17,7 +17,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from nerfkit.core.errors import DataError
-from nerfkit.data.capture import Capture, SceneData
+from nerfkit.data.capture import Capture, SceneData, no_data_folder
 from nerfkit.data.formats import registry
 from nerfkit.data.images import (
     area_downscale,
@@ -43,7 +43,7 @@ def read_capture(root: str | Path, spec: str, format: str = "auto", masks: bool 
     root = Path(root)
     fmt = registry.detect_format(root) if format == "auto" else registry.format_named(format, root)
     if not root.is_dir():
-        raise DataError(f"{root}: data folder does not exist")
+        raise no_data_folder(root)
     cap = fmt.read(root, spec, holdout_every, masks)
     if not masks:  # the formats leave masks out when told to: whether there were any to drop is a second read
         try:

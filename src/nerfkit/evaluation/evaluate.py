@@ -142,6 +142,9 @@ def train_and_evaluate(data_dir: Path, run_dir: Path, cfg, every: int = 1, progr
 def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir: Path | None, bg) -> dict:
     """PSNR / SSIM of every `every`-th view of `data` (per view and mean); the renders (rgb, depth,
     rgb beside ground truth, depth .npy) go to out_dir when given."""
+    if min(data.height, data.width) < 3:  # SSIM's window
+        raise ConfigError(f"the photos are {data.width}x{data.height} px at this scale, too small to score (at least "
+                          f"3x3); use a smaller --downscale")
     per_view, renders = [], []
     ids = list(range(0, len(data), every))
     t0 = time.perf_counter()

@@ -256,6 +256,8 @@ def benchmark(root: str | Path, out: str | Path, preset: str = "ngp", budget_min
             raise DataError(f"--only {only}: no such scene folder under {root}")
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out}: is a file; name a folder")
+    if out.resolve() == Path(root).resolve():
+        raise ConfigError(f"--out {out}: is the folder of scenes itself; name a folder beside it for the results")
     version = nerfkit_version()
     parts = []
     if budget_minutes is not None:

@@ -12,6 +12,7 @@ import numpy as np
 from nerfkit.core.errors import ConfigError, NerfkitError
 from nerfkit.core.presets import set_budget
 from nerfkit.core.viz import colorize_depth, depth_range, plot_curves, read_jsonl
+from nerfkit.data.formats.registry import holds_capture
 from nerfkit.training import checkpoint as ckpt_lib
 
 
@@ -43,7 +44,10 @@ def check_at_least_one(counts: tuple[tuple[str, int], ...]) -> None:
 
 def refuse_taken(out: Path, run_dirs: list[str]) -> None:
     """NerfkitError when out already holds a checkpointed run in any of run_dirs (an experiment never
-    trains over an earlier one)."""
+    trains over an earlier one); ConfigError when out is itself a run or a capture."""
+    if ckpt_lib.list_checkpoints(out / "checkpoints") or holds_capture(out):
+        raise ConfigError(f"--out {out}: holds a run or a capture, whose files the experiment's would mix with; "
+                          f"pick a new --out")
     taken = [r for r in run_dirs if ckpt_lib.list_checkpoints(out / r / "checkpoints")]
     if taken:
         raise NerfkitError(f"{out}: already holds model runs ({', '.join(taken)}); pick a new --out")

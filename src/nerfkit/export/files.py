@@ -4,6 +4,7 @@ records are run/folder.py's (RunFolder)."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 from collections.abc import Callable
@@ -31,6 +32,23 @@ def check_out(out: Path, suffixes: tuple[str, ...], overwrite: bool = False, fla
     if out.is_dir():
         raise ConfigError(f"{flag} {out}: is a folder; name a file such as {out / ('export' + suffixes[0])}")
     return check_new_file(out, overwrite, flag)
+
+
+def refuse_own_input(out: Path | None, run_dir: Path, data: Path | None = None, flag: str = "--out") -> None:
+    """ConfigError when `out` would replace a file the export reads: the run's config.json, scene.json or a
+    checkpoint, or a file of the capture (`data`, else the folder the run was trained on)."""
+    if out is None:
+        return
+    o, run = Path(out).resolve(), Path(run_dir).resolve()
+    if o in (run / "config.json", run / "scene.json") or o.is_relative_to(run / "checkpoints"):
+        raise ConfigError(f"{flag} {out}: is one of the run's own files, which the export reads; name another file")
+    if data is None:
+        try:
+            data = Path(json.loads((run / "scene.json").read_text())["data_dir"])
+        except (OSError, ValueError, KeyError, TypeError):
+            return  # the export's own loading names what is wrong with the run
+    if o.exists() and o.is_relative_to(Path(data).resolve()):
+        raise ConfigError(f"{flag} {out}: is a file of the capture {data}, which the export reads; name another file")
 
 
 def write_atomic(out: Path, write) -> None:

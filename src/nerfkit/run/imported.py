@@ -27,7 +27,7 @@ from nerfkit.core.outputs import staged_folder
 from nerfkit.core.presets import preset
 from nerfkit.models.splat.formats import read_gaussians
 from nerfkit.rays.cameras import Camera, look_at
-from nerfkit.training.setup import clear_run, run_files
+from nerfkit.training.setup import clear_run, refuse_unfit_run_folder, run_files
 
 ORBIT_VIEWS = 16
 ORBIT_SIZE = 512
@@ -85,11 +85,14 @@ def import_splat(file: Path, out: Path, data: Path | None = None, overwrite: boo
     g, degree, fmt = read_gaussians(file)  # a bad file is refused before anything is written
     if data is not None and not Path(data).is_dir():
         raise ConfigError(f"--data {data}: no such folder; pass the capture the splat file was made from")
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {out}: is a file; name a folder for the run")
+    refuse_unfit_run_folder(out)
     clear, own = bool(run_files(out)), data is None
     if clear and not overwrite:  # not train's message: import has no --resume
         raise ConfigError(f"--out {out}: already holds a run; pass --overwrite to replace it, or pick a new --out")
+    inside = [p for p in run_files(out) if file.resolve().is_relative_to(p.resolve())]
+    if inside and overwrite:
+        raise ConfigError(f"{file}: lies in {inside[0]}, which --overwrite removes with the earlier run in {out}; "
+                          f"copy the file elsewhere first, or pick another --out")
     if own and (out / "capture").exists() and not overwrite:
         raise ConfigError(f"--out {out}: already holds capture/, which the import writes its renders into; pass "
                           f"--overwrite to replace it, or pick a new --out")

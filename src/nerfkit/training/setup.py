@@ -13,6 +13,7 @@ from pathlib import Path
 from nerfkit.core.config import Config
 from nerfkit.core.errors import ConfigError, DataError, NerfkitError
 from nerfkit.data.capture import Capture, SceneData
+from nerfkit.data.formats import registry
 from nerfkit.data.loader import load_frames, read_capture
 from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training.flags import refuse_family_switch, refuse_unused
@@ -34,6 +35,18 @@ def clear_run(run_dir: Path) -> None:
     """Remove an earlier run's files (run_files) from run_dir; anything else in it stays."""
     for p in run_files(run_dir):
         shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+
+
+def refuse_unfit_run_folder(run_dir: Path, flag: str = "--out") -> None:
+    """ConfigError when run_dir is a file, or a capture's folder (a run written there, or --overwrite clearing
+    it, would mix with or remove the capture's files: its val/ photos share a name with a run's val/)."""
+    run_dir = Path(run_dir)
+    if run_dir.exists() and not run_dir.is_dir():
+        raise ConfigError(f"{flag} {run_dir}: is a file; name a folder for the run")
+    fmt = registry.holds_capture(run_dir)
+    if fmt is not None:
+        raise ConfigError(f"{flag} {run_dir}: holds a capture ({fmt.LOOKS_FOR}); write the run to a folder of its "
+                          f"own, such as {run_dir / 'run'}")
 
 
 def refuse_earlier_run(run_dir: Path, resume: bool, overwrite: bool) -> bool:

@@ -35,7 +35,13 @@ from nerfkit.training import checkpoint as ckpt_lib
 from nerfkit.training import parallel
 from nerfkit.training.callbacks import Checkpoints, ProgressBar
 from nerfkit.training.flags import describe_budget, describe_model
-from nerfkit.training.setup import clear_run, load_splits, refuse_earlier_run, with_triangulated_points
+from nerfkit.training.setup import (
+    clear_run,
+    load_splits,
+    refuse_earlier_run,
+    refuse_unfit_run_folder,
+    with_triangulated_points,
+)
 from nerfkit.training.step import init_state, make_optimizer, make_train_step
 from nerfkit.training.stopping import StopFlag
 from nerfkit.training.validation import evenly_spaced, render_validation, validation_factor, validation_views
@@ -84,6 +90,7 @@ class Trainer:
         self.resume = resume
         self.progress = progress
         self.ckpt_dir = self.run_dir / "checkpoints"
+        refuse_unfit_run_folder(self.run_dir)
         self.overwrite = refuse_earlier_run(self.run_dir, resume, overwrite)
         say = tqdm.write if progress else (lambda *_: None)
         self.capture, self.train_data, self.val_data, self.cfg = load_splits(self.data_dir, cfg, progress, say)

@@ -21,7 +21,14 @@ from pathlib import Path
 import numpy as np
 
 from nerfkit.core.errors import DataError
-from nerfkit.data.capture import Capture, Frame, SplitItem, parse_split_spec, select  # noqa: F401 (re-exported)
+from nerfkit.data.capture import (  # noqa: F401 (re-exported)
+    Capture,
+    Frame,
+    SplitItem,
+    no_data_folder,
+    parse_split_spec,
+    select,
+)
 from nerfkit.data.images import image_size, is_file, one_line
 from nerfkit.rays.cameras import Camera
 
@@ -75,6 +82,8 @@ def check_pose(m, where: str) -> np.ndarray:
         raise DataError(f"{where}: transform_matrix must be 4x4, got shape {pose.shape}")
     if not np.all(np.isfinite(pose)):
         raise DataError(f"{where}: transform_matrix has non-finite values")
+    if np.abs(pose).max() > 1e12:  # training works in float32 (to 3e38) and squares distances
+        raise DataError(f"{where}: transform_matrix has values beyond 1e12; the capture's coordinates are broken")
     r = pose[:3, :3]
     # A camera-to-world rotation: orthonormal columns, det +1 (Blender exports are exact to ~1e-6).
     if not np.allclose(r.T @ r, np.eye(3), atol=1e-3) or abs(np.linalg.det(r) - 1) > 1e-3:
@@ -123,7 +132,7 @@ def iter_frames(root: Path, spec: str):
     all splits share one field of view."""
     root = Path(root)
     if not root.is_dir():
-        raise DataError(f"{root}: data folder does not exist")
+        raise no_data_folder(root)
     fov = None
     for item in parse_split_spec(spec):
         meta = read_transforms(root, item.split)

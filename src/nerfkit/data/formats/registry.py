@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Protocol
 
 from nerfkit.core.errors import DataError
-from nerfkit.data.capture import Capture
+from nerfkit.data.capture import Capture, no_data_folder
 from nerfkit.data.formats import blender, colmap, llff, multiscale, nerfstudio
 
 
@@ -44,12 +44,18 @@ def detect_format(root: Path) -> Format:
     """The first format that recognises `root`, or a DataError listing what is looked for."""
     root = Path(root)
     if not root.is_dir():
-        raise DataError(f"{root}: data folder does not exist")
+        raise no_data_folder(root)
     for fmt in FORMATS:
         if fmt.detect(root):
             return fmt
     raise DataError(f"{root}: no capture found (looked for {', '.join(f.LOOKS_FOR for f in FORMATS)}); for a folder "
                     f"of photos run `nerfkit process-data images {root} --out DATA` first")
+
+
+def holds_capture(root: Path) -> Format | None:
+    """The format of the capture in folder `root`, or None when it holds none (or is not a folder)."""
+    root = Path(root)
+    return next((f for f in FORMATS if f.detect(root)), None) if root.is_dir() else None
 
 
 def format_named(name: str, root: Path) -> Format:

@@ -375,6 +375,8 @@ def make_scene(
             f"make_scene: --size must be 1-{MAX_SIZE} and the view counts 0-{MAX_VIEWS}, got --size {size}, "
             f"--n-train {n_train}, --n-val {n_val}, --n-test {n_test}"
         )
+    if seed < 0:
+        raise DataError(f"make_scene: --seed must be >= 0 (got {seed})")
     out = Path(out_dir)
     with staged_folder(out) as tmp:  # all the files or none (a full disk, Ctrl-C)
         for split, n in (("train", n_train), ("val", n_val), ("test", n_test)):
