@@ -447,6 +447,7 @@ def test_a_disk_that_fills_during_training_says_how_to_go_on(trained, tmp_path, 
                                                                          "minutes >= 0 (got nan)"),
     (["experiment", "pe-ablation", "{data}", "--out", "{run}", "--max-steps", "1"], "holds a run or a capture"),
     (["make-scene", "{tmp}/s", "--seed", "-1"], "--seed must be >= 0 (got -1)"),
+    (["benchmark", "{tmp}", "--out", "{tmp}", "--max-steps", "1"], "is the folder of scenes itself"),
 ])
 def test_outputs_that_are_inputs_and_values_out_of_range(trained, tmp_path, capsys, argv, says):
     """An output that would replace a file the command reads, or a value it cannot use: one line, exit 1, the run

@@ -259,12 +259,8 @@ def benchmark(root: str | Path, out: str | Path, preset: str = "ngp", budget_min
     if out.resolve() == Path(root).resolve():
         raise ConfigError(f"--out {out}: is the folder of scenes itself; name a folder beside it for the results")
     version = nerfkit_version()
-    parts = []
-    if budget_minutes is not None:
-        parts.append(f"{budget_minutes:g} min")
-    if max_steps is not None:
-        parts.append(f"{max_steps} steps")
-    budget_text = " or ".join(parts)
+    budget_text = " or ".join(([f"{budget_minutes:g} min"] if budget_minutes is not None else [])
+                              + ([f"{max_steps} steps"] if max_steps is not None else []))
     log(f"benchmark of {len(scenes)} scene(s) under {root} ({', '.join(s.name for s in scenes)}): preset {preset}, "
         f"{budget_text} each, {jobs} at a time; writing {out}")
     out.mkdir(parents=True, exist_ok=True)
