@@ -5,6 +5,7 @@ and a refused command leaves nothing behind (no folder is created until there is
                              can be made
     check_new_folder(path)   a folder that does not exist yet or is empty (or --overwrite: its files of the
                              same names are replaced, others stay)
+    first_missing(path)      the topmost folder that writing path would create
     staged_folder(path)      write a folder's files beside it and move them in only when all are written, so
                              that a write that fails half way (a full disk, Ctrl-C) leaves path as it was
 """
@@ -54,6 +55,17 @@ def check_new_folder(path: Path, overwrite: bool = False, flag: str = "--out") -
     return path
 
 
+def first_missing(path: Path) -> Path | None:
+    """The topmost of path and its ancestors that does not exist (what mkdir(parents=True) would create first),
+    or None when path exists."""
+    path = Path(path)
+    if path.exists():
+        return None
+    while not path.parent.exists() and path.parent != path.parent.parent:
+        path = path.parent
+    return path
+
+
 @contextmanager
 def staged_folder(path: Path) -> Iterator[Path]:
     """Yield a hidden sibling folder (.NAME.incomplete) to write path's files into; when the block ends without
@@ -61,10 +73,7 @@ def staged_folder(path: Path) -> Iterator[Path]:
     the same names replaced, others left), else the sibling is removed, with any folder made above it. Either
     way path holds the old files or all the new ones, and nothing else is left behind."""
     path = Path(path)
-    made = path.parent
-    while not made.parent.exists() and made.parent != made.parent.parent:
-        made = made.parent  # the topmost folder this creates, removed again on failure
-    made = made if not made.exists() else None
+    made = first_missing(path.parent)  # the topmost folder this creates, removed again on failure
     tmp = path.parent / f".{path.name}.incomplete"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)

@@ -80,7 +80,7 @@ def _need(ok: bool, msg: str) -> None:
 
 
 def _check_sampling(s, f, d) -> None:
-    """The ray interval, the appearance table, the hold-out period and the sample counts."""
+    """The ray interval, the appearance table, the hold-out period, the sample counts and the occupancy warm-up."""
     for name in ("near", "far"):
         v = getattr(s, name)
         _need(v is None or math.isfinite(v), "--near and --far must be finite numbers")
@@ -92,6 +92,8 @@ def _check_sampling(s, f, d) -> None:
     _need(d.holdout_every >= 1, f"--holdout-every must be >= 1 (got {d.holdout_every})")
     _need(s.n_samples >= 2, f"--n-samples must be at least 2 (got {s.n_samples})")
     _need(s.n_importance >= 0, f"--n-importance must be >= 0 (got {s.n_importance})")
+    _need(s.occ_warmup >= 0, f"--occ-warmup must be >= 0 (got {s.occ_warmup})")
+    _need(0 < s.occ_warmup_decay < 1, f"--occ-warmup-decay must be in (0, 1) (got {s.occ_warmup_decay})")
 
 
 def _check_training(t) -> None:
@@ -114,12 +116,10 @@ def _check_training(t) -> None:
 
 
 def _check_field_sizes(f, s) -> None:
-    """The MLP's size and frequencies (the methods check their own settings: their `check`)."""
+    """The MLP's sizes and frequencies (the methods check their own settings: their `check`)."""
     _need(f.depth >= 1, f"--depth must be >= 1 (got {f.depth})")
     _need(f.width >= 1, f"--width must be >= 1 (got {f.width})")
     _need(f.hidden >= 1, f"--hidden must be >= 1 (got {f.hidden})")
-    _need(s.occ_warmup >= 0, f"--occ-warmup must be >= 0 (got {s.occ_warmup})")
-    _need(0 < s.occ_warmup_decay < 1, f"--occ-warmup-decay must be in (0, 1) (got {s.occ_warmup_decay})")
     _need(f.l_xyz >= 0 and f.l_dir >= 0, f"--l-xyz and --l-dir must be >= 0 (got {f.l_xyz}, {f.l_dir})")
 
 

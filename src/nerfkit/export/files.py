@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from nerfkit.core.errors import ConfigError
-from nerfkit.core.outputs import check_new_file
+from nerfkit.core.outputs import check_new_file, first_missing
 
 
 def to_capture(points: np.ndarray, transform: np.ndarray) -> np.ndarray:
@@ -64,11 +64,7 @@ def write_together(files: list[tuple[Path, Callable[[Path], object]]]) -> None:
     temporary."""
     made = []
     for out, _ in files:
-        top = out.parent
-        while not top.parent.exists() and top.parent != top.parent.parent:
-            top = top.parent
-        if not top.exists():
-            made.append(top)
+        made += [top] if (top := first_missing(out.parent)) is not None else []
         out.parent.mkdir(parents=True, exist_ok=True)
     tmps = [out.with_name(f".{out.stem}.partial{out.suffix}") for out, _ in files]
     try:

@@ -86,10 +86,11 @@ def import_splat(file: Path, out: Path, data: Path | None = None, overwrite: boo
     if data is not None and not Path(data).is_dir():
         raise ConfigError(f"--data {data}: no such folder; pass the capture the splat file was made from")
     refuse_unfit_run_folder(out)
-    clear, own = bool(run_files(out)), data is None
+    old, own = run_files(out), data is None
+    clear = bool(old)
     if clear and not overwrite:  # not train's message: import has no --resume
         raise ConfigError(f"--out {out}: already holds a run; pass --overwrite to replace it, or pick a new --out")
-    inside = [p for p in run_files(out) if file.resolve().is_relative_to(p.resolve())]
+    inside = [p for p in old if file.resolve().is_relative_to(p.resolve())]
     if inside and overwrite:
         raise ConfigError(f"{file}: lies in {inside[0]}, which --overwrite removes with the earlier run in {out}; "
                           f"copy the file elsewhere first, or pick another --out")

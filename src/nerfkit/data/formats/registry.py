@@ -45,9 +45,9 @@ def detect_format(root: Path) -> Format:
     root = Path(root)
     if not root.is_dir():
         raise no_data_folder(root)
-    for fmt in FORMATS:
-        if fmt.detect(root):
-            return fmt
+    fmt = holds_capture(root)
+    if fmt is not None:
+        return fmt
     raise DataError(f"{root}: no capture found (looked for {', '.join(f.LOOKS_FOR for f in FORMATS)}); for a folder "
                     f"of photos run `nerfkit process-data images {root} --out DATA` first")
 
