@@ -220,6 +220,7 @@ def test_a_colmap_model_of_garbage(tmp_path, capsys, content):
 
 @pytest.mark.parametrize("flags,named", [(["--fps", "0"], "--fps"), (["--fps", "1000"], "--fps"),
                                          (["--width", "100000"], "--width"), (["--height", "0"], "--height"),
+                                         (["--width", "1"], "the videos' colour format needs 2"),
                                          (["--width", "8000", "--camera-path", "TALL"], "--width / --height")])
 def test_render_flags_out_of_range(trained, tmp_path, capsys, flags, named):
     """The last case: a width within bounds whose height, following a camera path's 1:2 aspect, is not."""
@@ -448,6 +449,10 @@ def test_a_disk_that_fills_during_training_says_how_to_go_on(trained, tmp_path, 
     (["experiment", "pe-ablation", "{data}", "--out", "{run}", "--max-steps", "1"], "holds a run or a capture"),
     (["make-scene", "{tmp}/s", "--seed", "-1"], "--seed must be >= 0 (got -1)"),
     (["benchmark", "{tmp}", "--out", "{tmp}", "--max-steps", "1"], "is the folder of scenes itself"),
+    (["train", "{data}", "--out", "{run}", "--resume", "--max-steps", "2"], "is already at step 4, so nothing would "
+                                                                             "train; pass a --max-steps above 4"),
+    (["export", "pointcloud", "{run}", "--voxel-size", "1e300"], "is larger than the scene's box"),
+    (["export", "pointcloud", "{run}", "--voxel-size", "1e-300"], "pass --voxel-size 0 to keep every point"),
 ])
 def test_outputs_that_are_inputs_and_values_out_of_range(trained, tmp_path, capsys, argv, says):
     """An output that would replace a file the command reads, or a value it cannot use: one line, exit 1, the run

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from nerfkit.core.errors import ConfigError
 from nerfkit.models.baked.format import FORMAT
-from nerfkit.viewer.run import check_port, is_loopback
+from nerfkit.viewer.run import check_host, check_port, is_loopback
 
 WEB_DIR = Path(__file__).parent / "web"
 ASSETS = ("index.html", "render.js", "baked.js")
@@ -146,6 +146,7 @@ def stop_server(server: ThreadingHTTPServer) -> None:
 def serve_baked(baked_dir: Path, host: str = "127.0.0.1", port: int = 7007) -> None:
     """`nerfkit view --baked DIR`: serve the scene's page until Ctrl-C, printing its address and size."""
     check_port(port)
+    check_host(host)
     server, url = start_server(baked_dir, host, port)
     print(f"serving the baked scene {baked_dir} ({scene_mb(baked_dir):.1f} MB) at {url} (Ctrl-C stops)", flush=True)
     if not is_loopback(host):

@@ -74,10 +74,10 @@ class RenderArgs:
     """Render an orbit of N frames: a circle at the cameras' typical radius and elevation (Blender scenes),
     or an ellipse fitted to the camera centres (photo captures), looking at the scene centre."""
     width: int | None = None
-    """Output width in pixels, at most 8192 (default: training width, for --orbit at most 512; height follows the
+    """Output width in pixels, 2-8192 (default: training width, for --orbit at most 512; height follows the
     aspect ratio)."""
     height: int | None = None
-    """Output height in pixels."""
+    """Output height in pixels, 2-8192."""
     out: Path | None = None
     """Output folder (default: RUN_DIR/renders/<split-or-orbit>_<W>x<H>)."""
     camera_path: Path | None = None

@@ -110,7 +110,7 @@ def stopped_by(e: OSError, data_dir: Path, trainer) -> NerfkitError:
 
 
 def cmd_train(argv: list[str]) -> int:
-    from nerfkit.training.setup import refuse_given
+    from nerfkit.training.setup import refuse_given, refuse_spent_steps
     from nerfkit.training.trainer import Trainer
 
     if any(a in ("-h", "--help", "--help-all") for a in argv):
@@ -123,8 +123,15 @@ def cmd_train(argv: list[str]) -> int:
 
     if init_distributed() > 1 and args.viewer:
         raise ConfigError("--viewer: not in a multi-process run; view the run folder with `nerfkit view` instead")
+    if args.viewer:  # a --viewer-host or --viewer-port it cannot use: before the data loads
+        from nerfkit.viewer.run import check_host, check_port
+
+        check_port(args.viewer_port)
+        check_host(args.viewer_host)
     given = explicit_settings(argv)
     refuse_given(args.data_dir, args.cfg, given, args.preset, args.resume)
+    if args.resume and "train.max_steps" in given:
+        refuse_spent_steps(args.out, args.cfg.train.max_steps)
     trainer = Trainer(args.data_dir, args.out, args.cfg, resume=args.resume, progress=args.progress and is_primary(),
                       overwrite=args.overwrite)
     default_budget = not given.keys() & {"train.max_minutes", "train.max_steps"} and not args.resume

@@ -204,6 +204,7 @@ def format_eval_table(result: dict) -> str:
 
 
 ORBIT_MAX_WIDTH = 512  # orbits without --width/--height are rendered at most this wide
+MIN_RENDER_SIZE = 2  # pixels a side: the videos' yuv420p stores colour at half resolution
 
 
 def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, orbit: int | None = None,
@@ -233,6 +234,9 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
     if max(width, height) > MAX_RENDER_SIZE:  # one side given, the other following the aspect ratio
         raise ConfigError(f"at this aspect ratio that is {width}x{height} pixels, more than {MAX_RENDER_SIZE} a side; "
                           f"give a smaller --width / --height")
+    if min(width, height) < MIN_RENDER_SIZE:
+        raise ConfigError(f"at this aspect ratio that is {width}x{height} pixels, under {MIN_RENDER_SIZE} a side "
+                          f"(the videos' colour format needs {MIN_RENDER_SIZE}); give a larger --width / --height")
     cams, fps = render_cameras(sel, path, split, len(poses), width, height, fps)
     out = check_new_folder(Path(out) if out is not None else run_dir / "renders" / f"{name}_{width}x{height}",
                            overwrite)
@@ -255,7 +259,8 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
 
 def check_render_request(split: str | None, orbit: int | None, camera_path: Path | None, chunk: int | None,
                          width: int | None, height: int | None, fps: int | None) -> None:
-    """ConfigError unless exactly one of split, orbit and camera_path is given, the sizes are 1-MAX_RENDER_SIZE
+    """ConfigError unless exactly one of split, orbit and camera_path is given, the sizes are
+    MIN_RENDER_SIZE-MAX_RENDER_SIZE
     and the fps (when given) 1-MAX_FPS."""
     if sum(x is not None for x in (split, orbit, camera_path)) != 1:
         raise ConfigError("pass exactly one of --split SPLIT, --orbit N or --camera-path FILE")
@@ -263,8 +268,9 @@ def check_render_request(split: str | None, orbit: int | None, camera_path: Path
     if orbit is not None and orbit < 1:
         raise ConfigError(f"--orbit must be >= 1 frames (got {orbit})")
     for name, v in (("--width", width), ("--height", height)):
-        if v is not None and not 1 <= v <= MAX_RENDER_SIZE:
-            raise ConfigError(f"{name} must be 1-{MAX_RENDER_SIZE} pixels (got {v})")
+        if v is not None and not MIN_RENDER_SIZE <= v <= MAX_RENDER_SIZE:
+            raise ConfigError(f"{name} must be {MIN_RENDER_SIZE}-{MAX_RENDER_SIZE} pixels (got {v}; the videos' "
+                              f"colour format needs {MIN_RENDER_SIZE} a side)")
     if fps is not None and not 1 <= fps <= MAX_FPS:
         raise ConfigError(f"--fps must be 1-{MAX_FPS} frames a second (got {fps})")
 

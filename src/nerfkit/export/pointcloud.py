@@ -47,6 +47,24 @@ def voxel_downsample(points: np.ndarray, colors: np.ndarray, voxel: float):
     return (out_p / counts[:, None]).astype(np.float32), (out_c / counts[:, None]).astype(np.float32)
 
 
+MAX_VOXELS_PER_BOX = 2**20  # finer than this is no downsampling at all (and its voxel keys would overflow)
+
+
+def check_voxel(voxel_size: float | None, voxel_n: float, bound: float, scale: float) -> None:
+    """ConfigError for a --voxel-size (capture units; voxel_n: normalised) that is not 0 and either spans more
+    than the whole box (2 bound, normalised) or is finer than the box / MAX_VOXELS_PER_BOX."""
+    if voxel_size is None or voxel_size == 0:
+        return
+    box = 2.0 * bound / scale  # the box's side in capture units
+    if not voxel_n <= 2.0 * bound:
+        raise ConfigError(f"--voxel-size {voxel_size:g} is larger than the scene's box ({box:.4g} capture units "
+                          f"a side): every point would merge into one; give a smaller one (default "
+                          f"{box / VOXELS_PER_BOX:.3g})")
+    if not voxel_n >= 2.0 * bound / MAX_VOXELS_PER_BOX:
+        raise ConfigError(f"--voxel-size {voxel_size:g} is under a millionth of the scene's box ({box:.4g} capture "
+                          f"units a side); pass --voxel-size 0 to keep every point")
+
+
 def write_pointcloud(out: Path, points: np.ndarray, colors_u8: np.ndarray) -> None:
     """A binary PLY of coloured points (trimesh)."""
     import trimesh
@@ -72,6 +90,7 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
     run = RunFolder(run_dir).load()
     scale = float(np.cbrt(np.linalg.det(run.transform[:3, :3])))  # capture -> normalised lengths
     voxel_n = 2.0 * run.bound / VOXELS_PER_BOX if voxel_size is None else voxel_size * scale
+    check_voxel(voxel_size, voxel_n, run.bound, scale)
     if run.model.supports.gaussians:
         given = [f for f, v in (("--split", split), ("--every", every), ("--data", data), ("--chunk", chunk))
                  if v is not None]

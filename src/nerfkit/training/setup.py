@@ -67,6 +67,15 @@ def refuse_earlier_run(run_dir: Path, resume: bool, overwrite: bool) -> bool:
     return bool(old)
 
 
+def refuse_spent_steps(run_dir: Path, max_steps: int) -> None:
+    """ConfigError when a run resumed with --max-steps N already holds a checkpoint of step >= N: nothing would
+    train, and the run's config.json would be rewritten with the smaller budget."""
+    last = ckpt_lib.latest_checkpoint(Path(run_dir) / "checkpoints")
+    if last is not None and (step := ckpt_lib.checkpoint_step(last)) >= max_steps:
+        raise ConfigError(f"--max-steps {max_steps}: the run in {run_dir} is already at step {step}, so nothing "
+                          f"would train; pass a --max-steps above {step} to go on")
+
+
 def refuse_given(data_dir: Path, cfg: Config, given: dict[str, str], preset: str | None, resume: bool) -> None:
     """ConfigError for the first setting the user gave (`given`: setting -> the flag as typed) that the model or
     this capture will not read, or a --kind that leaves the preset's family (flags.py); `preset` names where

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import ipaddress
 import signal
+import socket
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,8 +40,54 @@ def check_port(port: int) -> None:
         raise ConfigError(f"--port must be in 0..65535 (got {port})")
 
 
+RESOLVE_SECONDS = 10.0  # a name the resolver has not answered for within this is refused
+
+
+def resolve(host: str, seconds: float | None = None) -> list:
+    """socket.getaddrinfo(host) for a listening TCP socket, in a daemon thread that is given up on after
+    `seconds` (default RESOLVE_SECONDS: a resolver that never answers would otherwise hold the command).
+    OSError when it fails."""
+    seconds = RESOLVE_SECONDS if seconds is None else seconds
+    found: list = []
+
+    def ask():
+        try:
+            found.append(socket.getaddrinfo(host, None, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE))
+        except OSError as e:
+            found.append(e)
+
+    thread = threading.Thread(target=ask, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    if not found:
+        raise TimeoutError(f"no answer from the name resolver in {seconds:g} s")
+    if isinstance(found[0], OSError):
+        raise found[0]
+    return found[0]
+
+
+def check_host(host: str) -> None:
+    """ConfigError unless `host` is a name or address this machine can listen on: it resolves, and a socket
+    binds to one of its addresses (port 0, so a busy --port is not the question here)."""
+    fix = "use 127.0.0.1 (this machine only) or 0.0.0.0 (every network this machine is on)"
+    try:
+        infos = resolve(host)
+    except OSError as e:
+        raise ConfigError(f"--host {host}: not a name or address this machine knows ({e.strerror or e}); {fix}")
+    last = None
+    for family, _, _, _, address in infos:
+        with socket.socket(family, socket.SOCK_STREAM) as s:
+            try:
+                s.bind((address[0], 0))
+                return
+            except OSError as e:
+                last = e
+    raise ConfigError(f"--host {host}: not an address of this machine ({last.strerror or last}); {fix}")
+
+
 def check_address(host: str, port: int) -> None:
     check_port(port)
+    check_host(host)
     if not is_loopback(host):
         print(f"warning: the viewer listens on {host}:{port}, reachable from other machines on this network; "
               f"anyone who can reach it sees the scene (default --host 127.0.0.1)", flush=True)
