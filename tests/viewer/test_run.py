@@ -43,7 +43,7 @@ def test_a_host_it_cannot_listen_on_is_one_line_before_the_server(procedural_run
 
 
 def test_hosts_this_machine_listens_on_pass_and_a_silent_resolver_is_given_up_on(monkeypatch):
-    for host in ("127.0.0.1", "localhost", "0.0.0.0"):
+    for host in ("127.0.0.1", "localhost", "0.0.0.0", ""):  # "": every interface, as http.server reads it
         check_host(host)
     monkeypatch.setattr(socket, "getaddrinfo", lambda *a, **k: time.sleep(30))
     t0 = time.perf_counter()

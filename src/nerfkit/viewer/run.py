@@ -52,7 +52,8 @@ def resolve(host: str, seconds: float | None = None) -> list:
 
     def ask():
         try:
-            found.append(socket.getaddrinfo(host, None, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE))
+            found.append(socket.getaddrinfo(host or None, 0, type=socket.SOCK_STREAM,  # '': every interface
+                                           flags=socket.AI_PASSIVE))
         except OSError as e:
             found.append(e)
 
