@@ -40,6 +40,12 @@ def test_a_host_it_cannot_listen_on_is_one_line_before_the_server(procedural_run
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"nerfkit view: error: --host {host}: {says}"), lines
     assert "use 127.0.0.1" in lines[0]
+    if host == "192.0.2.1":  # train --viewer names its own flag, before the data loads
+        run = procedural_run[0]
+        data = RunFolder(run).scene()["data_dir"]
+        argv = ["train", data, "--out", str(run.parent / "viewer_host"), "--viewer", "--viewer-host", host]
+        assert main(argv) == 1 and not (run.parent / "viewer_host").exists()
+        assert capsys.readouterr().err.startswith(f"nerfkit train: error: --viewer-host {host}: {says}")
 
 
 def test_hosts_this_machine_listens_on_pass_and_a_silent_resolver_is_given_up_on(monkeypatch):

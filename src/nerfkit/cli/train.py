@@ -124,10 +124,9 @@ def cmd_train(argv: list[str]) -> int:
     if init_distributed() > 1 and args.viewer:
         raise ConfigError("--viewer: not in a multi-process run; view the run folder with `nerfkit view` instead")
     if args.viewer:  # a --viewer-host or --viewer-port it cannot use: before the data loads
-        from nerfkit.viewer.run import check_host, check_port
+        from nerfkit.viewer.run import check_address
 
-        check_port(args.viewer_port)
-        check_host(args.viewer_host)
+        check_address(args.viewer_host, args.viewer_port, ("--viewer-host", "--viewer-port"))
     given = explicit_settings(argv)
     refuse_given(args.data_dir, args.cfg, given, args.preset, args.resume)
     if args.resume and "train.max_steps" in given:

@@ -260,8 +260,7 @@ def render_run(run_dir: Path, data_dir: Path | None, split: str | None = None, o
 def check_render_request(split: str | None, orbit: int | None, camera_path: Path | None, chunk: int | None,
                          width: int | None, height: int | None, fps: int | None) -> None:
     """ConfigError unless exactly one of split, orbit and camera_path is given, the sizes are
-    MIN_RENDER_SIZE-MAX_RENDER_SIZE
-    and the fps (when given) 1-MAX_FPS."""
+    MIN_RENDER_SIZE-MAX_RENDER_SIZE and the fps (when given) 1-MAX_FPS."""
     if sum(x is not None for x in (split, orbit, camera_path)) != 1:
         raise ConfigError("pass exactly one of --split SPLIT, --orbit N or --camera-path FILE")
     check_chunk(chunk)

@@ -35,9 +35,9 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-def check_port(port: int) -> None:
+def check_port(port: int, flag: str = "--port") -> None:
     if not 0 <= port <= 65535:
-        raise ConfigError(f"--port must be in 0..65535 (got {port})")
+        raise ConfigError(f"{flag} must be in 0..65535 (got {port})")
 
 
 RESOLVE_SECONDS = 10.0  # a name the resolver has not answered for within this is refused
@@ -67,14 +67,14 @@ def resolve(host: str, seconds: float | None = None) -> list:
     return found[0]
 
 
-def check_host(host: str) -> None:
+def check_host(host: str, flag: str = "--host") -> None:
     """ConfigError unless `host` is a name or address this machine can listen on: it resolves, and a socket
     binds to one of its addresses (port 0, so a busy --port is not the question here)."""
     fix = "use 127.0.0.1 (this machine only) or 0.0.0.0 (every network this machine is on)"
     try:
         infos = resolve(host)
     except OSError as e:
-        raise ConfigError(f"--host {host}: not a name or address this machine knows ({e.strerror or e}); {fix}")
+        raise ConfigError(f"{flag} {host}: not a name or address this machine knows ({e.strerror or e}); {fix}")
     last = None
     for family, _, _, _, address in infos:
         with socket.socket(family, socket.SOCK_STREAM) as s:
@@ -83,15 +83,17 @@ def check_host(host: str) -> None:
                 return
             except OSError as e:
                 last = e
-    raise ConfigError(f"--host {host}: not an address of this machine ({last.strerror or last}); {fix}")
+    raise ConfigError(f"{flag} {host}: not an address of this machine ({last.strerror or last}); {fix}")
 
 
-def check_address(host: str, port: int) -> None:
-    check_port(port)
-    check_host(host)
+def check_address(host: str, port: int, flags: tuple[str, str] = ("--host", "--port")) -> None:
+    """check_port and check_host (`flags`: how the command spells them), then a warning when the viewer
+    would be reachable from other machines."""
+    check_port(port, flags[1])
+    check_host(host, flags[0])
     if not is_loopback(host):
         print(f"warning: the viewer listens on {host}:{port}, reachable from other machines on this network; "
-              f"anyone who can reach it sees the scene (default --host 127.0.0.1)", flush=True)
+              f"anyone who can reach it sees the scene (default {flags[0]} 127.0.0.1)", flush=True)
 
 
 def thumbnails(images: np.ndarray | list, side: int = THUMB) -> list[np.ndarray]:
@@ -194,8 +196,8 @@ class LiveView(Callback):
 
 
 def attach_viewer(trainer, host: str = "127.0.0.1", port: int = 7007) -> Viewer:
-    """Serve a Trainer's live parameters between its steps (a LiveView in trainer.callbacks)."""
-    check_address(host, port)
+    """Serve a Trainer's live parameters between its steps (a LiveView in trainer.callbacks). The caller checks
+    host and port first (check_address), before the data loads."""
     td = trainer.train_data
     scene = scene_view(td.poses, td.cameras, thumbnails([td.image(k) for k in range(len(td))]), trainer.cfg)
     # Training cameras start hidden (one click shows them): drawn with their photos, they cost a headless
