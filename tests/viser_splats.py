@@ -48,7 +48,7 @@ def viser_render(chromium: str, profile: Path, gaussians: dict, c2w: np.ndarray,
         if not server.get_clients():
             raise RuntimeError(f"no browser connected to viser on port {port} within 60 s")
         client = next(iter(server.get_clients().values()))
-        got = _settled_render(client, c2w, float(fov_y), deadline=time.time() + 90)
+        got = settled_render(client, c2w, float(fov_y), deadline=time.time() + 90)
         w, h, fov = client.camera.image_width, client.camera.image_height, client.camera.fov
     finally:
         browser.close()
@@ -56,7 +56,7 @@ def viser_render(chromium: str, profile: Path, gaussians: dict, c2w: np.ndarray,
     return got, Camera.pinhole(w, h, 0.5 * h / np.tan(0.5 * fov))
 
 
-def _settled_render(client, c2w: np.ndarray, fov_y: float, deadline: float) -> np.ndarray:
+def settled_render(client, c2w: np.ndarray, fov_y: float, deadline: float) -> np.ndarray:
     """The browser's render [h, w, 3] in [0, 1] once it draws the pose c2w with vertical field of view fov_y.
 
     A fixed wait is a race on a loaded machine (CI once rendered viser's start-up view: 13 dB): the browser's

@@ -19,6 +19,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 from chromium import Chromium, find_chromium
+from viser_splats import settled_render
 
 from nerfkit.core.metrics import psnr
 from nerfkit.core.presets import preset
@@ -213,15 +214,12 @@ def test_the_browser_draws_a_splat_runs_gaussians(chromium, splat_run, tmp_path)
         wait_for(lambda: viewer.splats.count > 0, 60, "the splats handed to the browser")
         assert viewer.splats.count == active.sum() and viewer.frames_rendered == 1
         pose = viewer.scene.poses[0]
-        wxyz, pos = viser_from_c2w(pose)
-        cam_fy = viewer.scene.cameras[0].fy
-        with st.handle.atomic():
-            st.handle.camera.wxyz, st.handle.camera.position = wxyz, pos
-            st.handle.camera.fov = float(2 * np.arctan(0.5 * viewer.scene.cameras[0].height / cam_fy))
-        time.sleep(1.0)
+        fov_y = float(2 * np.arctan(0.5 * viewer.scene.cameras[0].height / viewer.scene.cameras[0].fy))
+        # Not a fixed wait: CI once compared a render of the browser's previous view (12 dB); settled_render
+        # waits until the browser reports the pose back and two renders in a row agree.
+        got = settled_render(st.handle, pose, fov_y, deadline=time.time() + 90)
         cam = st.handle.camera
-        w, h = cam.image_width, cam.image_height
-        got = cam.get_render(height=h, width=w)[..., :3].astype(np.float32) / 255.0
+        h, w = got.shape[:2]
         assert st.shown is None  # nerfkit rendered no frame for it
         viewer.mode.value = "Depth"  # nerfkit's render: picking it hands the drawing to nerfkit
         assert viewer.drawn_by.value == DRAWN_BY[1]
