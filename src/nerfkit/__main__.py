@@ -1,5 +1,3 @@
-import sys
+from nerfkit.cli.entry import command_line
 
-from nerfkit.cli.main import main
-
-sys.exit(main())
+command_line()

@@ -3,6 +3,7 @@ restarts, with what, that a restarted verb answers as before, and that the suite
 tunable (conftest.py)."""
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -10,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from nerfkit.cli import hugepages, main
+from nerfkit.cli.interrupts import BLOCKED, SIGNALS
 
 ON = "glibc.malloc.hugetlb=1"
 
@@ -61,8 +63,10 @@ def test_a_compiling_verb_from_the_command_line_restarts_with_the_same_arguments
     monkeypatch.setattr(sys, "orig_argv", [sys.executable, "-m", "nerfkit", "eval", missing])
     monkeypatch.setattr(sys, "argv", ["nerfkit", "eval", missing])
     assert main.main() == 1  # the restart failed, the verb answered in this process
+    # (SIGINT and SIGTERM blocked across the exec, and the new process told to unblock them: interrupts.py)
     assert execs == [(sys.executable, [sys.executable, "-m", "nerfkit", "eval", missing],
-                      {**os.environ, "GLIBC_TUNABLES": ON})]
+                      {**os.environ, "GLIBC_TUNABLES": ON, BLOCKED: "1"})]
+    assert not set(SIGNALS) & signal.pthread_sigmask(signal.SIG_BLOCK, [])  # unblocked again: the exec failed
     assert main.main(["eval", missing]) == 1 and len(execs) == 1  # a caller's main(argv): never restarted
     monkeypatch.setattr(sys, "argv", ["nerfkit", "eval", "--help"])
     with pytest.raises(SystemExit):

@@ -55,3 +55,40 @@ def test_an_existing_folder_keeps_its_files_on_failure_and_gets_the_new_ones_on_
                                                                              "mine.txt": "the user's"}
     assert sorted(p.name for p in (out / "d0").iterdir()) == ["new.txt", "old.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+@pytest.mark.parametrize("writer", ["staged_folder", "write_together", "replace_with"])
+def test_a_ctrl_c_just_after_the_folder_is_made_leaves_nothing(tmp_path, monkeypatch, writer):
+    """A Ctrl-C that lands the moment a mkdir returns (before the write's own clean-up was armed) left the hidden
+    folder (or the folders made for a file) behind; a Ctrl-C in the write leaves no temporary file."""
+    from pathlib import Path
+
+    from nerfkit.core.outputs import replace_with
+    from nerfkit.export.files import write_together
+
+    mkdir = Path.mkdir
+
+    def mkdir_then_interrupted(self, *args, **kwargs):
+        mkdir(self, *args, **kwargs)
+        raise KeyboardInterrupt
+
+    target = tmp_path / "new" / "out.txt"
+    with pytest.raises(KeyboardInterrupt):
+        if writer == "staged_folder":
+            monkeypatch.setattr(Path, "mkdir", mkdir_then_interrupted)
+            with staged_folder(tmp_path / "new"):
+                pass
+        elif writer == "write_together":
+            monkeypatch.setattr(Path, "mkdir", mkdir_then_interrupted)
+            write_together([(target, lambda p: p.write_text("x"))])
+        else:
+            target.parent.mkdir()
+
+            def write(p):
+                p.write_text("half")
+                raise KeyboardInterrupt
+
+            replace_with(target, write)
+    monkeypatch.undo()
+    left = sorted(p.name for p in tmp_path.rglob("*"))
+    assert left == (["new"] if writer == "replace_with" else []), left

@@ -29,6 +29,7 @@ from nerfkit.cli.args import (
 )
 from nerfkit.cli.export import cmd_export
 from nerfkit.cli.hugepages import restart_with_huge_pages
+from nerfkit.cli.interrupts import exit_status, interrupts_raise, unblock_if_restarted
 from nerfkit.cli.parsing import flag_value, parse
 from nerfkit.cli.train import cmd_demo, cmd_train
 from nerfkit.core.errors import ConfigError, NerfkitError
@@ -285,18 +286,26 @@ def main(argv: list[str] | None = None) -> int:
     if verb not in COMMANDS:
         print(f"nerfkit: error: unknown command {verb!r}; `nerfkit --help` lists the commands", file=sys.stderr)
         return 1
-    if verb in COMPILING and "--help" not in rest and "-h" not in rest:
-        if from_command_line:
-            restart_with_huge_pages()  # returns where it changes nothing (hugepages.py)
-        enable_compile_cache()
+    with interrupts_raise():
+        return run_verb(verb, rest, from_command_line)
+
+
+def run_verb(verb: str, rest: list[str], from_command_line: bool) -> int:
+    """Run one verb; what stopped it, in one line and an exit status (1 for an error, 128 + N for signal N)."""
     try:
+        unblock_if_restarted()  # (`python -c "...main()"` restarted: command_line did not run)
+        if verb in COMPILING and "--help" not in rest and "-h" not in rest:
+            if from_command_line:
+                restart_with_huge_pages()  # returns where it changes nothing (hugepages.py)
+            enable_compile_cache()
         return COMMANDS[verb][0](rest)
     except NerfkitError as e:
         print(f"nerfkit {verb}: error: {e}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"nerfkit {verb}: aborted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM (interrupts.py)
+        status, words = exit_status(e)
+        print(f"nerfkit {verb}: {words}", file=sys.stderr)
+        return status
     except BrokenPipeError:  # the reader of our output went away (`nerfkit train --help | head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0

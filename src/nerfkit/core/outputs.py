@@ -8,13 +8,14 @@ and a refused command leaves nothing behind (no folder is created until there is
     first_missing(path)      the topmost folder that writing path would create
     staged_folder(path)      write a folder's files beside it and move them in only when all are written, so
                              that a write that fails half way (a full disk, Ctrl-C) leaves path as it was
+    replace_with(path, write)  the same for one file: written beside it, renamed over it
 """
 
 from __future__ import annotations
 
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -75,9 +76,9 @@ def staged_folder(path: Path) -> Iterator[Path]:
     path = Path(path)
     made = first_missing(path.parent)  # the topmost folder this creates, removed again on failure
     tmp = path.parent / f".{path.name}.incomplete"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
-    try:
+    try:  # (the folder is made inside: a Ctrl-C just after mkdir returns leaves nothing either)
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir(parents=True)
         yield tmp
         if not path.exists():
             os.replace(tmp, path)
@@ -99,3 +100,17 @@ def _move_into(src: Path, dst: Path) -> None:
             _move_into(f, dst / f.name)
         else:
             os.replace(f, dst / f.name)
+
+
+def replace_with(path: Path, write: Callable[[Path], object]) -> Path:
+    """Call write(tmp) on a hidden file beside `path` (.NAME.tmp-PID), then rename it over `path`, so that a
+    reader, a crash or a Ctrl-C sees the old file or the new one, never a part; on any failure the temporary
+    file is removed. Returns path."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import warnings
 from pathlib import Path
 
@@ -12,6 +11,8 @@ import imageio.v3 as iio
 import matplotlib
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
+
+from nerfkit.core.outputs import replace_with
 
 matplotlib.use("Agg")
 
@@ -188,7 +189,7 @@ def plot_curves(series: dict[str, tuple[list, list]], path: Path, xlabel: str, y
         ax.legend()
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, path)
+    try:
+        replace_with(path, lambda tmp: fig.savefig(tmp, format=path.suffix.lstrip(".") or None))
+    finally:
+        plt.close(fig)

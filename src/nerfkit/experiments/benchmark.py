@@ -31,6 +31,7 @@ import jax
 import numpy as np
 
 from nerfkit.core.errors import ConfigError, DataError, NerfkitError
+from nerfkit.core.outputs import replace_with
 from nerfkit.core.presets import preset as make_preset
 from nerfkit.core.presets import set_budget
 from nerfkit.core.viz import read_jsonl
@@ -69,9 +70,7 @@ def find_scenes(root: Path) -> list[Path]:
 
 
 def _write_json(path: Path, data: dict) -> None:
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data, indent=2))
-    os.replace(tmp, path)
+    replace_with(path, lambda tmp: tmp.write_text(json.dumps(data, indent=2)))
 
 
 SETTINGS = "benchmark_settings.json"

@@ -62,12 +62,11 @@ def write_together(files: list[tuple[Path, Callable[[Path], object]]]) -> None:
     written, rename each over its out. A failure before that (a full disk, Ctrl-C) removes the temporaries and
     any folder made for them, and leaves every out as it was; an OSError then names the out, not the
     temporary."""
-    made = []
-    for out, _ in files:
-        made += [top] if (top := first_missing(out.parent)) is not None else []
-        out.parent.mkdir(parents=True, exist_ok=True)
+    made = [top for out, _ in files if (top := first_missing(out.parent)) is not None]
     tmps = [out.with_name(f".{out.stem}.partial{out.suffix}") for out, _ in files]
-    try:
+    try:  # (the folders are made inside: a Ctrl-C just after a mkdir leaves nothing either)
+        for out, _ in files:
+            out.parent.mkdir(parents=True, exist_ok=True)
         for (out, write), tmp in zip(files, tmps):
             try:
                 write(tmp)

@@ -13,6 +13,8 @@ from urllib.parse import quote
 
 from PIL import Image
 
+from nerfkit.core.outputs import replace_with
+
 CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0; color: #1d2330;
        background: #f4f5f7; line-height: 1.45; }
@@ -130,10 +132,7 @@ def page(title: str, subtitle: str, sections: list[tuple[str, str, str]]) -> str
 
 
 def write(path: Path, text: str) -> Path:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-    return path
+    return replace_with(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def minutes(seconds: float | None) -> str:

@@ -22,6 +22,7 @@ from flax import serialization
 
 from nerfkit.core.config import FIELD_BEFORE, FieldConfig
 from nerfkit.core.errors import CheckpointError
+from nerfkit.core.outputs import replace_with
 
 FORMAT = "nerfkit-checkpoint-v1"
 _NAME = re.compile(r"^ckpt_(\d{8})\.msgpack$")
@@ -63,16 +64,14 @@ def _remove_stale_temporaries(ckpt_dir: Path) -> None:
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write `data` to `path` so that a reader (or a crash) sees the old file or the new one, never a mix."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
+
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as f:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+
+    replace_with(path, write)
     try:  # make the rename itself durable
         dfd = os.open(path.parent, os.O_RDONLY)
         try:

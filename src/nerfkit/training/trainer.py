@@ -255,7 +255,8 @@ class Trainer:
         with StopFlag() as stop:
             state, interrupted, reason = self._loop(loop, state, step_fn, images, poses, stop)
             self._end(loop, state, interrupted, reason)
-        return self._result(loop, interrupted)
+        # A signal after the last step (during its validation or the final save) stops what the caller runs next.
+        return self._result(loop, interrupted or stop.signal_name is not None)
 
     def _begin(self):
         """(step, elapsed, state) to start from (_restore), once the run folder's files are written and, when

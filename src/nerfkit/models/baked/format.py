@@ -43,6 +43,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.core.errors import ConfigError
+from nerfkit.core.outputs import replace_with
 
 FORMAT = "nerfkit-baked-v1"
 BRICK = 8
@@ -107,9 +108,7 @@ def save_baked(out: Path, baked: Baked) -> None:
     (out / "baked.json").unlink(missing_ok=True)
     for name in ("index", "density", "sh"):
         np.save(out / f"{name}.npy", getattr(baked, name), allow_pickle=False)
-    tmp = out / "baked.json.tmp"
-    tmp.write_text(json.dumps(baked.meta, indent=2))
-    tmp.replace(out / "baked.json")
+    replace_with(out / "baked.json", lambda tmp: tmp.write_text(json.dumps(baked.meta, indent=2)))
 
 
 def load_baked(path: Path) -> Baked:

@@ -1,0 +1,25 @@
+"""The `nerfkit` command (and `python -m nerfkit`): Ctrl-C and SIGTERM handled from its first line.
+
+Importing the CLI (cli/main.py and what it imports) takes a fraction of a second a Ctrl-C can land in, so
+this module imports only the handlers (interrupts.py), installs them for good, and then the CLI.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from nerfkit.cli.interrupts import exit_status, install, unblock_if_restarted
+
+
+def command_line() -> None:
+    """Install the handlers, then run `main` on sys.argv and exit with its status (128 + N for signal N)."""
+    install()
+    try:
+        unblock_if_restarted()
+        from nerfkit.cli.main import main
+
+        status = main()
+    except KeyboardInterrupt as e:
+        status, words = exit_status(e)
+        print(f"nerfkit: {words}", file=sys.stderr)
+    sys.exit(status)
