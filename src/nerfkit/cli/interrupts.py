@@ -27,7 +27,7 @@ import time
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 RAISE_AGAIN_SECONDS = 0.02
-DEFERRED: set[int] = set()  # signals raise_interrupted put off (an import), not raised yet
+DEFERRED: set[int] = set()  # signals put off (raise_later), not raised yet
 BLOCKED = "NERFKIT_SIGNALS_BLOCKED"  # set in the environment of a process that starts with them blocked
 
 
@@ -91,7 +91,9 @@ def _unraisable(previous):
         exc = unraisable.exc_value
         if isinstance(exc, KeyboardInterrupt):  # a signal raised where it could not propagate: raise it again,
             # a moment later (from here the handler would run at once, inside this hook, and be dropped again)
-            raise_later(getattr(exc, "signum", signal.SIGINT))
+            signum = getattr(exc, "signum", signal.SIGINT)
+            DEFERRED.add(signum)
+            raise_later(signum)
             return
         previous(unraisable)
 
