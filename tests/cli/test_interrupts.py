@@ -5,7 +5,7 @@ command prints one line, exits 128 + N and leaves no staged output."""
 from __future__ import annotations
 
 import gc
-import os
+import importlib
 import signal
 import subprocess
 import sys
@@ -60,7 +60,7 @@ def test_a_signal_in_an_import_waits_for_the_import_to_finish(tmp_path, monkeypa
     """))
     monkeypatch.syspath_prepend(str(tmp_path))
     with interrupts_raise(), pytest.raises(Interrupted) as e:
-        import slow_module_for_interrupts  # noqa: F401
+        importlib.import_module("slow_module_for_interrupts")
         _spin(5)
     assert sys.modules.pop("slow_module_for_interrupts").FINISHED
     assert e.value.signum == signal.SIGTERM and exit_status(e.value) == (143, "stopped by SIGTERM")
