@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from nerfkit.cli import hugepages, main
-from nerfkit.cli.interrupts import BLOCKED, SIGNALS
+from nerfkit.core.interrupts import BLOCKED, SIGNALS
 
 ON = "glibc.malloc.hugetlb=1"
 

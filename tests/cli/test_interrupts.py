@@ -1,4 +1,4 @@
-"""Ctrl-C and SIGTERM for every verb (cli/interrupts.py): the signal stops the verb where it lands, even where
+"""Ctrl-C and SIGTERM for every verb (core/interrupts.py): the signal stops the verb where it lands, even where
 Python drops exceptions (a gc callback such as JAX's) or in an import, and outlives the huge-page restart; the
 command prints one line, exits 128 + N and leaves no staged output."""
 
@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from nerfkit.cli.interrupts import Interrupted, exit_status, interrupts_raise
+from nerfkit.core.interrupts import Interrupted, exit_status, interrupts_raise
 from nerfkit.cli.main import main
 from nerfkit.data.procedural.scene import make_scene
 
@@ -79,7 +79,7 @@ def test_a_signal_sent_while_the_process_restarts_reaches_the_new_one(tmp_path):
     in place."""
     script = textwrap.dedent("""
         import os, signal, sys
-        from nerfkit.cli import interrupts
+        from nerfkit.core import interrupts
         if sys.argv[1] == "first":
             env = dict(os.environ)
             interrupts.block_across_exec(env)

@@ -1,14 +1,14 @@
 """The `nerfkit` command (and `python -m nerfkit`): Ctrl-C and SIGTERM handled from its first line.
 
 Importing the CLI (cli/main.py and what it imports) takes a fraction of a second a Ctrl-C can land in, so
-this module imports only the handlers (interrupts.py), installs them for good, and then the CLI.
+this module imports only the handlers (core/interrupts.py), installs them for good, and then the CLI.
 """
 
 from __future__ import annotations
 
 import sys
 
-from nerfkit.cli.interrupts import exit_status, install, unblock_if_restarted
+from nerfkit.core.interrupts import exit_status, install, unblock_if_restarted
 
 
 def command_line() -> None:

@@ -22,7 +22,7 @@ import re
 import sys
 from pathlib import Path
 
-from nerfkit.cli.interrupts import block_across_exec, unblock
+from nerfkit.core.interrupts import block_across_exec, unblock
 
 TUNABLE = "glibc.malloc.hugetlb"
 FIRST_GLIBC = (2, 35)  # the first glibc that knows TUNABLE
@@ -69,7 +69,7 @@ def restart_with_huge_pages() -> None:
         return
     sys.stdout.flush()
     sys.stderr.flush()
-    block_across_exec(env)  # a Ctrl-C while the new process starts reaches its handlers (interrupts.py)
+    block_across_exec(env)  # a Ctrl-C while the new process starts reaches its handlers (core/interrupts.py)
     try:
         os.execve(sys.executable, [sys.executable, *sys.orig_argv[1:]], env)
     except OSError:

@@ -29,7 +29,7 @@ from nerfkit.cli.args import (
 )
 from nerfkit.cli.export import cmd_export
 from nerfkit.cli.hugepages import restart_with_huge_pages
-from nerfkit.cli.interrupts import exit_status, interrupts_raise, unblock_if_restarted
+from nerfkit.core.interrupts import exit_status, interrupts_raise, unblock_if_restarted
 from nerfkit.cli.parsing import flag_value, parse
 from nerfkit.cli.train import cmd_demo, cmd_train
 from nerfkit.core.errors import ConfigError, NerfkitError
@@ -302,7 +302,7 @@ def run_verb(verb: str, rest: list[str], from_command_line: bool) -> int:
     except NerfkitError as e:
         print(f"nerfkit {verb}: error: {e}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM (interrupts.py)
+    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM (core/interrupts.py)
         status, words = exit_status(e)
         print(f"nerfkit {verb}: {words}", file=sys.stderr)
         return status

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import ipaddress
-import signal
 import socket
 import threading
 from dataclasses import dataclass
@@ -13,6 +12,7 @@ import numpy as np
 from PIL import Image
 
 from nerfkit.core.errors import ConfigError, DataError
+from nerfkit.core.interrupts import interrupts_raise
 from nerfkit.core.viz import background_rgb, to_uint8
 from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.rays.cameras import Camera
@@ -164,16 +164,15 @@ def view_run(run_dir: Path, host: str = "127.0.0.1", port: int = 7007, chunk: in
 def serve_until_interrupted(viewer: Viewer, message: str) -> None:
     """Print `message` (the address, "Ctrl-C to stop"), then render frames until Ctrl-C (SIGINT), then say so
     (the caller closes the viewer). The handler is in place before the message appears, so a Ctrl-C right
-    after it stops cleanly. SIGINT raises KeyboardInterrupt here even when the process started with it
-    ignored (a background job of a script), as `nerfkit train` stops on it (stopping.StopFlag)."""
-    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    after it stops cleanly. SIGINT (and SIGTERM) raise KeyboardInterrupt here even when the process started
+    with SIGINT ignored (a background job of a script), and one that lands in a gc callback while a frame
+    renders is raised again rather than dropped (core/interrupts.py)."""
     try:
-        print(message, flush=True)
-        viewer.serve_forever()
+        with interrupts_raise():
+            print(message, flush=True)
+            viewer.serve_forever()
     except KeyboardInterrupt:
         print("\nviewer stopped", flush=True)
-    finally:
-        signal.signal(signal.SIGINT, old)
 
 
 # The viewer's share of wall time while training (the issue's ceiling for all of its cost: 10%).
