@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import gc
 import importlib
+import os
 import signal
 import subprocess
 import sys
@@ -161,3 +162,17 @@ def test_a_keyboard_interrupt_python_drops_elsewhere_is_raised_again():
         del thing  # the callback runs here; Python drops what it raises
         _spin(5)
     assert ref() is None and e.value.signum == signal.SIGTERM
+
+
+@pytest.mark.parametrize("unbuffered", ["1", ""])
+@pytest.mark.parametrize("argv", [["--help"], ["train", "--help"]])
+def test_a_reader_that_goes_away_is_not_an_error(argv, unbuffered):
+    """`nerfkit --help | head -1`: the reader closes the pipe; the command exits 0 without a traceback (the top-level
+    usage printed one), whether its output is buffered or not."""
+    r, w = os.pipe()
+    os.close(r)  # the reader is gone before anything is written
+    env = {**os.environ, "PYTHONUNBUFFERED": unbuffered}
+    out = subprocess.run([sys.executable, "-m", "nerfkit", *argv], stdout=w, stderr=subprocess.PIPE, text=True,
+                         env=env, timeout=120)
+    os.close(w)
+    assert out.returncode == 0 and out.stderr == "", out.stderr

@@ -306,9 +306,8 @@ def run_verb(verb: str, rest: list[str], from_command_line: bool) -> int:
         status, words = exit_status(e)
         print(f"nerfkit {verb}: {words}", file=sys.stderr)
         return status
-    except BrokenPipeError:  # the reader of our output went away (`nerfkit train --help | head`)
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
+    except BrokenPipeError:  # the reader of our output went away: not the verb's error (cli/entry.py)
+        raise
     except OSError as e:  # the machine said no: a path that is a file, no permission, a full disk
         where = f" ({e.filename})" if e.filename else ""
         print(f"nerfkit {verb}: error: {e.strerror or e}{where}; check that path (for an output: another --out, "
