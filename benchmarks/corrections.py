@@ -48,7 +48,7 @@ def flags_of(names: list[str], preset: str) -> list[str]:
 def main() -> None:
     from nerfkit.cli.main import main as nerfkit
     from nerfkit.data.loader import read_capture, scene_cameras
-    from nerfkit.data.procedural.captures import make_capture
+    from nerfkit.data.procedural.captures import make_capture, rig_poses
     from nerfkit.data.procedural.scene import CAMERA_RADIUS
     from nerfkit.evaluation.evaluate import evaluate_run
     from nerfkit.rays.correction import aligned_pose_error, refined_poses
@@ -85,8 +85,11 @@ def main() -> None:
                                   pose_noise=(a.degrees, a.shift) if noisy else (0.0, 0.0),
                                   gains=a.gains if noisy else 0.0, exact_every=8 if a.held_out == "exact" else 0,
                                   supersample=a.supersample, rig=a.rig)
-    truth_poses = np.load(caps["imperfect"] / "truth" / "poses.npy")
-    truth_gains = np.load(caps["imperfect"] / "truth" / "gains.npy")
+    truth = caps["imperfect"] / "truth"
+    if truth.is_dir():
+        truth_poses, truth_gains = np.load(truth / "poses.npy"), np.load(truth / "gains.npy")
+    else:  # --degrees 0 --shift 0 --gains 0: written at the truth (refinement's own drift away from it)
+        truth_poses, truth_gains = rig_poses(a.rig, a.views, seed=3), np.ones((a.views, 3))
     result = {"what": __doc__.split("\n\n")[0], "preset": a.preset, "steps": a.steps, "size": a.size, "views": a.views, "masks": a.masks,
               "supersample": a.supersample, "rig": a.rig,
               "pose_noise_degrees": a.degrees, "pose_noise_radius_share": a.shift, "gains": a.gains,
