@@ -94,6 +94,7 @@ START = "procedural_splat_start_cli.json"  # where a splat run starts
 BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
 NCORR = "corrections_forward_ngp_ndc_area.json"  # ngp's pose refinement, forward-facing, in NDC
+TRUTH64, TRUTH128 = (f"corrections_ring_area_from_truth_{n}.json" for n in (64, 128))  # refinement from the truth
 FWD1 = "procedural_forward_seed1_cli.json"  # another, 5 minutes
 FFAR, FFARB = "procedural_forward_far_cli.json", "procedural_forward_far_before_cli.json"  # the far sphere there
 FFAR1, FFAR1B = "procedural_forward_far_seed1_cli.json", "procedural_forward_far_seed1_before_cli.json"
@@ -616,6 +617,10 @@ CHECKS = [
       ((FCORR, "runs", "none", "eval_psnr"), f2), ((FCORR, "runs", "colour", "eval_psnr"), f2),
       ((FCORR, "runs", "pose", "eval_psnr"), f2), ((FCORR, "runs", "both", "eval_psnr"), f2),
       ((FCORR, "runs", "both", "refined_pose_error", "degrees"), f2)]),
+    ("docs/splats.md", "`corrections_ring_area_from_truth_64.json`",
+     "refinement leaves them {} degrees off at {} px and {} at {} px (`corrections_ring_area_from_truth_64.json`",
+     [((TRUTH64, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH64, "size"), d),
+      ((TRUTH128, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH128, "size"), d)]),
     ("docs/methods.md", "`corrections_forward_ngp_ndc_area.json`",
      "the field in NDC (`--rig forward --supersample {} --variants exact none pose`, "
      "`corrections_forward_ngp_ndc_area.json`) {} dB exact, {} imperfect and {} with refinement (poses {} degrees off)",
