@@ -621,6 +621,11 @@ CHECKS = [
      "refinement leaves them {} degrees off at {} px and {} at {} px (`corrections_ring_area_from_truth_64.json`",
      [((TRUTH64, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH64, "size"), d),
       ((TRUTH128, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH128, "size"), d)]),
+    ("docs/splats.md", "`corrections_ring_area_128.json`",
+     "reaches in {} steps ({} degrees at {} px, `corrections_ring_area_128.json`)",
+     [(("corrections_ring_area_128.json", "steps"), d),
+      (("corrections_ring_area_128.json", "runs", "pose", "refined_pose_error", "degrees"), f2),
+      (("corrections_ring_area_128.json", "size"), d)]),
     ("docs/methods.md", "`corrections_forward_ngp_ndc_area.json`",
      "the field in NDC (`--rig forward --supersample {} --variants exact none pose`, "
      "`corrections_forward_ngp_ndc_area.json`) {} dB exact, {} imperfect and {} with refinement (poses {} degrees off)",
