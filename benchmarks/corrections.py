@@ -36,6 +36,7 @@ VARIANTS = {"exact": ("exact", ["colour-off"]), "none": ("imperfect", ["colour-o
             "colour": ("imperfect", ["colour-on"]),
             "pose": ("imperfect", ["colour-off", "--pose-refine", "on"]),
             "both": ("imperfect", ["colour-on", "--pose-refine", "on"])}
+SEED = 3  # the captures' poses, gains and pose errors (make_capture's seed)
 COLOUR = {"splat": {"colour-off": ["--appearance", "off"], "colour-on": ["--appearance", "on"]},
           "fields": {"colour-off": ["--appearance-dim", "0"], "colour-on": ["--appearance-dim", "16"]}}
 
@@ -80,7 +81,7 @@ def main() -> None:
     caps = {}
     for kind in ("exact", "imperfect"):
         noisy = kind == "imperfect"
-        caps[kind] = make_capture(a.out / f"cap_{kind}", "nerfstudio", n_views=a.views, size=a.size, seed=3,
+        caps[kind] = make_capture(a.out / f"cap_{kind}", "nerfstudio", n_views=a.views, size=a.size, seed=SEED,
                                   environment=not a.masks, masks=a.masks,
                                   pose_noise=(a.degrees, a.shift) if noisy else (0.0, 0.0),
                                   gains=a.gains if noisy else 0.0, exact_every=8 if a.held_out == "exact" else 0,
@@ -89,7 +90,7 @@ def main() -> None:
     if truth.is_dir():
         truth_poses, truth_gains = np.load(truth / "poses.npy"), np.load(truth / "gains.npy")
     else:  # --degrees 0 --shift 0 --gains 0: written at the truth (refinement's own drift away from it)
-        truth_poses, truth_gains = rig_poses(a.rig, a.views, seed=3), np.ones((a.views, 3))
+        truth_poses, truth_gains = rig_poses(a.rig, a.views, seed=SEED), np.ones((a.views, 3))
     result = {"what": __doc__.split("\n\n")[0], "preset": a.preset, "steps": a.steps, "size": a.size, "views": a.views, "masks": a.masks,
               "supersample": a.supersample, "rig": a.rig,
               "pose_noise_degrees": a.degrees, "pose_noise_radius_share": a.shift, "gains": a.gains,
