@@ -107,19 +107,27 @@ def export_pointcloud(run_dir: Path, out: Path | None = None, split: str | None 
         raise NerfkitError(f"no pixel of the {n_views} rendered views of {split} reaches opacity {min_opacity:g}; "
                            f"try a lower --min-opacity")
     n_raw = len(pts)
-    pts, cols = voxel_downsample(pts, cols, voxel_n)
-    colors_u8 = (cols * 255 + 0.5).astype(np.uint8)
-    write_pointcloud(out, to_capture(pts, run.transform), colors_u8)
+    n_pts, picture = write_cloud(run, out, pts, cols, voxel_n, f"points from {n_views} views")
     log(f"pointcloud: {n_raw} pixels with opacity >= {min_opacity:g} in {n_views} views of {split} "
-        f"-> {len(pts)} points (voxel {voxel_n / scale:.4g} capture units)")
-    picture = pointcloud_picture(run.run_dir / "exports" / "pointcloud.png", pts, colors_u8,
-                                 f"{out.name}: {len(pts)} points from {n_views} views (step {run.step})")
+        f"-> {n_pts} points (voxel {voxel_n / scale:.4g} capture units)")
     record = {"kind": "pointcloud", "file": str(out.resolve()), "step": run.step, "split": split, "every": views.every,
-              "views": n_views, "min_opacity": min_opacity, "pixels": n_raw, "points": len(pts),
+              "views": n_views, "min_opacity": min_opacity, "pixels": n_raw, "points": n_pts,
               "voxel_size": voxel_n / scale, "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (pose normalisation undone)"}
     RunFolder(run.run_dir).write_record("pointcloud", record)
     return record
+
+
+def write_cloud(run, out: Path, pts: np.ndarray, cols: np.ndarray, voxel_n: float, what: str) -> tuple[int, Path]:
+    """Voxel-downsample the points [N, 3] (normalised frame) and colours [N, 3] in [0, 1], write them to `out` in
+    the capture's coordinates, and draw the run's exports/pointcloud.png titled "{out.name}: {n} {what}".
+    Returns (n, the picture's path)."""
+    pts, cols = voxel_downsample(pts, cols, voxel_n)
+    colors_u8 = (cols * 255 + 0.5).astype(np.uint8)
+    write_pointcloud(out, to_capture(pts, run.transform), colors_u8)
+    picture = pointcloud_picture(run.run_dir / "exports" / "pointcloud.png", pts, colors_u8,
+                                 f"{out.name}: {len(pts)} {what} (step {run.step})")
+    return len(pts), picture
 
 
 def splat_centres(run, out: Path, min_opacity: float, voxel_n: float, scale: float, t0: float, log=print) -> dict:
@@ -132,15 +140,11 @@ def splat_centres(run, out: Path, min_opacity: float, voxel_n: float, scale: flo
     pts = g["means"][keep].astype(np.float64)
     cols = np.clip(SH_C0 * g["sh_dc"][keep, 0] + 0.5, 0.0, 1.0)
     n_raw = len(pts)
-    pts, cols = voxel_downsample(pts, cols, voxel_n)
-    colors_u8 = (cols * 255 + 0.5).astype(np.uint8)
-    write_pointcloud(out, to_capture(pts, run.transform), colors_u8)
-    log(f"pointcloud: {n_raw} of {len(keep)} Gaussian centres with opacity >= {min_opacity:g} -> {len(pts)} points "
+    n_pts, picture = write_cloud(run, out, pts, cols, voxel_n, "Gaussian centres")
+    log(f"pointcloud: {n_raw} of {len(keep)} Gaussian centres with opacity >= {min_opacity:g} -> {n_pts} points "
         f"(voxel {voxel_n / scale:.4g} capture units)")
-    picture = pointcloud_picture(run.run_dir / "exports" / "pointcloud.png", pts, colors_u8,
-                                 f"{out.name}: {len(pts)} Gaussian centres (step {run.step})")
     record = {"kind": "pointcloud", "file": str(out.resolve()), "step": run.step, "source": "Gaussian centres",
-              "views": 0, "min_opacity": min_opacity, "gaussians": n_raw, "points": len(pts),
+              "views": 0, "min_opacity": min_opacity, "gaussians": n_raw, "points": n_pts,
               "voxel_size": voxel_n / scale, "seconds": round(time.perf_counter() - t0, 2), "picture": picture.name,
               "coordinates": "the capture's own (pose normalisation undone)"}
     RunFolder(run.run_dir).write_record("pointcloud", record)

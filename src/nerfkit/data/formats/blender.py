@@ -37,6 +37,19 @@ def is_blender(root: Path) -> bool:
     return any(Path(root).glob("transforms_*.json"))
 
 
+def read_json(path: Path):
+    """The JSON value in the file at path (a UTF-8 byte-order mark tolerated); a DataError naming the file when it
+    cannot be read or parsed."""
+    try:
+        return json.loads(path.read_text(encoding="utf-8-sig"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DataError(f"{path}: not valid JSON ({one_line(e)}); fix or re-export the file") from None
+    except RecursionError:
+        raise DataError(f"{path}: not valid transforms JSON (nested too deeply); fix or re-export the file") from None
+    except OSError as e:
+        raise DataError(f"{path}: unreadable ({e.strerror})") from None
+
+
 def read_transforms(root: Path, split: str) -> dict:
     """Read and check `root/transforms_{split}.json`."""
     path = root / f"transforms_{split}.json"
@@ -46,14 +59,7 @@ def read_transforms(root: Path, split: str) -> dict:
         have = sorted(p.name for p in root.glob("transforms_*.json"))
         hint = f" (found: {', '.join(have)})" if have else " (no transforms_*.json in that folder)"
         raise DataError(f"{path}: missing; split {split!r} needs this file{hint}")
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8-sig"))  # -sig: tolerate a UTF-8 byte-order mark
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DataError(f"{path}: not valid JSON ({one_line(e)}); fix or re-export the file") from None
-    except RecursionError:
-        raise DataError(f"{path}: not valid transforms JSON (nested too deeply); fix or re-export the file") from None
-    except OSError as e:
-        raise DataError(f"{path}: unreadable ({e.strerror})") from None
+    meta = read_json(path)
     if not isinstance(meta, dict):
         raise DataError(f"{path}: expected a JSON object with 'camera_angle_x' and 'frames'")
     if "camera_angle_x" not in meta:

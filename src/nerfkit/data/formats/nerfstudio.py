@@ -23,8 +23,8 @@ from pathlib import Path
 
 from nerfkit.core.errors import DataError
 from nerfkit.data.capture import Capture, Frame, holdout_splits
-from nerfkit.data.formats.blender import check_pose
-from nerfkit.data.images import image_size, is_file, one_line
+from nerfkit.data.formats.blender import check_pose, read_json
+from nerfkit.data.images import image_size, is_file
 from nerfkit.data.points import read_points
 from nerfkit.rays.cameras import Camera
 
@@ -103,14 +103,7 @@ def resolve_path(root: Path, rel: object, where: str, key: str) -> Path:
 
 
 def read_meta(path: Path) -> dict:
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8-sig"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DataError(f"{path}: not valid JSON ({one_line(e)}); fix or re-export the file") from None
-    except RecursionError:
-        raise DataError(f"{path}: not valid transforms JSON (nested too deeply); fix or re-export the file") from None
-    except OSError as e:
-        raise DataError(f"{path}: unreadable ({e.strerror})") from None
+    meta = read_json(path)
     if not isinstance(meta, dict) or not isinstance(meta.get("frames"), list) or not meta["frames"]:
         raise DataError(f"{path}: expected a JSON object with a non-empty 'frames' list")
     return meta
