@@ -103,6 +103,16 @@ def test_eval_writes_json(scene, run, capsys):
     assert "mean" in capsys.readouterr().out
 
 
+def test_eval_fit_poses_is_refused_where_the_model_cannot_fit_a_pose(scene, run, capsys):
+    """--fit-poses on a radiance field's run: one line naming the flag, nothing written (splat runs fit poses:
+    tests/models/splat/test_pose_fit.py)."""
+    before = sorted(p.name for p in run.iterdir())
+    assert main(["eval", str(run), "--data", str(scene), "--split", "test", "--fit-poses", "5"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--fit-poses" in err and "Gaussian splat runs can" in err
+    assert sorted(p.name for p in run.iterdir()) == before
+
+
 def test_render_split_at_other_resolution(scene, run, tmp_path):
     out = tmp_path / "r"
     assert main(["render", str(run), "--data", str(scene), "--split", "test", "--width", "40", "--out", str(out)]) == 0

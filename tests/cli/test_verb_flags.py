@@ -38,6 +38,8 @@ PROOFS = {
         "every": ["cli/test_main.py::test_eval_writes_json"],
         "chunk": [f"{T}::test_eval_and_render_replace_only_with_overwrite"],
         "baked": ["bake/test_bake.py::test_eval_baked_through_the_cli"],
+        "fit_poses": ["models/splat/test_pose_fit.py::test_eval_fit_poses_through_the_cli",
+                      "cli/test_main.py::test_eval_fit_poses_is_refused_where_the_model_cannot_fit_a_pose"],
         "overwrite": [f"{T}::test_eval_and_render_replace_only_with_overwrite"]},
     "RenderArgs": {
         "data": ["cli/test_main.py::test_render_split_at_other_resolution"],

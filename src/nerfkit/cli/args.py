@@ -56,6 +56,10 @@ class EvalArgs:
     """Rays per rendering chunk (default: the run's --chunk)."""
     baked: Path | None = None
     """Score this baked scene (nerfkit bake RUN --out DIR) instead of the field; writes eval_<split>_baked.json."""
+    fit_poses: int = 0
+    """Splat runs: first fit each view's pose to its photo against the frozen scene, at most N Levenberg-Marquardt
+    iterations (10 is plenty; BARF's test-time protocol: the score measures the scene, not the pose's error); writes
+    eval_<split>_fitted.json. 0: off."""
     overwrite: bool = False
     """Replace this split's earlier evaluation (eval_<split>.json and its images)."""
 

@@ -63,17 +63,30 @@ POSE_NOTE = ("poses: the given ones moved with the training rig (the similarity 
              "poses onto the refined ones; --pose-refine)")
 
 
+FIT_NOTE = ("each view's pose fitted to its photo against the frozen scene before it is scored (at most {n} "
+            "Levenberg-Marquardt iterations on the squared error from the pose above; --fit-poses): the score "
+            "measures the scene, not the pose's error")
+
+
+def check_fit_poses(steps: int) -> None:
+    if steps < 0:
+        raise ConfigError(f"--fit-poses must be 0 (off) or a number of iterations (10 is plenty), got {steps}")
+
+
 def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
                  chunk: int | None = None, progress: bool = True, checkpoint: Path | None = None,
-                 write: bool = True, baked: Path | None = None, overwrite: bool = False) -> dict:
+                 write: bool = True, baked: Path | None = None, overwrite: bool = False, fit_poses: int = 0) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
     Multiscale data (data/formats/multiscale.py): every level is scored at its own size, and the mean
     over levels is the result (eval_<split>_multiscale.json, renders under .../d<level>/).
     `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
-    is replaced only with `overwrite` (else ConfigError before any work), once all new renders are written."""
+    is replaced only with `overwrite` (else ConfigError before any work), once all new renders are written.
+    `fit_poses` N > 0: each view's pose is first fitted to its photo (N iterations) against the frozen scene (BARF's
+    test-time protocol; models whose supports.fit_poses), written to eval_<split>_fitted.json."""
     check_every(every)
     check_chunk(chunk)
+    check_fit_poses(fit_poses)
     run_dir, folder = Path(run_dir), RunFolder(run_dir)
     trained = folder.load(checkpoint, scene=False)
     cfg, model, params, aux, step = trained.cfg, trained.model, trained.params, trained.aux, trained.step
@@ -82,13 +95,16 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
         scene = load_baked(baked)
         model = BakedModel(scene)
         (params, aux), step = model.params_and_aux(scene), scene.meta.get("step_trained", step)
+    if fit_poses and not model.supports.fit_poses:
+        raise ConfigError(f"--fit-poses: {'a baked scene' if baked is not None else model.title + ' runs'} cannot "
+                          f"fit a view's pose (Gaussian splat runs can); drop --fit-poses")
     data_dir = folder.data_dir(data_dir)
     d = cfg.data
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     levels = level_specs(cap, split)
     name = (f"eval_{split_slug(split)}" + ("_multiscale" if levels is not None else "")
-            + ("_baked" if baked is not None else ""))
+            + ("_baked" if baked is not None else "") + ("_fitted" if fit_poses else ""))
     if write and not overwrite and ((run_dir / f"{name}.json").exists() or (run_dir / name).exists()):
         raise ConfigError(f"{run_dir / (name + '.json')}: an earlier evaluation of {split} is there; pass --overwrite "
                           f"to replace it")
@@ -97,7 +113,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     def score(spec, out_dir, ds, tw):
         data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background, undistort=d.undistort)
         data = dataclasses.replace(data, poses=trained.seen_from(spec, data.poses, data_dir))
-        return score_views(renderer, params, aux, data, every, progress, out_dir, bg), data
+        return score_views(renderer, params, aux, data, every, progress, out_dir, bg, fit_poses), data
 
     with staged_folder(run_dir / name) if write else contextlib.nullcontext() as renders:  # all or none
         if levels is None:
@@ -117,6 +133,8 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     if appearance_note(cfg):
         result["appearance"] = appearance_note(cfg)
     result.update({"poses": POSE_NOTE} if trained.refined_poses else {})
+    if fit_poses:
+        result["fitted_poses"] = FIT_NOTE.format(n=fit_poses)
     if baked is not None:
         result["baked"] = str(Path(baked).resolve())
     if write:
@@ -139,9 +157,11 @@ def train_and_evaluate(data_dir: Path, run_dir: Path, cfg, every: int = 1, progr
     return res, run_cfg, ev
 
 
-def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir: Path | None, bg) -> dict:
+def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir: Path | None, bg,
+                fit_poses: int = 0) -> dict:
     """PSNR / SSIM of every `every`-th view of `data` (per view and mean); the renders (rgb, depth,
-    rgb beside ground truth, depth .npy) go to out_dir when given."""
+    rgb beside ground truth, depth .npy) go to out_dir when given. fit_poses N > 0: each view is rendered from its
+    pose fitted to its photo (renderer.fit_pose, N iterations), and how far the pose moved is in its row."""
     if min(data.height, data.width) < 3:  # SSIM's window
         raise ConfigError(f"the photos are {data.width}x{data.height} px at this scale, too small to score (at least "
                           f"3x3); use a smaller --downscale")
@@ -149,9 +169,13 @@ def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir
     ids = list(range(0, len(data), every))
     t0 = time.perf_counter()
     for k in tqdm(ids, desc="eval", disable=not progress, unit="view"):
-        r = renderer.render_camera(params, aux, data.poses[k], data.cameras[k])
+        c2w, moved = data.poses[k], {}
+        if fit_poses:
+            c2w, moved = renderer.fit_pose(params, aux, c2w, data.cameras[k], data.images[k], fit_poses)
+            moved = {"pose_fit": {"degrees": moved["degrees"], "shift": moved["shift"] / data.scale}}
+        r = renderer.render_camera(params, aux, c2w, data.cameras[k])
         per_view.append({"view": k, "name": data.names[k], "psnr": psnr(r["rgb"], data.images[k]),
-                         "ssim": ssim(r["rgb"], data.images[k])})
+                         "ssim": ssim(r["rgb"], data.images[k]), **moved})
         renders.append(r)
     seconds = time.perf_counter() - t0
     depth_imgs, (lo, hi) = colorize_renders(renders, bg)
@@ -193,6 +217,11 @@ def format_eval_table(result: dict) -> str:
         lines.append(result["appearance"])
     if result.get("poses"):
         lines.append(result["poses"])
+    if result.get("fitted_poses"):
+        moved = [v["pose_fit"] for v in result["per_view"] if "pose_fit" in v]
+        lines.append(result["fitted_poses"] + (f"; they moved a median {np.median([m['degrees'] for m in moved]):.3f} "
+                                               f"degrees and {np.median([m['shift'] for m in moved]):.4g} units"
+                                               if moved else ""))
     worst = result.get("worst") or worst_views(result["per_view"])
     if len(result["per_view"]) > 1 and worst:
         lines.append("worst views: " + ", ".join(f"{w['view']} {Path(w['name']).name} {w['psnr']:.2f} dB"

@@ -53,6 +53,8 @@ class Supports:
     sampling:   its samples along a ray are placed by --sampling occupancy|proposal (resolved from the scene)
     appearance: per-image appearance embeddings (--appearance-dim)
     pose_refine: learns a pose correction per training photo (--pose-refine; rays/correction.py)
+    fit_poses:  its renderer fits a view's pose to its photo against the frozen scene (renderer.fit_pose(params, aux,
+                c2w, camera, image, iterations) -> (c2w, {"degrees", "shift"}); `nerfkit eval --fit-poses`)
     gaussians:  its parameters are 3D Gaussians (splat/gaussians.py's layout): export splat, the splat web page and
                 the viewer's splat layer read them; its point cloud is their centres
     points:     it starts from the capture's SfM points (Capture.points); model.wants_points(capture) says when a
@@ -70,6 +72,7 @@ class Supports:
     sampling: bool = False
     appearance: bool = True
     pose_refine: bool = False
+    fit_poses: bool = False
     gaussians: bool = False
     points: bool = False
 

@@ -134,7 +134,7 @@ class SplatModel:
     """3D Gaussian splatting behind nerfkit's model interface (see the module docstring)."""
 
     supports = Supports(family="image", parallel="views", mesh=False, lens=False, appearance=False, gaussians=True,
-                        points=True, pose_refine=True)
+                        points=True, pose_refine=True, fit_poses=True)
     title = "Gaussian splatting"
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",

@@ -8,6 +8,7 @@ import numpy as np
 from nerfkit.core.errors import DataError
 from nerfkit.models.splat.depth import median_depth
 from nerfkit.models.splat.gaussians import PARAM_NAMES, held_out_gaussians, intrinsics_of, render_frame, to_device
+from nerfkit.models.splat.pose_fit import fit_pose
 from nerfkit.rays.cameras import Camera
 
 
@@ -47,6 +48,19 @@ class SplatRenderer:
             out["depth_median"] = median_depth(p, c2w, intr, camera.width, camera.height, opacity,
                                                dilation=g.screen_dilation)
         return out
+
+    def fit_pose(self, params, aux, c2w: np.ndarray, camera, image: np.ndarray,
+                 iterations: int) -> tuple[np.ndarray, dict]:
+        """(c2w fitted to the photo image [H, W, 3] against the frozen Gaussians, how far it moved): pose_fit.py
+        (`nerfkit eval --fit-poses`; the model's supports.fit_poses)."""
+        _, on_device = self.gaussians(params, aux)
+        try:
+            intr = intrinsics_of(camera)
+        except ValueError as e:
+            raise DataError(str(e)) from None
+        g = self.model.cfg.splat
+        return fit_pose(on_device, c2w, intr, camera.width, camera.height, image, self.model.background,
+                        g.sh_degree, iterations, g.backend, g.screen_dilation)
 
     def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
         return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
