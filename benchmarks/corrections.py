@@ -4,6 +4,7 @@ written ones by a known amount; the same capture with exact poses and no gains i
 
     python benchmarks/corrections.py [--preset splat] [--steps 2000] [--size 64] [--masks] [--name NAME]
         [--rig ring|forward] [--supersample S] [--held-out exact|imperfect] [--random-start] [--flags "..."]
+        [--fit-poses N]
 
 For each variant (exact: the exact capture, corrections off; none: the imperfect capture, corrections off;
 colour, pose, both), one run of `nerfkit train --preset P` with --max-steps (splats: 20,000 slots, starting from
@@ -13,7 +14,8 @@ points triangulated at the given poses as any posed capture without points does,
     moved by the similarity that maps the given training poses onto the refined ones); the imperfect capture's
     held-out photos (every 8th) are taken and written at their exact poses with gain 1 (--held-out exact, BARF's
     protocol: the score measures the scene learned), or have pose errors and gains of their own (imperfect: the
-    score is then bounded by their own errors, whatever the training learned),
+    score is then bounded by their own errors, whatever the training learned); with --fit-poses N also after
+    each held-out photo's pose is fitted to it against the frozen scene (`nerfkit eval --fit-poses N`, splats),
     the training poses' median error against the truth in degrees and in units of the camera radius (4),
     before and after refinement, after the similarity that best aligns the camera centres (the frame is free),
     the gains' median error (each photo's colour-transform diagonal relative to their mean, against the true
@@ -75,6 +77,9 @@ def main() -> None:
                     help="splats: random points (else triangulated at the given poses, as any posed capture)")
     ap.add_argument("--flags", default="", help="more `nerfkit train` flags for every variant, e.g. \"--sh-degree 0\"")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS))
+    ap.add_argument("--fit-poses", type=int, default=0,
+                    help="N > 0: also score the held-out photos after fitting each one's pose to it against the "
+                         "frozen scene (`nerfkit eval --fit-poses N`; splats)")
     ap.add_argument("--out", type=Path, default=Path("runs/corrections"))
     ap.add_argument("--name", default="corrections_procedural")
     a = ap.parse_args()
@@ -115,6 +120,10 @@ def main() -> None:
         poses = np.asarray(scene_cameras(read_capture(caps[kind], "train"), "train").poses, np.float64)
         ev = evaluate_run(run, None, loaded.cfg.data.val_split, progress=False, write=False)
         r = {"flags": " ".join(flags), "val_psnr": round(val["psnr"], 3), "eval_psnr": round(ev["psnr"], 3)}
+        if a.fit_poses and loaded.model.supports.fit_poses:
+            fit = evaluate_run(run, None, loaded.cfg.data.val_split, progress=False, write=False,
+                               fit_poses=a.fit_poses)
+            r["eval_psnr_fitted_poses"] = round(fit["psnr"], 3)
         if "poses" in ev:
             r["eval_poses"] = ev["poses"]
         if kind == "imperfect":
