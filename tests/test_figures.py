@@ -95,6 +95,7 @@ BPOSE = "buddha_pose_cli.json"  # pose refinement on buddha, both families
 FWD = "procedural_forward_cli.json"  # a forward-facing capture
 NCORR = "corrections_forward_ngp_ndc_area.json"  # ngp's pose refinement, forward-facing, in NDC
 TRUTH64, TRUTH128 = (f"corrections_ring_area_from_truth_{n}.json" for n in (64, 128))  # refinement from the truth
+FITC, FITB = "corrections_ring_area_fit_poses.json", "buddha_fit_poses_cli.json"  # eval --fit-poses
 FWD1 = "procedural_forward_seed1_cli.json"  # another, 5 minutes
 FFAR, FFARB = "procedural_forward_far_cli.json", "procedural_forward_far_before_cli.json"  # the far sphere there
 FFAR1, FFAR1B = "procedural_forward_far_seed1_cli.json", "procedural_forward_far_seed1_before_cli.json"
@@ -621,6 +622,26 @@ CHECKS = [
      "refinement leaves them {} degrees off at {} px and {} at {} px (`corrections_ring_area_from_truth_64.json`",
      [((TRUTH64, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH64, "size"), d),
       ((TRUTH128, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH128, "size"), d)]),
+    ("docs/verbs/eval.md", "`corrections_ring_area_fit_poses.json`",
+     "the exact capture's run {} dB, fitted {} (a true pose hardly moves); without refinement {}, fitted {}; with pose "
+     "refinement {}, fitted {}.",
+     [((FITC, "runs", "exact", "eval_psnr"), f2), ((FITC, "runs", "exact", "eval_psnr_fitted_poses"), f2),
+      ((FITC, "runs", "none", "eval_psnr"), f2), ((FITC, "runs", "none", "eval_psnr_fitted_poses"), f2),
+      ((FITC, "runs", "pose", "eval_psnr"), f2), ((FITC, "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
+    ("docs/verbs/eval.md", "`buddha_fit_poses_cli.json`): ",
+     "`buddha_fit_poses_cli.json`): {} dB plain and {} fitted without refinement, {} and {} with it.",
+     [((FITB, "presets", "splat", "psnr"), f2), ((FITB, "presets", "splat", "fitted", "psnr"), f2),
+      ((FITB, "presets", "splat-pose", "psnr"), f2), ((FITB, "presets", "splat-pose", "fitted", "psnr"), f2)]),
+    ("docs/verbs/eval.md", "the whole command took",
+     "the whole command took {} s and {} s without it (the two runs below), {} s and {} s with `--fit-poses {}`.",
+     [((FITB, "presets", "splat", "eval_wall_s"), f1), ((FITB, "presets", "splat-pose", "eval_wall_s"), f1),
+      ((FITB, "presets", "splat", "fitted", "eval_wall_s"), f1),
+      ((FITB, "presets", "splat-pose", "fitted", "eval_wall_s"), f1),
+      ((FITB, "presets", "splat", "fitted", "fit_poses"), d)]),
+    ("docs/splats.md", "`buddha_fit_poses_cli.json`",
+     "sitting it raised the splats to {} dB from {}, and to {} from {} with the held-out poses fitted",
+     [((FITB, "presets", "splat-pose", "psnr"), f2), ((FITB, "presets", "splat", "psnr"), f2),
+      ((FITB, "presets", "splat-pose", "fitted", "psnr"), f2), ((FITB, "presets", "splat", "fitted", "psnr"), f2)]),
     ("docs/splats.md", "`corrections_ring_area_128.json`",
      "reaches in {} steps ({} degrees at {} px, `corrections_ring_area_128.json`)",
      [(("corrections_ring_area_128.json", "steps"), d),
