@@ -125,22 +125,30 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
             for lvl, spec in levels:
                 res, data = score(spec, renders / f"d{lvl}" if write else None, downscale or 1, None)
                 scales.append({"level": lvl, "spec": spec, "height": data.height, "width": data.width, **res})
-            result = {"split": split, "step": step, "scales": scales, "n_views": sum(r["n_views"] for r in scales),
-                      "psnr": float(np.mean([r["psnr"] for r in scales])),
-                      "ssim": float(np.mean([r["ssim"] for r in scales])),
-                      "seconds_per_view": float(np.mean([r["seconds_per_view"] for r in scales])),
-                      "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
-    if appearance_note(cfg):
-        result["appearance"] = appearance_note(cfg)
-    result.update({"poses": POSE_NOTE} if trained.refined_poses else {})
-    if fit_poses:
-        result["fitted_poses"] = FIT_NOTE.format(n=fit_poses)
-    if baked is not None:
-        result["baked"] = str(Path(baked).resolve())
+            result = multiscale_result(split, step, scales)
+    result.update(result_notes(cfg, trained.refined_poses, fit_poses, baked))
     if write:
         (run_dir / f"{name}.json").write_text(json.dumps(result, indent=2))
         result["written"] = str(run_dir / f"{name}.json")
     return result
+
+
+def multiscale_result(split: str, step: int, scales: list[dict]) -> dict:
+    """The evaluation of multiscale data: the levels' results (each popped of its per_view rows) and their means."""
+    return {"split": split, "step": step, "scales": scales, "n_views": sum(r["n_views"] for r in scales),
+            "psnr": float(np.mean([r["psnr"] for r in scales])), "ssim": float(np.mean([r["ssim"] for r in scales])),
+            "seconds_per_view": float(np.mean([r["seconds_per_view"] for r in scales])),
+            "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
+
+
+def result_notes(cfg, refined_poses: bool, fit_poses: int, baked: Path | None) -> dict:
+    """What an evaluation's JSON and table say about how its views were rendered: appearance, poses, fitted
+    poses, the baked scene."""
+    notes = {"appearance": appearance_note(cfg)} if appearance_note(cfg) else {}
+    notes.update({"poses": POSE_NOTE} if refined_poses else {})
+    notes.update({"fitted_poses": FIT_NOTE.format(n=fit_poses)} if fit_poses else {})
+    notes.update({"baked": str(Path(baked).resolve())} if baked is not None else {})
+    return notes
 
 
 def train_and_evaluate(data_dir: Path, run_dir: Path, cfg, every: int = 1, progress: bool = True,
