@@ -75,7 +75,7 @@ def run(splat_run, tmp_path):
 
 def test_eval_fit_poses_through_the_cli(run, capsys):
     _, out = run
-    assert main(["eval", str(out), "--split", "test"]) == 0
+    assert main(["eval", str(out), "--split", "test", "--overwrite"]) == 0  # the shared run may hold one
     plain = json.loads((out / "eval_test.json").read_text())
     capsys.readouterr()
     assert main(["eval", str(out), "--split", "test", "--fit-poses", "5"]) == 0

@@ -12,6 +12,14 @@ from nerfkit.models.splat.pose_fit import fit_pose
 from nerfkit.rays.cameras import Camera
 
 
+def pinhole_of(camera) -> tuple[float, float, float, float]:
+    """(fx, fy, cx, cy) of a view's camera; a DataError (one line for the user) for a lens-distorted one."""
+    try:
+        return intrinsics_of(camera)
+    except ValueError as e:
+        raise DataError(str(e)) from None
+
+
 class SplatRenderer:
     """Full-image rendering of a splat run's active Gaussians (the tile rasteriser; no chunks)."""
 
@@ -34,11 +42,7 @@ class SplatRenderer:
         """rgb [H, W, 3], depth (sum_k w_k z_k), opacity and depth_normalized (depth / opacity) [H, W]; median: also
         depth_median, each pixel's depth on the Gaussian where its ray turns half opaque (depth.py)."""
         p, on_device = self.gaussians(params, aux)
-        try:
-            intr = intrinsics_of(camera)
-        except ValueError as e:
-            raise DataError(str(e)) from None
-        g = self.model.cfg.splat
+        intr, g = pinhole_of(camera), self.model.cfg.splat
         r = render_frame(on_device, c2w, camera, self.model.background, g.sh_degree, g.backend,
                          dilation=g.screen_dilation)
         opacity = r["alpha"]
@@ -54,11 +58,7 @@ class SplatRenderer:
         """(c2w fitted to the photo image [H, W, 3] against the frozen Gaussians, how far it moved): pose_fit.py
         (`nerfkit eval --fit-poses`; the model's supports.fit_poses)."""
         _, on_device = self.gaussians(params, aux)
-        try:
-            intr = intrinsics_of(camera)
-        except ValueError as e:
-            raise DataError(str(e)) from None
-        g = self.model.cfg.splat
+        intr, g = pinhole_of(camera), self.model.cfg.splat
         return fit_pose(on_device, c2w, intr, camera.width, camera.height, image, self.model.background,
                         g.sh_degree, iterations, g.backend, g.screen_dilation)
 
