@@ -96,6 +96,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--data-for", action="append", default=[], metavar="LABEL=PATH",
                     help="train the variant LABEL on the capture PATH (same photos and poses) instead of --data")
     a = ap.parse_args(argv)
+    from nerfkit.models.registry import method_class
+    from nerfkit.run.folder import RunFolder
+
     data_for = dict(x.split("=", 1) for x in a.data_for)
     result = {"what": f"nerfkit train + nerfkit eval --split test on {a.data.name}, wall clock of the CLI",
               "data": str(a.data), "minutes": a.minutes, "downscale": a.downscale, "common": a.common, "presets": {},
@@ -124,7 +127,7 @@ def main(argv: list[str] | None = None) -> None:
         runs[preset] = run
         print(f"{preset}: {result['presets'][preset]['steps']} steps in {train_s / 60:.2f} min, "
               f"{ev['psnr']:.2f} dB / SSIM {ev['ssim']:.4f} on {ev['n_views']} held-out photos", flush=True)
-        if a.fit_poses and json.loads((run / "config.json").read_text())["field"]["kind"] == "splat":
+        if a.fit_poses and method_class(RunFolder(run).config()).supports.fit_poses:
             fit_s, _ = nerfkit("eval", str(run), "--split", "test", "--fit-poses", str(a.fit_poses), "--overwrite")
             fit = json.loads((run / "eval_test_fitted.json").read_text())
             result["presets"][preset]["fitted"] = {

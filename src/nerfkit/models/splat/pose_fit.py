@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.models.splat.gaussians import render_arrays
+from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.rays.correction import corrected_pose
 
 FD_STEP = 1e-3  # radians, and distances from the centre: 0.06 px at a focal length of 60 px
@@ -46,7 +47,8 @@ def _residual_fn(width: int, height: int, backend: str, dilation: float):
 
 
 def fit_pose(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int, image: np.ndarray, background,
-             sh_degree: int, iterations: int, backend: str = "auto", dilation: float = 0.3) -> tuple[np.ndarray, dict]:
+             sh_degree: int, iterations: int, backend: str = "auto",
+             dilation: float = LOWPASS_DILATION) -> tuple[np.ndarray, dict]:
     """(fitted c2w [4, 4], {"degrees", "shift"}: how far it moved) of the view at c2w [4, 4] (OpenGL, normalised
     frame) seen with intrinsics (fx, fy, cx, cy) at width x height, fitted by `iterations` Levenberg-Marquardt
     iterations (module docstring) to the photo image [H, W, 3] (on `background`) against the Gaussians `params`
@@ -63,8 +65,8 @@ def fit_pose(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int,
     xi, lam = np.zeros(6), LAMBDA0
     r = residual(xi)
     err = r @ r
+    basis = FD_STEP * np.eye(6)
     for _ in range(iterations):
-        basis = FD_STEP * np.eye(6)
         jac = np.stack([(residual(xi + basis[j]) - residual(xi - basis[j])) / (2 * FD_STEP) for j in range(6)], 1)
         a, g = jac.T @ jac, jac.T @ r
         for _ in range(MAX_TRIES):
