@@ -3,12 +3,13 @@ embeddings --appearance-dim) on procedural captures whose photos were taken with
 written ones by a known amount; the same capture with exact poses and no gains is the reference.
 
     python benchmarks/corrections.py [--preset splat] [--steps 2000] [--size 64] [--masks] [--name NAME]
-        [--rig ring|forward] [--supersample S] [--held-out exact|imperfect] [--random-start] [--flags "..."]
-        [--fit-poses N]
+        [--rig ring|forward] [--supersample S] [--held-out exact|imperfect] [--random-start | --points N]
+        [--flags "..."] [--fit-poses N]
 
 For each variant (exact: the exact capture, corrections off; none: the imperfect capture, corrections off;
 colour, pose, both), one run of `nerfkit train --preset P` with --max-steps (splats: 20,000 slots, starting from
-points triangulated at the given poses as any posed capture without points does, or --random-start), then:
+points triangulated at the given poses as any posed capture without points does, or --random-start, or N exact
+surface points with --points N: a start as good as triangulation on this scene that needs no pycolmap), then:
     held-out PSNR: the run's last validation (every held-out photo at its written pose, with the mean colour
     transform or embedding) and `nerfkit eval`'s (the same, but where poses were refined, from the written poses
     moved by the similarity that maps the given training poses onto the refined ones); the imperfect capture's
@@ -49,6 +50,8 @@ def flags_of(names: list[str], preset: str) -> list[str]:
 
 
 def main() -> None:
+    import jax
+
     from nerfkit.cli.main import main as nerfkit
     from nerfkit.data.loader import read_capture, scene_cameras
     from nerfkit.data.procedural.captures import make_capture, rig_poses
@@ -75,6 +78,9 @@ def main() -> None:
                          "scene learned) or with errors of their own, as the training photos")
     ap.add_argument("--random-start", action="store_true",
                     help="splats: random points (else triangulated at the given poses, as any posed capture)")
+    ap.add_argument("--points", type=int, default=0,
+                    help="N > 0: the captures hold N exact surface points (make_capture(points=N), sparse_pc.ply) that "
+                         "splats start from, instead of points triangulated at the given poses")
     ap.add_argument("--flags", default="", help="more `nerfkit train` flags for every variant, e.g. \"--sh-degree 0\"")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS))
     ap.add_argument("--fit-poses", type=int, default=0,
@@ -83,6 +89,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("runs/corrections"))
     ap.add_argument("--name", default="corrections_procedural")
     a = ap.parse_args()
+    if a.random_start and a.points:
+        ap.error("--random-start and --points name two different starts: give one")
     caps = {}
     for kind in ("exact", "imperfect"):
         noisy = kind == "imperfect"
@@ -90,7 +98,7 @@ def main() -> None:
                                   environment=not a.masks, masks=a.masks,
                                   pose_noise=(a.degrees, a.shift) if noisy else (0.0, 0.0),
                                   gains=a.gains if noisy else 0.0, exact_every=8 if a.held_out == "exact" else 0,
-                                  supersample=a.supersample, rig=a.rig)
+                                  supersample=a.supersample, rig=a.rig, points=a.points)
     truth = caps["imperfect"] / "truth"
     if truth.is_dir():
         truth_poses, truth_gains = np.load(truth / "poses.npy"), np.load(truth / "gains.npy")
@@ -99,8 +107,9 @@ def main() -> None:
     result = {"what": __doc__.split("\n\n")[0], "preset": a.preset, "steps": a.steps, "size": a.size, "views": a.views, "masks": a.masks,
               "supersample": a.supersample, "rig": a.rig,
               "pose_noise_degrees": a.degrees, "pose_noise_radius_share": a.shift, "gains": a.gains,
-              "held_out": a.held_out, "flags": a.flags, "start": "random" if a.random_start else "auto", "runs": {},
-              "provenance": provenance()}
+              "held_out": a.held_out, "flags": a.flags, "runs": {}, "provenance": provenance(),
+              "start": "random" if a.random_start else f"{a.points} exact points" if a.points else "auto",
+              "device": jax.devices()[0].device_kind}
     extra = []
     if a.preset == "splat":
         extra = (["--init-points", "random"] if a.random_start else []) + ["--capacity", "20000"]
@@ -119,7 +128,7 @@ def main() -> None:
         idx = [int(f.image.stem.split("_")[-1]) for f in read_capture(caps[kind], "train").frames("train")]
         poses = np.asarray(scene_cameras(read_capture(caps[kind], "train"), "train").poses, np.float64)
         ev = evaluate_run(run, None, loaded.cfg.data.val_split, progress=False, write=False)
-        r = {"flags": " ".join(flags), "val_psnr": round(val["psnr"], 3), "eval_psnr": round(ev["psnr"], 3)}
+        r = {"flags": " ".join(flags), "steps_done": val["step"], "train_s": val["elapsed"], "val_psnr": round(val["psnr"], 3), "eval_psnr": round(ev["psnr"], 3)}
         if a.fit_poses and loaded.model.supports.fit_poses:
             fit = evaluate_run(run, None, loaded.cfg.data.val_split, progress=False, write=False,
                                fit_poses=a.fit_poses)
