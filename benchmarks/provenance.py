@@ -30,14 +30,16 @@ def provenance() -> dict:
     diff_sha256 is the SHA-256 of `git diff HEAD` (the uncommitted changes to tracked files) when dirty, so a
     record measured on a dirty tree names the exact code; load_at_start is the 1-minute load average when the
     benchmark started (the machine is shared, so a figure measured under load says so)."""
-    commit = _git("rev-parse", "HEAD")
-    # A copy of the tree without .git (a lent GPU machine): the commit comes from NERFKIT_COMMIT, dirty unknown.
-    # The records themselves (benchmarks/results) do not count: a benchmark's own output must not make the next
-    # one's tree dirty.
+    # A copy of the tree on a lent GPU machine: the commit comes from NERFKIT_COMMIT, set by whoever copied it,
+    # and dirty is unknown (that copy may carry a .git of an older commit: 2026-12-04's did, so its records named
+    # the session's first commit, not the code they ran). The records themselves (benchmarks/results) do not
+    # count: a benchmark's own output must not make the next one's tree dirty.
+    given = os.environ.get("NERFKIT_COMMIT", "")
+    commit = given or _git("rev-parse", "HEAD")
     code = (".", ":(exclude)benchmarks/results")
-    dirty = bool(_git("status", "--porcelain", "--untracked-files=no", "--", *code)) if commit else None
+    dirty = bool(_git("status", "--porcelain", "--untracked-files=no", "--", *code)) if commit and not given else None
     diff = hashlib.sha256(_git("diff", "HEAD", "--", *code).encode()).hexdigest() if dirty else None
-    return {"commit": commit or os.environ.get("NERFKIT_COMMIT", ""), "dirty": dirty, "diff_sha256": diff,
+    return {"commit": commit, "dirty": dirty, "diff_sha256": diff,
             "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
             "python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine(),
             "load_at_start": LOAD_AT_START}
