@@ -229,9 +229,8 @@ class TrainConfig:
     """Pose refinement (every preset): a correction of each training photo's camera pose (a rotation and a
     translation, in the camera's frame) learned with the scene at its own learning rate (the fields from the first
     step, splats after a warm-up). Other views (held-out photos in eval) are rendered from their given poses moved
-    by the similarity that best maps the given training poses onto the refined ones. Off by default: on buddha (11
-    registered photos, SfM poses, 3-minute runs) it cost ngp 0.54 dB and splats 0.29 dB on the held-out photos
-    (benchmarks/results/buddha_pose_cli.json)."""
+    by the similarity that best maps the given training poses onto the refined ones. Off by default: on buddha's 2
+    held-out photos (3-minute runs) its sign changed between sittings (docs: Splats; splats: --pose-rounds)."""
     devices: int | None = None
     """Local devices to split each step's rays over (data parallel; --batch-rays is the global batch, a
     multiple of the device count). Default: all local devices."""
@@ -310,6 +309,9 @@ class SplatSettings:
     the surfaces where the photos put them: lego, 10 minutes with the surface terms, 30.5 dB and a mesh at IoU 0.984
     against 29.5 and 0.973 (docs: Export). Other viewers draw with 0.3, where such a run's splats look smeared
     (`export splat` says how much), so keep 0.3 for splats to share."""
+    pose_rounds: int = 1
+    """With --pose-refine on: the budget in N equal rounds, each after the first starting the Gaussians over from the
+    initial points while every photo's pose and colour corrections are kept (docs: Splats). 1: one round."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:

@@ -47,6 +47,7 @@ from nerfkit.models.splat.optim import (
 )
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
+from nerfkit.models.splat.rounds import in_round, round_aux
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.models.splat.transform import transform_gaussians
 from nerfkit.rays.correction import camera_extent
@@ -105,6 +106,11 @@ def progress_of(step: int, clock: float, cfg) -> float:
     return float(min(1.0, max(step / max(t.max_steps, 1), by_time)))
 
 
+def _describe_pose(cfg) -> str:
+    n = cfg.splat.pose_rounds
+    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{f' in {n} rounds' if n > 1 else ''}"
+
+
 def _describe_coarse(coarse: float | None) -> str:
     if coarse is None:
         return f"half resolution for the first {COARSE_AUTO:.0%} on photos of >= {COARSE_MIN_PIXELS:,} pixels, "
@@ -139,7 +145,7 @@ class SplatModel:
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
-        "normal_consistency_from", "depth_distortion", "screen_dilation")) | {"train.pose_refine"}
+        "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -154,7 +160,7 @@ class SplatModel:
                 f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{_describe_surface(g)}"
                 f"{'' if g.screen_dilation == LOWPASS_DILATION else f'; screen dilation {g.screen_dilation:g} px^2'}"
-                f"{'; pose refinement' if cfg.train.pose_refine == 'on' else ''}"
+                f"{_describe_pose(cfg)}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
     @staticmethod
@@ -176,8 +182,10 @@ class SplatModel:
 
     @staticmethod
     def check(cfg) -> None:
-        """ConfigError for a --backend that is not in the table (backends.py)."""
+        """ConfigError for a --backend that is not in the table (backends.py), or --pose-rounds under 1."""
         backend(cfg.splat.backend)
+        if cfg.splat.pose_rounds < 1:
+            raise ConfigError(f"--pose-rounds must be at least 1 (got {cfg.splat.pose_rounds}); 1: one round")
 
     @staticmethod
     def unused(cfg, capture=None) -> dict[str, str]:
@@ -192,6 +200,8 @@ class SplatModel:
                                                     "(--normal-consistency 0.15)")
         if cfg.splat.sh_degree == 0:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
+        if cfg.train.pose_refine != "on":
+            out["splat.pose_rounds"] = "pose refinement is off (--pose-refine on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
                 and (capture.has_masks or capture.alpha)):
             out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
@@ -341,7 +351,11 @@ class SplatModel:
             sc = replace(sc, init_count=min(RANDOM_INIT, sc.capacity), init_scale=RANDOM_INIT_SCALE)
         params, active = initial_params(sc, self.init_gaussians)
         stats = {k: np.zeros(sc.capacity, np.float32) for k in classic.zero_stats(1)}  # numpy: eval_shape-safe
-        return params, {"active": active, **stats, "clock": np.zeros((), np.float32)}
+        return params, {"active": active, **stats, "clock": np.zeros((), np.float32), **round_aux(self._rounds())}
+
+    def _rounds(self) -> int:
+        """--pose-rounds where pose refinement is on, else 1."""
+        return self.cfg.splat.pose_rounds if self.cfg.train.pose_refine == "on" else 1
 
     # -- optimisation ----------------------------------------------------------------------------
     def make_optimizer(self, cfg):
@@ -363,7 +377,11 @@ class SplatModel:
             if kept.get("of") is not images:  # made once per images array
                 kept.update({"of": images, "views": self.training_views(images, data.alphas)})
             images = kept["views"]
-            state, metrics = view_step(state, int(step), progress_of(int(step), clock, cfg), images, poses, intrinsics)
+            step, progress = int(step), progress_of(int(step), clock, cfg)
+            if self._rounds() > 1:
+                state, step, progress = in_round(state, step, progress, self._rounds(), self.init, self.sc.corrections,
+                                                 optimizer)
+            state, metrics = view_step(state, step, progress, images, poses, intrinsics)
             state["aux"]["clock"] = np.float32(clock + time.perf_counter() - t0)
             return state, metrics
 
