@@ -111,6 +111,7 @@ REAL, MCLI, GPU = "maryrose_real_capture.json", "maryrose_cli.json", "gpu_h200/l
 # backends alone, a step's parts
 GSPLAT, GSPLAT4, GNGP4 = "gpu_h200/lego_cli_splat.json", "gpu_h200/lego_cli_splat_400.json", "gpu_h200/lego_cli_ngp_400.json"
 RND5, RND3 = "corrections_ring_pose_rounds5.json", "corrections_ring_pose_rounds3.json"  # --pose-rounds 5 and 3
+RND10, RND10S = "corrections_ring_pose_rounds10.json", "corrections_ring_pose_rounds10_short.json"  # 10 rounds
 GP = "gpu_h200/gpu_pose_{}.json".format  # gpu_pose_refine.sh's records (issue 40's residual on a GPU)
 GRS, GRAST, GPROF = "gpu_h200/render_speed_ngp.json", "gpu_h200/splat_raster_gpu.json", "gpu_h200/splat_step_profile.json"
 ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.json"
@@ -692,6 +693,11 @@ CHECKS = [
       ((lambda: R(RND3, "steps") // int(R(RND3, "flags").split()[-1])), d),
       ((RND3, "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((RND3, "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
+    ("docs/splats.md", "Ten rounds level off",
+     "Ten rounds level off: {} degrees and {} dB with {} steps each, {} degrees and {} dB with {} each",
+     [((RND10S, "runs", "pose", "refined_pose_error", "degrees"), f2), ((RND10S, "runs", "pose", "eval_psnr_fitted_poses"), f2),
+      ((lambda: R(RND10S, "steps") // 10), d), ((RND10, "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((RND10, "runs", "pose", "eval_psnr_fitted_poses"), f2), ((lambda: R(RND10, "steps") // 10), d)]),
     ("docs/splats.md", "`pose_rounds.json`): ",
      "`pose_rounds.json`): {}, {}, {}, {} and {} degrees. Scored from their given poses moved with the rig instead of "
      "fitted, the held-out photos lose with rounds ({} dB after five, {} after one)",
