@@ -698,6 +698,11 @@ CHECKS = [
      [((RND10S, "runs", "pose", "refined_pose_error", "degrees"), f2), ((RND10S, "runs", "pose", "eval_psnr_fitted_poses"), f2),
       ((lambda: R(RND10S, "steps") // 10), d), ((RND10, "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((RND10, "runs", "pose", "eval_psnr_fitted_poses"), f2), ((lambda: R(RND10, "steps") // 10), d)]),
+    ("docs/splats.md", "`buddha_pose_rounds_cli.json`",
+     "{} dB plain / {} fitted without refinement, {} / {} with it, {} / {} in {} rounds",
+     [*[(("buddha_pose_rounds_cli.json", "presets", k, *f), f2) for k in ("splat", "splat-pose", "splat-rounds3")
+        for f in (("psnr",), ("fitted", "psnr"))],
+      ((lambda: int(R("buddha_pose_rounds_cli.json", "presets", "splat-rounds3", "args").split()[-1])), d)]),
     ("docs/splats.md", "`pose_rounds.json`): ",
      "`pose_rounds.json`): {}, {}, {}, {} and {} degrees. Scored from their given poses moved with the rig instead of "
      "fitted, the held-out photos lose with rounds ({} dB after five, {} after one)",
