@@ -31,18 +31,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SEED = 3  # corrections.py's
 
 
-def to_capture_frame(poses: np.ndarray, transform: np.ndarray) -> np.ndarray:
-    """Normalised poses [N, 4, 4] back in the capture's frame: the inverse of the similarity transform [4, 4]
-    (s R, t) that scene_cameras applied, x = R^T (x' - t) / s for centres and R^T R' for rotations."""
-    t = np.asarray(transform, np.float64)
-    s = float(np.cbrt(np.linalg.det(t[:3, :3])))
-    r = t[:3, :3] / s
-    out = np.array(poses, np.float64)
-    out[:, :3, :3] = r.T @ out[:, :3, :3]
-    out[:, :3, 3] = (out[:, :3, 3] - t[:3, 3]) @ r / s
-    return out
-
-
 def next_capture(src: Path, cap: Path, out: Path, refined: dict[str, np.ndarray]) -> Path:
     """A copy of capture `cap` in `out` (photos, depth, truth and points linked from `src`) whose frames named in
     `refined` (stem -> c2w in the capture's frame) take those poses."""
@@ -67,7 +55,7 @@ def main() -> None:
     from nerfkit.data.loader import read_capture, scene_cameras
     from nerfkit.data.procedural.captures import make_capture
     from nerfkit.data.procedural.scene import CAMERA_RADIUS
-    from nerfkit.evaluation.evaluate import evaluate_run
+    from nerfkit.evaluation.evaluate import capture_poses, evaluate_run
     from nerfkit.rays.correction import aligned_pose_error, refined_poses
     from nerfkit.run.folder import RunFolder
 
@@ -106,10 +94,10 @@ def main() -> None:
                "eval_psnr": round(plain["psnr"], 3), "eval_psnr_fitted_poses": round(fitted["psnr"], 3)}
         result["rounds"].append(row)
         print(row, flush=True)
-        back = to_capture_frame(refined, seen.transform)
+        back = np.asarray(capture_poses(seen, refined))  # in the capture's frame, as its transforms.json holds them
         if r == 0:  # the inverse is checked once: the given poses come back as the capture holds them
             held = np.stack([np.asarray(f.c2w, np.float64) for f in frames])
-            assert np.abs(to_capture_frame(given, seen.transform) - held).max() < 1e-4
+            assert np.abs(np.asarray(capture_poses(seen, given)) - held).max() < 1e-4
         cap = next_capture(src, cap, a.out / f"cap{r + 1}", {f.image.stem: p for f, p in zip(frames, back)})
     path = ROOT / "benchmarks" / "results" / f"{a.name}.json"
     path.write_text(json.dumps(result, indent=2))
