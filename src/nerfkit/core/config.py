@@ -226,11 +226,10 @@ class TrainConfig:
     max_bad_steps: int = 5
     """Stop the run after this many consecutive non-finite losses or gradients."""
     pose_refine: Literal["on", "off"] = "off"
-    """Pose refinement (every preset): a correction of each training photo's camera pose (a rotation and a
-    translation, in the camera's frame) learned with the scene at its own learning rate (the fields from the first
-    step, splats after a warm-up). Other views (held-out photos in eval) are rendered from their given poses moved
-    by the similarity that best maps the given training poses onto the refined ones. Off by default: on buddha's 2
-    held-out photos (3-minute runs) its sign changed between sittings (docs: Splats; splats: --pose-rounds)."""
+    """Pose refinement (every preset): a correction of each training photo's camera pose (a rotation and a translation,
+    in the camera's frame) learned with the scene (the fields from the first step, splats after a warm-up). Other
+    views (held-out photos in eval) are seen from their given poses moved by the similarity that best maps the given
+    training poses onto the refined ones. Off by default (docs: Splats; splats: --pose-solves, --pose-rounds)."""
     devices: int | None = None
     """Local devices to split each step's rays over (data parallel; --batch-rays is the global batch, a
     multiple of the device count). Default: all local devices."""
@@ -305,23 +304,24 @@ class SplatSettings:
     the blended squared differences of their depths along each ray, relative to the depth), for runs meant for
     `export mesh`; 0: off. On from --normal-consistency-from, as that term is (docs: Export)."""
     screen_dilation: float = 0.3
-    """px^2 added to each Gaussian's footprint on the screen (3DGS's low-pass floor: 0.3). 0.1 keeps thin parts and
-    the surfaces where the photos put them: lego, 10 minutes with the surface terms, 30.5 dB and a mesh at IoU 0.984
-    against 29.5 and 0.973 (docs: Export). Other viewers draw with 0.3, where such a run's splats look smeared
-    (`export splat` says how much), so keep 0.3 for splats to share."""
+    """px^2 added to each Gaussian's footprint on the screen (3DGS's low-pass floor: 0.3). 0.1 keeps thin parts and the
+    surfaces where the photos put them (lego, 10 minutes with the surface terms: 30.5 dB, mesh IoU 0.984; 29.5, 0.973 at
+    0.3; docs: Export). Other viewers draw with 0.3 (`export splat` says how smeared): keep 0.3 to share."""
     pose_rounds: int = 1
     """With --pose-refine on: the budget in N equal rounds, each after the first starting the Gaussians over from the
     initial points while every photo's pose and colour corrections are kept (docs: Splats). 1: one round."""
+    pose_solves: int = 0
+    """With --pose-refine on: N times over the budget (each round) every photo's pose takes a Levenberg-Marquardt step
+    against the Gaussians as they stand, the last after the last step. For scenes seen all around (docs: Splats)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
     to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
     on for photo captures without masks, off for Blender scenes and masked object captures (as the fields'
     --appearance-dim)."""
     backend: str = "auto"
-    """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host
-    callback), pallas (tile kernels compiled to Triton on a GPU; on a CPU interpreted, far slower than numba)
-    or reference (pure JAX, every pixel against every Gaussian: slow, the definition the tests hold the others
-    to); the table of backends is models/splat/backends.py."""
+    """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host callback),
+    pallas (tile kernels compiled to Triton on a GPU; on a CPU interpreted, far slower than numba) or reference (pure
+    JAX, every pixel against every Gaussian: slow, what the tests hold the others to); models/splat/backends.py."""
 
     def loss_name(self) -> str:
         """The photometric loss in words: "L1", "RMSE" or "0.8 L1 + 0.2 D-SSIM"."""

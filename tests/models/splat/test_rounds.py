@@ -56,8 +56,8 @@ def test_a_run_in_two_rounds_starts_its_gaussians_over_and_keeps_refining_its_po
     run = tmp_path / "run"
     args = ["train", str(cap), "--out", str(run), "--preset", "splat", "--pose-refine", "on", "--max-steps", "80",
             "--val-every", "80", "--ckpt-every", "80", "--capacity", "4000", "--log-every", "1"]
-    assert main([*args, "--pose-rounds", "2"]) == 0
-    assert "pose refinement in 2 rounds" in "".join(capsys.readouterr())
+    assert main([*args, "--pose-rounds", "2", "--pose-solves", "2"]) == 0
+    assert "pose refinement in 2 rounds (2 pose solves a round)" in "".join(capsys.readouterr())
     rows = [json.loads(x) for x in (run / "metrics.jsonl").read_text().splitlines()]
     loss = {r["step"]: r["loss"] for r in rows}
     first, late, again = (np.array([loss[s] for s in range(a, a + 5)]) for a in (1, 36, 41))

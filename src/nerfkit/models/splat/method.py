@@ -33,21 +33,11 @@ from nerfkit.data.points import far_points_through_photos, far_radius, far_spher
 from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
-from nerfkit.models.splat.gaussians import (
-    PARAM_NAMES,
-    init_from_points,
-    init_random,
-    intrinsics_of,
-)
-from nerfkit.models.splat.optim import (
-    LearningRates,
-    init_state,
-    make_optimizers,
-    means_lr,
-)
+from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, init_random, intrinsics_of
+from nerfkit.models.splat.optim import LearningRates, init_state, make_optimizers, means_lr
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
-from nerfkit.models.splat.rounds import in_round, round_aux
+from nerfkit.models.splat.rounds import in_round, round_aux, within_round
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.models.splat.transform import transform_gaussians
 from nerfkit.rays.correction import camera_extent
@@ -96,7 +86,8 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
-                       depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation)
+                       depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
+                       pose_solves=g.pose_solves)
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -108,7 +99,9 @@ def progress_of(step: int, clock: float, cfg) -> float:
 
 def _describe_pose(cfg) -> str:
     n = cfg.splat.pose_rounds
-    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{f' in {n} rounds' if n > 1 else ''}"
+    k = cfg.splat.pose_solves
+    solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
+    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{f' in {n} rounds' if n > 1 else ''}{solves}"
 
 
 def _describe_coarse(coarse: float | None) -> str:
@@ -145,7 +138,8 @@ class SplatModel:
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
-        "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds")) | {"train.pose_refine"}
+        "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves")
+    ) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -182,10 +176,13 @@ class SplatModel:
 
     @staticmethod
     def check(cfg) -> None:
-        """ConfigError for a --backend that is not in the table (backends.py), or --pose-rounds under 1."""
+        """ConfigError for a --backend that is not in the table (backends.py), --pose-rounds under 1, --pose-solves
+        under 0."""
         backend(cfg.splat.backend)
         if cfg.splat.pose_rounds < 1:
             raise ConfigError(f"--pose-rounds must be at least 1 (got {cfg.splat.pose_rounds}); 1: one round")
+        if cfg.splat.pose_solves < 0:
+            raise ConfigError(f"--pose-solves must be at least 0 (got {cfg.splat.pose_solves}); 0: Adam alone")
 
     @staticmethod
     def unused(cfg, capture=None) -> dict[str, str]:
@@ -201,7 +198,7 @@ class SplatModel:
         if cfg.splat.sh_degree == 0:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if cfg.train.pose_refine != "on":
-            out["splat.pose_rounds"] = "pose refinement is off (--pose-refine on)"
+            out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
                 and (capture.has_masks or capture.alpha)):
             out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
@@ -377,11 +374,13 @@ class SplatModel:
             if kept.get("of") is not images:  # made once per images array
                 kept.update({"of": images, "views": self.training_views(images, data.alphas)})
             images = kept["views"]
-            step, progress = int(step), progress_of(int(step), clock, cfg)
-            if self._rounds() > 1:
-                state, step, progress = in_round(state, step, progress, self._rounds(), self.init, self.sc.corrections,
-                                                 optimizer)
+            at, n = int(step), self._rounds()
+            step, progress = at, progress_of(at, clock, cfg)
+            if n > 1:
+                state, step, progress = in_round(state, step, progress, n, self.init, self.sc.corrections, optimizer)
             state, metrics = view_step(state, step, progress, images, poses, intrinsics)
+            after = within_round(progress_of(at + 1, clock + time.perf_counter() - t0, cfg), n, state["aux"])
+            state = view_step.solve_poses(state, step, progress, after, images, poses, intrinsics)
             state["aux"]["clock"] = np.float32(clock + time.perf_counter() - t0)
             return state, metrics
 

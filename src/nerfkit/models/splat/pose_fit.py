@@ -26,7 +26,7 @@ import numpy as np
 
 from nerfkit.models.splat.gaussians import render_arrays
 from nerfkit.models.splat.project import LOWPASS_DILATION
-from nerfkit.rays.correction import corrected_pose
+from nerfkit.rays.correction import corrected_composite, corrected_pose
 
 FD_STEP = 1e-3  # radians, and distances from the centre: 0.06 px at a focal length of 60 px
 LAMBDA0 = 1e-3
@@ -35,34 +35,22 @@ MAX_TRIES = 10
 
 @lru_cache(maxsize=8)
 def _residual_fn(width: int, height: int, backend: str, dilation: float):
-    """r(xi) of the module docstring, jitted, for views of width x height."""
+    """r(xi) of the module docstring, jitted, for views of width x height; the render's scene part is moved by
+    the photo's colour transform m [3, 4] (rays/correction.corrected_composite; zeros: none)."""
 
     @jax.jit
-    def residual(xi, params, c2w, intr, bg, sh_degree, image, unit):
+    def residual(xi, params, c2w, intr, bg, sh_degree, image, unit, m):
         r = render_arrays(params, corrected_pose(c2w, xi, unit), intr, bg, sh_degree, width, height,
                           backend=backend, depth=False, dilation=dilation)
-        return (r["rgb"] - image).ravel()
+        return (corrected_composite(r["rgb"], r["alpha"], bg, m) - image).ravel()
 
     return residual
 
 
-def fit_pose(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int, image: np.ndarray, background,
-             sh_degree: int, iterations: int, backend: str = "auto",
-             dilation: float = LOWPASS_DILATION) -> tuple[np.ndarray, dict]:
-    """(fitted c2w [4, 4], {"degrees", "shift"}: how far it moved) of the view at c2w [4, 4] (OpenGL, normalised
-    frame) seen with intrinsics (fx, fy, cx, cy) at width x height, fitted by `iterations` Levenberg-Marquardt
-    iterations (module docstring) to the photo image [H, W, 3] (on `background`) against the Gaussians `params`
-    (device arrays, splat/gaussians.PARAM_NAMES)."""
-    c2w32 = jnp.asarray(c2w, jnp.float32)
-    unit = max(float(np.linalg.norm(np.asarray(c2w, np.float64)[:3, 3])), 1e-6)
-    fn = _residual_fn(int(width), int(height), backend, float(dilation))
-    args = (params, c2w32, jnp.asarray(intrinsics, jnp.float32), jnp.asarray(background, jnp.float32),
-            jnp.int32(sh_degree), jnp.asarray(image, jnp.float32)[..., :3], jnp.float32(unit))
-
-    def residual(xi: np.ndarray) -> np.ndarray:
-        return np.asarray(fn(jnp.asarray(xi, jnp.float32), *args), np.float64)
-
-    xi, lam = np.zeros(6), LAMBDA0
+def levenberg_marquardt(residual, xi: np.ndarray, iterations: int) -> np.ndarray:
+    """xi [6] after `iterations` Levenberg-Marquardt iterations on E = |residual(xi)|^2 from the given xi (module
+    docstring: central-difference Jacobians, the damping lambda from LAMBDA0)."""
+    xi, lam = np.asarray(xi, np.float64).copy(), LAMBDA0
     r = residual(xi)
     err = r @ r
     basis = FD_STEP * np.eye(6)
@@ -78,6 +66,34 @@ def fit_pose(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int,
             lam *= 4
         else:  # no step lowers the error: a minimum (to float32's precision)
             break
-    fitted = np.asarray(corrected_pose(c2w32, jnp.asarray(xi, jnp.float32), unit), np.float64)
+    return xi
+
+
+def fit_correction(params: dict, c2w, xi, unit: float, intrinsics, width: int, height: int, image, background,
+                   sh_degree: int, iterations: int, backend: str = "auto", dilation: float = LOWPASS_DILATION,
+                   color=None) -> np.ndarray:
+    """The correction xi [6] (rays/correction.py, translations in units of `unit`) of the view c2w [4, 4] after
+    `iterations` Levenberg-Marquardt iterations from xi against the photo image [H, W, 3] (on `background`) and
+    the Gaussians `params` (device arrays, splat/gaussians.PARAM_NAMES); color: the photo's colour transform
+    [3, 4] where it has one."""
+    fn = _residual_fn(int(width), int(height), backend, float(dilation))
+    args = (params, jnp.asarray(c2w, jnp.float32), jnp.asarray(intrinsics, jnp.float32),
+            jnp.asarray(background, jnp.float32), jnp.int32(sh_degree), jnp.asarray(image, jnp.float32)[..., :3],
+            jnp.float32(unit), jnp.zeros((3, 4), jnp.float32) if color is None else jnp.asarray(color, jnp.float32))
+    return levenberg_marquardt(lambda x: np.asarray(fn(jnp.asarray(x, jnp.float32), *args), np.float64), xi,
+                               iterations)
+
+
+def fit_pose(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int, image: np.ndarray, background,
+             sh_degree: int, iterations: int, backend: str = "auto",
+             dilation: float = LOWPASS_DILATION) -> tuple[np.ndarray, dict]:
+    """(fitted c2w [4, 4], {"degrees", "shift"}: how far it moved) of the view at c2w [4, 4] (OpenGL, normalised
+    frame) seen with intrinsics (fx, fy, cx, cy) at width x height, fitted by `iterations` Levenberg-Marquardt
+    iterations (module docstring) to the photo image [H, W, 3] (on `background`) against the Gaussians `params`
+    (device arrays, splat/gaussians.PARAM_NAMES)."""
+    unit = max(float(np.linalg.norm(np.asarray(c2w, np.float64)[:3, 3])), 1e-6)
+    xi = fit_correction(params, c2w, np.zeros(6), unit, intrinsics, width, height, image, background, sh_degree,
+                        iterations, backend, dilation)
+    fitted = np.asarray(corrected_pose(jnp.asarray(c2w, jnp.float32), jnp.asarray(xi, jnp.float32), unit), np.float64)
     # how far it moved, from xi itself (|w|, and unit |v| since T's shift is turned by c2w's rotation only)
     return fitted, {"degrees": float(np.degrees(np.linalg.norm(xi[:3]))), "shift": float(unit * np.linalg.norm(xi[3:]))}

@@ -22,6 +22,13 @@ def round_of(progress: float, rounds: int) -> tuple[int, float]:
     return r, float(min(1.0, progress * rounds - r))
 
 
+def within_round(progress: float, rounds: int, aux: dict) -> float:
+    """The progress within the round aux["round"] (0 without rounds) at run progress t: u of round_of(t), or 1
+    where t is already in a later round (the step that ended the round)."""
+    r, u = round_of(progress, rounds)
+    return 1.0 if r > int(aux.get("round", 0)) else u
+
+
 def round_aux(rounds: int) -> dict:
     """The state's extra aux entries for rounds > 1: {"round", "round_start"} int32 scalars at 0; none for 1."""
     return {"round": np.zeros((), np.int32), "round_start": np.zeros((), np.int32)} if rounds > 1 else {}

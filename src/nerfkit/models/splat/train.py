@@ -40,6 +40,7 @@ from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, init_random, splat_inputs
 from nerfkit.models.splat.optim import LearningRates, adam_step, means_lr, pose_lr, reset_rows
+from nerfkit.models.splat.pose_solve import solve_corrections, solve_due
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
 from nerfkit.models.splat.surface import depth_distortion, normal_consistency, with_surface_channels
@@ -72,6 +73,7 @@ class SplatConfig:
     backend: str = _USER.backend
     appearance: bool = False  # a colour transform per training photo (rays/correction.py)
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
+    pose_solves: int = 0  # Levenberg-Marquardt solves of the pose corrections per run or round (pose_solve.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
     normal_consistency_from: float = 0.0  # progress from which the surface terms are on (before: steps without)
@@ -301,6 +303,17 @@ class ViewStep:
         metrics = {"loss": photo, "mse": mse, "finite": finite, "lr": jnp.float32(lr),
                    "gaussians": jnp.int32(active.sum())}
         return {"params": params, "opt_state": opt_state, "aux": aux}, metrics
+
+    def solve_poses(self, state: dict, step: int, before: float, after: float, images, poses, intrinsics) -> dict:
+        """state with its pose corrections solved (pose_solve.py) where the step that took the progress from before
+        to after crossed one of the run's (or round's) solves; else state as it is."""
+        sc = self.sc
+        if not (sc.pose_refine and solve_due(before, after, sc.pose_solves, 2 * sc.lrs.pose_warmup)):
+            return state
+        xi = solve_corrections(state["params"], state["aux"]["active"], np.asarray(poses), images,
+                               np.asarray(intrinsics), self.extent, self.width, self.height, self.background,
+                               schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation)
+        return {**state, "params": {**state["params"], "cam_pose": jnp.asarray(xi)}}
 
 
 def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:

@@ -1,0 +1,58 @@
+"""Pose solves during training (--pose-solves N, with --pose-refine on): N times over the budget, every training
+photo's pose correction xi_k (rays/correction.py: c2w_k T(xi_k), translations in units of the scene extent) takes
+one Levenberg-Marquardt iteration (pose_fit.py) against the Gaussians as they stand, with its colour transform
+applied where the run learns one:
+
+    xi_k <- argmin over one LM iteration from xi_k of  |R(c2w_k T(xi)) - I_k|^2
+
+Adam alone crawls along each pose's orbit about the scene's centre (a turn and the shift that keeps the centre in
+view change a photo little, so the two are nearly one direction of its 6 parameters, which a per-parameter step
+cannot follow; pose_fit.py), and the Gaussians bend to hold what is left. A Gauss-Newton step solves that 6 x 6
+system whole. Between solves Adam goes on moving the corrections with the Gaussians.
+
+The solves fall where the progress within the run (within the round, --pose-rounds) crosses
+
+    t_j = s + (1 - s) j / N,   j = 1 .. N,   s = the end of the pose warm-up (optim.pose_lr: 2 pose_warmup)
+
+so the last comes after the last step. Each costs 13 or more renders per training photo (docs: Splats).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from nerfkit.models.splat.gaussians import PARAM_NAMES
+from nerfkit.models.splat.pose_fit import fit_correction
+
+# per solve (probes on the ring capture at 64 px: 13 solves of one iteration left 0.21 degrees, 4 of three 0.24)
+ITERATIONS = 1
+HIDDEN_OPACITY = -30.0  # the logit an inactive slot is drawn with (sigmoid: 1e-13, under the rasteriser's cut)
+
+
+def solves_done(progress: float, n: int, start: float) -> int:
+    """How many of the n solves t_j (module docstring) progress t has reached: floor(n clip((t - s) / (1 - s)))."""
+    if n <= 0:
+        return 0
+    return int(np.floor(n * np.clip((progress - start) / max(1.0 - start, 1e-9), 0.0, 1.0) + 1e-9))
+
+
+def solve_due(before: float, after: float, n: int, start: float) -> bool:
+    """Whether a step that took the progress from before to after crossed a solve t_j."""
+    return solves_done(after, n, start) > solves_done(before, n, start)
+
+
+def solve_corrections(params: dict, active, poses, images, intrinsics, extent: float, width: int, height: int,
+                      background, sh_degree: int, backend: str, dilation: float) -> np.ndarray:
+    """cam_pose [V, 6] after one solve (module docstring) of every training photo: poses [V, 4, 4] the photos'
+    given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on the background), intrinsics
+    [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color" [V, 3, 4]); active
+    [capacity] the slots in use."""
+    scene = {k: jnp.asarray(params[k]) for k in PARAM_NAMES}
+    scene["opacity"] = jnp.where(jnp.asarray(active), scene["opacity"], HIDDEN_OPACITY)
+    xi = np.asarray(params["cam_pose"], np.float64).copy()
+    color = np.asarray(params["cam_color"]) if "cam_color" in params else None
+    for k in range(len(xi)):
+        xi[k] = fit_correction(scene, poses[k], xi[k], extent, intrinsics[k], width, height, images[k], background,
+                               sh_degree, ITERATIONS, backend, dilation, None if color is None else color[k])
+    return xi.astype(np.float32)

@@ -1,0 +1,126 @@
+"""Pose solves during training (--pose-solves N; models/splat/pose_solve.py): where the solves fall, one solve of
+every photo's correction against the Gaussians (inactive slots unseen, the photo's colour transform applied), and a
+run through the CLI whose last solve, after its last step, moves only the poses and lowers their error."""
+
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from nerfkit.cli.main import main
+from nerfkit.data.loader import read_capture, scene_cameras
+from nerfkit.data.procedural.captures import make_capture
+from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, render_arrays
+from nerfkit.models.splat.pose_solve import solve_corrections, solve_due, solves_done
+from nerfkit.rays.cameras import look_at
+from nerfkit.rays.correction import aligned_pose_error, corrected_composite, corrected_pose, pose_error, refined_poses
+from nerfkit.run.folder import RunFolder
+
+SIZE, FOCAL = 48, 60.0
+INTR = np.array([FOCAL, FOCAL, SIZE / 2, SIZE / 2], np.float32)
+BG = np.ones(3, np.float32)
+
+
+def test_the_solves_fall_evenly_after_the_warm_up_and_the_last_at_the_end():
+    assert [solves_done(t, 4, 0.2) for t in (0.0, 0.2, 0.39, 0.41, 0.6, 0.99, 1.0)] == [0, 0, 0, 1, 2, 3, 4]
+    assert solves_done(1.0, 0, 0.2) == 0 and not solve_due(0.1, 1.0, 0, 0.2)
+    assert solve_due(0.999, 1.0, 4, 0.2) and not solve_due(0.5, 0.55, 4, 0.2) and solve_due(0.55, 0.61, 4, 0.2)
+    assert sum(solve_due(k / 100, (k + 1) / 100, 16, 0.2) for k in range(100)) == 16
+
+
+@pytest.fixture(scope="module")
+def blob():
+    """A textured ball of 2,000 Gaussians (the first 1,500 slots; the last 500, inactive, are a black wall in front
+    of every camera) and three cameras 4 units away, their photos drawn by the active Gaussians at the truth."""
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(2000, 3))
+    pts = pts / np.linalg.norm(pts, axis=1, keepdims=True) * rng.uniform(0.0, 1.0, (2000, 1)) ** (1 / 3)
+    g = init_from_points(pts, rng.uniform(0, 1, (2000, 3)).astype(np.float32), opacity=0.9)
+    g["means"][1500:] = rng.uniform(-2.0, 2.0, (500, 3)) * [1, 1, 0.05] + [0, 0, 2.5]  # a slab over the ball
+    g["sh_dc"][1500:] = -2.0
+    active = np.arange(2000) < 1500
+    poses = np.stack([look_at(np.array(e), np.zeros(3)) for e in ((0.3, 0.2, 4.0), (0.0, -0.6, 3.9), (-0.5, 0.4, 3.95))])
+    drawn = {k: jnp.asarray(v)[:1500] for k, v in g.items()}
+    photos = np.stack([np.asarray(render_arrays(drawn, jnp.asarray(p, jnp.float32), INTR, BG, 0, SIZE, SIZE,
+                                                depth=False)["rgb"]) for p in poses])
+    return {k: jnp.asarray(v) for k, v in g.items()}, active, poses.astype(np.float32), photos
+
+
+def _off(n, seed):
+    """Corrections [n, 6] of 1 degree and 1% of a unit extent in random directions."""
+    rng = np.random.default_rng(seed)
+    w, v = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    return np.concatenate([np.radians(1.0) * w / np.linalg.norm(w, axis=1, keepdims=True),
+                           0.01 * v / np.linalg.norm(v, axis=1, keepdims=True)], 1).astype(np.float32)
+
+
+def test_one_solve_brings_every_photo_near_its_pose_with_the_inactive_slots_unseen(blob):
+    params, active, truth, photos = blob
+    # the given poses are the truth moved off; the corrections that undo that are the answer
+    off = _off(3, 1)
+    given = np.asarray(corrected_pose(jnp.asarray(truth), jnp.asarray(off), 1.0), np.float32)
+    run = {**params, "cam_pose": jnp.zeros((3, 6), jnp.float32)}
+    xi = solve_corrections(run, active, given, photos, np.tile(INTR, (3, 1)), 1.0, SIZE, SIZE, BG, 0, "auto", 0.3)
+    before = pose_error(given, truth)[0]
+    after = pose_error(np.asarray(corrected_pose(jnp.asarray(given), jnp.asarray(xi), 1.0)), truth)[0]
+    assert np.all(before > 0.9) and np.all(after < 0.35 * before), (before, after)  # measured: 0.14-0.26 of 1 degree
+    # with every slot drawn the wall hides the ball, and the same solve finds nothing to follow
+    blind = solve_corrections(run, np.ones(2000, bool), given, photos, np.tile(INTR, (3, 1)), 1.0, SIZE, SIZE, BG, 0,
+                              "auto", 0.3)
+    lost = pose_error(np.asarray(corrected_pose(jnp.asarray(given), jnp.asarray(blind), 1.0)), truth)[0]
+    print(after, lost)
+    assert np.all(lost > 0.5 * before), lost
+
+
+def test_a_solve_compares_the_render_after_the_photos_colour_transform(blob):
+    params, active, truth, photos = blob
+    m = np.zeros((3, 3, 4), np.float32)
+    m[:, :, :3] = -0.4 * np.eye(3)  # each photo 40% darker than the scene draws it
+    drawn = {k: params[k][:1500] for k in PARAM_NAMES}
+    dark = []
+    for k in range(3):
+        r = render_arrays(drawn, jnp.asarray(truth[k]), INTR, BG, 0, SIZE, SIZE, depth=False)
+        dark.append(np.asarray(corrected_composite(r["rgb"], r["alpha"], jnp.asarray(BG), jnp.asarray(m[k]))))
+    off = _off(3, 2)
+    given = np.asarray(corrected_pose(jnp.asarray(truth), jnp.asarray(off), 1.0), np.float32)
+    errors = {}
+    for name, color in (("with", m), ("without", None)):
+        run = {**params, "cam_pose": jnp.zeros((3, 6), jnp.float32)}
+        if color is not None:
+            run["cam_color"] = jnp.asarray(color)
+        xi = solve_corrections(run, active, given, np.stack(dark), np.tile(INTR, (3, 1)), 1.0, SIZE, SIZE, BG, 0,
+                               "auto", 0.3)
+        errors[name] = pose_error(np.asarray(corrected_pose(jnp.asarray(given), jnp.asarray(xi), 1.0)), truth)[0]
+    # measured: 0.11-0.61 degrees of 1 with the transform, 0.58-0.93 without (one iteration each)
+    assert errors["with"].mean() < 0.45 and errors["without"].mean() > 1.6 * errors["with"].mean(), errors
+
+
+@pytest.mark.slow
+def test_a_runs_last_solve_moves_only_its_poses_and_lowers_their_error(tmp_path, capsys):
+    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=10, size=32, environment=True, pose_noise=(1.0, 0.02),
+                       points=3000, seed=3)
+    args = ["train", str(cap), "--preset", "splat", "--pose-refine", "on", "--max-steps", "400", "--val-every",
+            "400", "--ckpt-every", "400", "--capacity", "4000"]
+    runs = {}
+    for n in (0, 1):  # one solve: after the last step, so the Gaussians are the same in both runs
+        out = tmp_path / f"run{n}"
+        assert main([*args, "--out", str(out), "--pose-solves", str(n)]) == 0
+        assert ("(1 pose solve)" in capsys.readouterr().out) == (n == 1)
+        runs[n] = RunFolder(out).load()
+    for k in PARAM_NAMES:
+        np.testing.assert_array_equal(np.asarray(runs[0].params[k]), np.asarray(runs[1].params[k]))
+    adam, solved = (np.asarray(runs[n].params["cam_pose"]) for n in (0, 1))
+    assert np.abs(solved - adam).max() > 1e-4
+    # ... and lie closer to the truth (after the similarity that best aligns each set to it: the frame is free)
+    sel = scene_cameras(read_capture(cap, "train"), "train")
+    idx = [int(Path(f).stem.split("_")[-1]) for f in sel.names]
+    given, truth = np.asarray(sel.poses, np.float64), np.load(cap / "truth" / "poses.npy")[idx]
+    err = {n: aligned_pose_error(refined_poses(given, xi), truth)[0] for n, xi in ((0, adam), (1, solved))}
+    # measured: 0.60 against 0.73 degrees (after 60 steps instead of 400 the young scene led the solve astray: 1.11
+    # against 0.82, which is why the solves wait for the pose warm-up and Adam goes on between them)
+    assert err[1] < 0.9 * err[0], err
+    for bad in (["--pose-solves", "-1"], ["--pose-refine", "off", "--pose-solves", "4"]):  # refused in one line
+        assert main([*args, "--out", str(tmp_path / "bad"), *bad]) == 1
+        err = capsys.readouterr().err
+        assert "--pose-solves" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
