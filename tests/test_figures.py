@@ -113,6 +113,10 @@ GSPLAT, GSPLAT4, GNGP4 = "gpu_h200/lego_cli_splat.json", "gpu_h200/lego_cli_spla
 RND5, RND3 = "corrections_ring_pose_rounds5.json", "corrections_ring_pose_rounds3.json"  # --pose-rounds 5 and 3
 RND10, RND10S = "corrections_ring_pose_rounds10.json", "corrections_ring_pose_rounds10_short.json"  # 10 rounds
 GP = "gpu_h200/gpu_pose_{}.json".format  # gpu_pose_refine.sh's records (issue 40's residual on a GPU)
+SV = "corrections_ring_pose_solves16{}.json".format  # --pose-solves 16 on the ring capture ("", "_128", "_from_truth")
+PR = "pose_residual_{}.json".format  # benchmarks/pose_residual.py: the shape of what refinement leaves
+MS, MA = "corrections_masked_pose_solves16.json", "corrections_masked_pose_adam.json"  # a masked object, solves / Adam
+ADAM = "corrections_ring_pose_adam.json"  # the ring capture, Adam alone (the solves' baseline, same sitting)
 GRS, GRAST, GPROF = "gpu_h200/render_speed_ngp.json", "gpu_h200/splat_raster_gpu.json", "gpu_h200/splat_step_profile.json"
 ML, MM, MW = "mesh_lego.json", "mesh_maryrose.json", "mesh_maryrose_watertight.json"
 SHIP, SFM = "shipped poses (LLFF)", "process-data poses"
@@ -708,6 +712,57 @@ CHECKS = [
      "fitted, the held-out photos lose with rounds ({} dB after five, {} after one)",
      [*[(("pose_rounds.json", "rounds", i, "refined_pose_error", "degrees"), f2) for i in range(5)],
       ((RND5, "runs", "pose", "eval_psnr"), f2), (("pose_rounds.json", "rounds", 0, "eval_psnr"), f2)]),
+    ("docs/splats.md", "(`python benchmarks/pose_residual.py RUN`",
+     "shift along its y axis correlate at -{} (`python benchmarks/pose_residual.py RUN`, `pose_residual_adam.json`)",
+     [((lambda: -R(PR("adam"), "refined", "orbit_correlation", "pitch_with_shift_y")), f2)]),
+    ("docs/splats.md", "`corrections_ring_pose_solves16.json`) 16 solves",
+     "{} solves leave the poses {} degrees and {}% of the camera radius off, where Adam alone left {} and {}% "
+     "(`corrections_ring_pose_adam.json`) and five rounds of 2000 steps {}; with each held-out photo's pose fitted "
+     "they score {} dB, against {} after Adam alone and {} for the exact capture. The solves cost time: {} s of "
+     "training against {} ({} photos, about {} s a solve). At {} px: {} degrees and {}%, {} dB",
+     [((lambda: int(R(SV(""), "flags").split()[-1])), d),
+      ((SV(""), "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((SV(""), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((ADAM, "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((ADAM, "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((RND5, "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((SV(""), "runs", "pose", "eval_psnr_fitted_poses"), f2), ((ADAM, "runs", "pose", "eval_psnr_fitted_poses"), f2),
+      (("cpu_ring64_exact_2000.json", "runs", "exact", "eval_psnr_fitted_poses"), f2),
+      ((SV(""), "runs", "pose", "train_s"), f0), ((ADAM, "runs", "pose", "train_s"), f0),
+      ((lambda: R(SV(""), "views") * 7 // 8), d),
+      ((lambda: (R(SV(""), "runs", "pose", "train_s") - R(ADAM, "runs", "pose", "train_s")) / 16), f1),
+      ((SV("_128"), "size"), d), ((SV("_128"), "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((SV("_128"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((SV("_128"), "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
+    ("docs/splats.md", "Most of what is left is one turn",
+     "shares about its own x axis ({} degrees at 64 px, {} at 128; without it the median is {} and {}; "
+     "`pose_residual_solves16.json`, `..._128.json`), which this ring of cameras barely sees: started at the true "
+     "poses, the same run ends {} degrees off, {} of it that shared turn",
+     [((PR("solves16"), "refined", "turn_mean_degrees", 0), f2), ((PR("solves16_128"), "refined", "turn_mean_degrees", 0), f2),
+      ((PR("solves16"), "refined", "median_degrees_shared_turn_out"), f2),
+      ((PR("solves16_128"), "refined", "median_degrees_shared_turn_out"), f2),
+      ((SV("_from_truth"), "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((PR("solves16_from_truth"), "refined", "turn_mean_degrees", 0), f2)]),
+    ("docs/splats.md", "`corrections_masked_pose_solves16.json`) the solves",
+     "the solves moved the cameras closer ({}% of the radius off against {}%) but turned them further ({} degrees "
+     "against {}), and the held-out photos, moved with the rig, scored {} dB against {} ({} and {} with their poses "
+     "fitted)",
+     [((MS, "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((MA, "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((MS, "runs", "pose", "refined_pose_error", "degrees"), f2), ((MA, "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((MS, "runs", "pose", "eval_psnr"), f2), ((MA, "runs", "pose", "eval_psnr"), f2),
+      ((MS, "runs", "pose", "eval_psnr_fitted_poses"), f2), ((MA, "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
+    ("docs/splats.md", "`buddha_pose_solves_cli.json` and `.jpg`) the",
+     "the {} solves took {} steps of the {} Adam alone took, and scored {} dB plain / {} fitted on the {} held-out "
+     "photos against {} / {}",
+     [((lambda: int(R("buddha_pose_solves_cli.json", "presets", "splat-solves16", "args").split()[-1])), d),
+      (("buddha_pose_solves_cli.json", "presets", "splat-solves16", "steps"), d),
+      (("buddha_pose_solves_cli.json", "presets", "splat-pose", "steps"), d),
+      (("buddha_pose_solves_cli.json", "presets", "splat-solves16", "psnr"), f2),
+      (("buddha_pose_solves_cli.json", "presets", "splat-solves16", "fitted", "psnr"), f2),
+      ((lambda: len(R("buddha_pose_solves_cli.json", "presets", "splat-pose", "per_view_psnr"))), d),
+      (("buddha_pose_solves_cli.json", "presets", "splat-pose", "psnr"), f2),
+      (("buddha_pose_solves_cli.json", "presets", "splat-pose", "fitted", "psnr"), f2)]),
     ("docs/methods.md", "`corrections_forward_ngp_ndc_area.json`",
      "the field in NDC (`--rig forward --supersample {} --variants exact none pose`, "
      "`corrections_forward_ngp_ndc_area.json`) {} dB exact, {} imperfect and {} with refinement (poses {} degrees off)",
