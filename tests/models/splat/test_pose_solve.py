@@ -65,11 +65,10 @@ def test_one_solve_brings_every_photo_near_its_pose_with_the_inactive_slots_unse
     before = pose_error(given, truth)[0]
     after = pose_error(np.asarray(corrected_pose(jnp.asarray(given), jnp.asarray(xi), 1.0)), truth)[0]
     assert np.all(before > 0.9) and np.all(after < 0.35 * before), (before, after)  # measured: 0.14-0.26 of 1 degree
-    # with every slot drawn the wall hides the ball, and the same solve finds nothing to follow
+    # with every slot drawn the wall hides the ball, and the same solve goes astray (measured: 3.9-11 degrees)
     blind = solve_corrections(run, np.ones(2000, bool), given, photos, np.tile(INTR, (3, 1)), 1.0, SIZE, SIZE, BG, 0,
                               "auto", 0.3)
     lost = pose_error(np.asarray(corrected_pose(jnp.asarray(given), jnp.asarray(blind), 1.0)), truth)[0]
-    print(after, lost)
     assert np.all(lost > 0.5 * before), lost
 
 
