@@ -8,7 +8,7 @@ units of the camera radius, along the same axes).
 Writes benchmarks/results/NAME.json: the median angle; the rms and the mean of w per axis (a mean is a turn every
 camera shares in its own frame); the median angle with that shared turn taken out; the correlation of each turn
 with the shift that keeps the scene's centre in view (w_x with t_y, w_y with t_x: a camera moved on its orbit about
-the centre); and the ratio of those shifts to the turns (the orbit's radius, in camera radii).
+the centre); the rms of t per axis. The same figures for the given poses beside them.
 """
 
 from __future__ import annotations
