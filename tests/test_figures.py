@@ -113,6 +113,7 @@ GSPLAT, GSPLAT4, GNGP4 = "gpu_h200/lego_cli_splat.json", "gpu_h200/lego_cli_spla
 RND5, RND3 = "corrections_ring_pose_rounds5.json", "corrections_ring_pose_rounds3.json"  # --pose-rounds 5 and 3
 RND10, RND10S = "corrections_ring_pose_rounds10.json", "corrections_ring_pose_rounds10_short.json"  # 10 rounds
 GP = "gpu_h200/gpu_pose_{}.json".format  # gpu_pose_refine.sh's records (issue 40's residual on a GPU)
+GS = "gpu_h200/gpu_solves_{}.json".format  # gpu_pose_solves.sh's records (--pose-solves 16 at 64-256 px, rounds)
 SV = "corrections_ring_pose_solves16{}.json".format  # --pose-solves 16 on the ring capture ("", "_128", "_from_truth")
 PR = "pose_residual_{}.json".format  # benchmarks/pose_residual.py: the shape of what refinement leaves
 MS, MA = "corrections_masked_pose_solves16.json", "corrections_masked_pose_adam.json"  # a masked object, solves / Adam
@@ -743,6 +744,36 @@ CHECKS = [
       ((PR("solves16_128"), "refined", "median_degrees_shared_turn_out"), f2),
       ((SV("_from_truth"), "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((PR("solves16_from_truth"), "refined", "turn_mean_degrees", 0), f2)]),
+    ("docs/splats.md", "`gpu_h200/gpu_solves_*.json`) 16 solves",
+     "{} solves at {} px leave {} degrees and {}% (the shared turn {}), but the held-out photos, fitted, score {} dB "
+     "against the exact capture's {} there",
+     [((lambda: int(R(GS("ring256_solves"), "flags").split()[-1])), d), ((GS("ring256_solves"), "size"), d),
+      ((GS("ring256_solves"), "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((GS("ring256_solves"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((GS("ring256_solves_residual"), "refined", "turn_mean_degrees", 0), f2),
+      ((GS("ring256_solves"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
+      ((GS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2)]),
+    ("docs/splats.md", "Two rounds (`--pose-rounds 2 --pose-solves 16`",
+     "Two rounds (`--pose-rounds {} --pose-solves {}`, {} steps each: the second round starts the Gaussians over at "
+     "the poses the first refined) fix that: at {} px {} degrees, {}% and {} dB against {}; at {} px {} degrees, {}% "
+     "and {} dB against {}. On the forward-facing capture ({} px) one round leaves {} degrees and {}%, {} dB against "
+     "{}, two rounds {} degrees, {}% and {} dB",
+     [((lambda: int(R(GS("ring256_rounds"), "flags").split()[-1])), d),
+      ((lambda: int(R(GS("ring256_rounds"), "flags").split()[-3])), d),
+      ((lambda: R(GS("ring256_rounds"), "runs", "pose", "steps_done") // 2), d),
+      *[x for run, ex in (("ring256_rounds", "ring256_exact"), ("ring128_rounds", "ring128_exact")) for x in (
+          ((GS(run), "size"), d), ((GS(run), "runs", "pose", "refined_pose_error", "degrees"), f2),
+          ((GS(run), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+          ((GS(run), "runs", "pose", "eval_psnr_fitted_poses"), f2),
+          ((GS(ex), "runs", "exact", "eval_psnr_fitted_poses"), f2))],
+      ((GS("forward128_solves"), "size"), d),
+      ((GS("forward128_solves"), "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((GS("forward128_solves"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((GS("forward128_solves"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
+      ((GS("forward128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
+      ((GS("forward128_rounds"), "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((GS("forward128_rounds"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((GS("forward128_rounds"), "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
     ("docs/splats.md", "`corrections_masked_pose_solves16.json`) the solves",
      "the solves moved the cameras closer ({}% of the radius off against {}%) but turned them further ({} degrees "
      "against {}), and the held-out photos, moved with the rig, scored {} dB against {} ({} and {} with their poses "
