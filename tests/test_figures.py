@@ -791,6 +791,14 @@ CHECKS = [
       ((CS("ring128_rounds"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
       ((CS("ring128_rounds"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
       ((CS("ring128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2)]),
+    ("docs/splats.md", "(`cpu_solves_ring128_rounds.json`), at",
+     "(`cpu_solves_ring128_rounds.json`), at {} px {} degrees, {}% and {} dB against {} in {} s of training against {} "
+     "(`cpu_solves_ring256_rounds.json`",
+     [((CS("ring256_rounds"), "size"), d), ((CS("ring256_rounds"), "runs", "pose", "refined_pose_error", "degrees"), f2),
+      ((CS("ring256_rounds"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
+      ((CS("ring256_rounds"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
+      ((CS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
+      ((CS("ring256_rounds"), "runs", "pose", "train_s"), f0), ((CS("ring256_exact"), "runs", "exact", "train_s"), f0)]),
     ("docs/methods.md", "the strongest setting is",
      "`--pose-refine on --pose-rounds {} --pose-solves {}`: Gauss-Newton solves of every photo's pose during "
      "training, and a second round whose Gaussians grow at the solved poses. On procedural captures (the "
