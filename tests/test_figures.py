@@ -225,6 +225,14 @@ def megabytes(v):
     """Bytes as the splat format table writes them: MB with 2 decimals under 1 MB, else 1."""
     return f"{v / 1e6:.2f}" if v < 1e6 else f"{v / 1e6:.1f}"
 
+def pose_run(record: str, variant: str = "pose") -> list:
+    """The three figures a pose paragraph quotes of one corrections.py run, in that order: the refined poses' degrees
+    off and share of the radius, the held-out PSNR with poses fitted."""
+    return [((record, "runs", variant, "refined_pose_error", "degrees"), f2),
+            ((record, "runs", variant, "refined_pose_error", "radius_share"), pct2),
+            ((record, "runs", variant, "eval_psnr_fitted_poses"), f2)]
+
+
 CHECKS = [
     # ---- README.md: the demo paragraph
     ("README.md", "**Run the demo**", "cores, **{} dB PSNR / SSIM {}**", [(("demo.json", "test_psnr"), f1), (("demo.json", "test_ssim"), f3)]),
@@ -762,25 +770,15 @@ CHECKS = [
      [((lambda: int(R(GS("ring256_rounds"), "flags").split()[-1])), d),
       ((lambda: int(R(GS("ring256_rounds"), "flags").split()[-3])), d),
       ((lambda: R(GS("ring256_rounds"), "runs", "pose", "steps_done") // 2), d),
-      *[x for run, ex in (("ring256_rounds", "ring256_exact"), ("ring128_rounds", "ring128_exact")) for x in (
-          ((GS(run), "size"), d), ((GS(run), "runs", "pose", "refined_pose_error", "degrees"), f2),
-          ((GS(run), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
-          ((GS(run), "runs", "pose", "eval_psnr_fitted_poses"), f2),
-          ((GS(ex), "runs", "exact", "eval_psnr_fitted_poses"), f2))],
-      ((GS("forward128_solves"), "size"), d),
-      ((GS("forward128_solves"), "runs", "pose", "refined_pose_error", "degrees"), f2),
-      ((GS("forward128_solves"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
-      ((GS("forward128_solves"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
-      ((GS("forward128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
-      ((GS("forward128_rounds"), "runs", "pose", "refined_pose_error", "degrees"), f2),
-      ((GS("forward128_rounds"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
-      ((GS("forward128_rounds"), "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
+      *[x for run in ("ring256", "ring128") for x in (
+          ((GS(run + "_rounds"), "size"), d), *pose_run(GS(run + "_rounds")),
+          ((GS(run + "_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2))],
+      ((GS("forward128_solves"), "size"), d), *pose_run(GS("forward128_solves")),
+      ((GS("forward128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2), *pose_run(GS("forward128_rounds"))]),
     ("docs/splats.md", "on the 2 cores the same two rounds",
      "on the 2 cores the same two rounds {} degrees, {}% and {} dB against {}, in {} s of training against {} "
      "(`cpu_solves_forward128_rounds.json`",
-     [((CS("forward128_rounds"), "runs", "pose", "refined_pose_error", "degrees"), f2),
-      ((CS("forward128_rounds"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
-      ((CS("forward128_rounds"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
+     [*pose_run(CS("forward128_rounds")),
       ((CS("forward128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
       ((CS("forward128_rounds"), "runs", "pose", "train_s"), f0), ((CS("forward128_exact"), "runs", "exact", "train_s"), f0)]),
     ("docs/splats.md", "; the ring capture at 128 px",
@@ -794,9 +792,7 @@ CHECKS = [
     ("docs/splats.md", "(`cpu_solves_ring128_rounds.json`), at",
      "(`cpu_solves_ring128_rounds.json`), at {} px {} degrees, {}% and {} dB against {} in {} s of training against {} "
      "(`cpu_solves_ring256_rounds.json`",
-     [((CS("ring256_rounds"), "size"), d), ((CS("ring256_rounds"), "runs", "pose", "refined_pose_error", "degrees"), f2),
-      ((CS("ring256_rounds"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
-      ((CS("ring256_rounds"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
+     [((CS("ring256_rounds"), "size"), d), *pose_run(CS("ring256_rounds")),
       ((CS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
       ((CS("ring256_rounds"), "runs", "pose", "train_s"), f0), ((CS("ring256_exact"), "runs", "exact", "train_s"), f0)]),
     ("docs/splats.md", "With per-photo gains as well",
@@ -816,9 +812,10 @@ CHECKS = [
     ("docs/methods.md", "the strongest setting is",
      "`--pose-refine on --pose-rounds {} --pose-solves {}`: Gauss-Newton solves of every photo's pose during "
      "training, and a second round whose Gaussians grow at the solved poses. On procedural captures (the "
-     "forward-facing one at {} px, the one all around at {} px) it brings the poses within a tenth of a degree and, where the photos share one exposure, the held-out "
-     "photos within half a dB of the exact capture's, at about five times the training time of one plain round (the forward-facing capture at {} px on the "
-     "2 cores: {} s against {}",
+     "forward-facing one at {} px, the one all around at {} px) it brings the poses within a tenth of a degree "
+     "and, where the photos share one exposure, the held-out photos within half a dB of the exact capture's, at "
+     "about five times the training time of one plain round (the forward-facing capture at {} px on the 2 cores: "
+     "{} s against {}",
      [((lambda: int(R(CS("forward128_rounds"), "flags").split()[-1])), d),
       ((lambda: int(R(CS("forward128_rounds"), "flags").split()[-3])), d),
       ((CS("forward128_rounds"), "size"), d), ((GS("ring256_rounds"), "size"), d), ((CS("forward128_rounds"), "size"), d),
