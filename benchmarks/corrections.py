@@ -4,7 +4,7 @@ written ones by a known amount; the same capture with exact poses and no gains i
 
     python benchmarks/corrections.py [--preset splat] [--steps 2000] [--size 64] [--masks] [--name NAME]
         [--rig ring|forward] [--supersample S] [--held-out exact|imperfect] [--random-start | --points N]
-        [--flags "..."] [--fit-poses N]
+        [--flags "..."] [--fit-poses N] [--fit-colour]
 
 For each variant (exact: the exact capture, corrections off; none: the imperfect capture, corrections off;
 colour, pose, both), one run of `nerfkit train --preset P` with --max-steps (splats: 20,000 slots, starting from
@@ -17,6 +17,8 @@ surface points with --points N: a start as good as triangulation on this scene t
     protocol: the score measures the scene learned), or have pose errors and gains of their own (imperfect: the
     score is then bounded by their own errors, whatever the training learned); with --fit-poses N also after
     each held-out photo's pose is fitted to it against the frozen scene (`nerfkit eval --fit-poses N`, splats),
+    with --fit-colour also on the right half of each held-out photo after its colour is fitted on the left half
+    (`nerfkit eval --fit-colour`: eval_psnr_fitted_colour, and the same halves before the colour map),
     the training poses' median error against the truth in degrees and in units of the camera radius (4),
     before and after refinement, after the similarity that best aligns the camera centres (the frame is free),
     the gains' median error (each photo's colour-transform diagonal relative to their mean, against the true
@@ -86,6 +88,9 @@ def main() -> None:
     ap.add_argument("--fit-poses", type=int, default=0,
                     help="N > 0: also score the held-out photos after fitting each one's pose to it against the "
                          "frozen scene (`nerfkit eval --fit-poses N`; splats)")
+    ap.add_argument("--fit-colour", action="store_true",
+                    help="also score the held-out photos with each one's colour fitted on its left half and the right "
+                         "half scored (`nerfkit eval --fit-colour`, with --fit-poses N when given)")
     ap.add_argument("--out", type=Path, default=Path("runs/corrections"))
     ap.add_argument("--name", default="corrections_procedural")
     a = ap.parse_args()
@@ -133,6 +138,13 @@ def main() -> None:
             fit = evaluate_run(run, None, loaded.cfg.data.val_split, progress=False, write=False,
                                fit_poses=a.fit_poses)
             r["eval_psnr_fitted_poses"] = round(fit["psnr"], 3)
+        if a.fit_colour:
+            fit_poses = a.fit_poses if loaded.model.supports.fit_poses else 0
+            col = evaluate_run(run, None, loaded.cfg.data.val_split, progress=False, write=False, fit_poses=fit_poses,
+                               fit_colour=True)
+            r["eval_psnr_fitted_colour"] = round(col["psnr"], 3)
+            r["eval_psnr_fitted_colour_unmapped"] = round(float(np.mean([v["colour_fit"]["psnr_unfitted"]
+                                                                         for v in col["per_view"]])), 3)
         if "poses" in ev:
             r["eval_poses"] = ev["poses"]
         if kind == "imperfect":

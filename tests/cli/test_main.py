@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from nerfkit.cli.main import main
+from nerfkit.core.metrics import psnr
 from nerfkit.data.procedural.scene import make_scene
 from nerfkit.training import checkpoint as ckpt_lib
 
@@ -110,6 +111,29 @@ def test_eval_fit_poses_is_refused_where_the_model_cannot_fit_a_pose(scene, run,
     assert main(["eval", str(run), "--data", str(scene), "--split", "test", "--fit-poses", "5"]) == 1
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--fit-poses" in err and "Gaussian splat runs can" in err
+    assert sorted(p.name for p in run.iterdir()) == before
+
+
+def test_eval_fit_colour_scores_the_right_halves_of_any_run(scene, run, capsys):
+    """--fit-colour on a radiance field's run (the colour map is fitted on the render, whatever drew it): its own
+    file beside the plain evaluation, each view's transform and its right half's score before the map; photos too
+    narrow to split in two SSIM windows: one line naming --downscale, nothing written."""
+    assert main(["eval", str(run), "--data", str(scene), "--split", "test", "--fit-colour"]) == 0
+    res = json.loads((run / "eval_test_colour.json").read_text())
+    assert "left half" in res["fitted_colour"] and "before the colour map" in capsys.readouterr().out
+    half = slice(8, None)  # the scene's photos are 16 px wide
+    for v in res["per_view"]:
+        assert np.asarray(v["colour_fit"]["transform"]).shape == (3, 4)
+        saved = iio.imread(run / "eval_test_colour" / f"view_{v['view']:03d}_rgb.png")[:, half] / 255.0  # as scored
+        rgba = iio.imread(scene / v["name"])[:, half] / 255.0
+        photo = rgba[..., :3] * rgba[..., 3:] + 1.0 - rgba[..., 3:]  # on the run's white background
+        assert psnr(saved, photo) == pytest.approx(v["psnr"], abs=0.3)
+        assert abs(v["psnr"] - v["colour_fit"]["psnr_unfitted"]) > 0.01  # the map was applied
+    before = sorted(p.name for p in run.iterdir())
+    assert main(["eval", str(run), "--data", str(scene), "--split", "test", "--fit-colour", "--downscale", "4",
+                 "--overwrite"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--downscale" in err and "6x3" in err
     assert sorted(p.name for p in run.iterdir()) == before
 
 

@@ -40,6 +40,8 @@ PROOFS = {
         "baked": ["bake/test_bake.py::test_eval_baked_through_the_cli"],
         "fit_poses": ["models/splat/test_pose_fit.py::test_eval_fit_poses_through_the_cli",
                       "cli/test_main.py::test_eval_fit_poses_is_refused_where_the_model_cannot_fit_a_pose"],
+        "fit_colour": ["cli/test_main.py::test_eval_fit_colour_scores_the_right_halves_of_any_run",
+                       "models/splat/test_pose_fit.py::test_eval_fit_poses_through_the_cli"],
         "overwrite": [f"{T}::test_eval_and_render_replace_only_with_overwrite"]},
     "RenderArgs": {
         "data": ["cli/test_main.py::test_render_split_at_other_resolution"],

@@ -14,6 +14,8 @@ from nerfkit.rays.correction import (
     corrected_color,
     corrected_composite,
     corrected_pose,
+    fit_color,
+    fit_composite,
     mean_color,
     perturb_poses,
     pose_error,
@@ -75,6 +77,30 @@ def test_colour_correction_is_affine_and_the_mean_transform_is_the_mean():
                                          jnp.asarray(bg), jnp.asarray(m)))
     want = scene * [1.2, 0.9, 1.0] + alpha[..., None] * [0.0, 0.05, -0.02] + (1 - alpha[..., None]) * bg
     assert np.allclose(out, want, atol=1e-6)
+
+
+def test_a_colour_transform_is_recovered_from_the_pixels_it_is_fitted_on_only():
+    """fit_color undoes a known transform (full 3x3 and offset); pixels of weight 0 (the other half, corrupted)
+    change nothing; a render of one colour still maps that colour onto the target (the ridge picks a small m);
+    fit_composite recovers the transform of a composite and leaves the background's share as it is."""
+    rng = np.random.default_rng(3)
+    rgb = rng.uniform(size=(6, 10, 3)).astype(np.float32)
+    m = np.array([[0.1, 0.05, 0.0, 0.02], [-0.03, -0.1, 0.02, 0.0], [0.0, 0.04, 0.15, -0.05]], np.float32)
+    target = np.asarray(corrected_color(jnp.asarray(rgb), jnp.asarray(m)))
+    assert np.allclose(fit_color(jnp.asarray(rgb), jnp.asarray(target)), m, atol=2e-3)  # the ridge's pull
+    left = np.broadcast_to(np.arange(10) < 5, (6, 10)).astype(np.float32)
+    spoiled = target.copy()
+    spoiled[:, 5:] = rng.uniform(size=(6, 5, 3))
+    assert np.allclose(fit_color(jnp.asarray(rgb), jnp.asarray(spoiled), weight=jnp.asarray(left)), m, atol=3e-3)
+    assert not np.allclose(fit_color(jnp.asarray(rgb), jnp.asarray(spoiled)), m, atol=3e-2)  # it sees them all
+    flat = np.full((4, 4, 3), 0.5, np.float32)
+    fit = fit_color(jnp.asarray(flat), jnp.full((4, 4, 3), 0.6))
+    assert np.allclose(corrected_color(jnp.asarray(flat), fit), 0.6, atol=1e-3) and np.abs(fit).max() < 0.2
+    alpha = rng.uniform(size=(6, 10)).astype(np.float32)
+    bg = np.array([1.0, 1.0, 1.0], np.float32)
+    comp = rgb * alpha[..., None] + (1 - alpha[..., None]) * bg
+    photo = corrected_composite(jnp.asarray(comp), jnp.asarray(alpha), jnp.asarray(bg), jnp.asarray(m))
+    assert np.allclose(fit_composite(jnp.asarray(comp), jnp.asarray(alpha), jnp.asarray(bg), photo), m, atol=3e-3)
 
 
 def test_perturbed_poses_are_off_by_exactly_the_amounts_asked():

@@ -60,6 +60,10 @@ class EvalArgs:
     """Splat runs: first fit each view's pose to its photo against the frozen scene, at most N Levenberg-Marquardt
     iterations (10 is plenty; BARF's test-time protocol: the score measures the scene, not the pose's error); writes
     eval_<split>_fitted.json. 0: off."""
+    fit_colour: bool = False
+    """Fit each view's colour to its photo (an affine colour map, least squares on the photo's left half) and score
+    the right half only: for photos whose exposure or white balance no training photo shares (NeRF-W's protocol);
+    with --fit-poses the colour is solved alongside the pose. Writes eval_<split>_colour.json."""
     overwrite: bool = False
     """Replace this split's earlier evaluation (eval_<split>.json and its images)."""
 

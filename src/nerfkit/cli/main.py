@@ -44,7 +44,7 @@ def cmd_eval(argv: list[str]) -> int:
 
     a = parse(EvalArgs, argv, "nerfkit eval")
     res = evaluate_run(a.run_dir, a.data, a.split, a.downscale, a.every, a.chunk, baked=a.baked,
-                       overwrite=a.overwrite, fit_poses=a.fit_poses)
+                       overwrite=a.overwrite, fit_poses=a.fit_poses, fit_colour=a.fit_colour)
     print(format_eval_table(res))
     print(f"wrote {res['written']}")
     return 0

@@ -24,6 +24,7 @@ from nerfkit.core.viz import (
 )
 from nerfkit.data.formats.multiscale import level_specs
 from nerfkit.data.loader import load_frames, read_capture, scene_cameras
+from nerfkit.evaluation.colour import COLOUR_NOTE, colour_fitted
 from nerfkit.models.baked.format import load_baked
 from nerfkit.models import registry
 from nerfkit.models.baked.model import BakedModel
@@ -75,7 +76,8 @@ def check_fit_poses(steps: int) -> None:
 
 def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: int | None = None, every: int = 1,
                  chunk: int | None = None, progress: bool = True, checkpoint: Path | None = None,
-                 write: bool = True, baked: Path | None = None, overwrite: bool = False, fit_poses: int = 0) -> dict:
+                 write: bool = True, baked: Path | None = None, overwrite: bool = False, fit_poses: int = 0,
+                 fit_colour: bool = False) -> dict:
     """PSNR and SSIM of every `every`-th view of `split`; writes RUN_DIR/eval_<split>.json and
     the renders (rgb beside ground truth, depth) under RUN_DIR/eval_<split>/ (unless not `write`).
     Multiscale data (data/formats/multiscale.py): every level is scored at its own size, and the mean
@@ -83,7 +85,8 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     `checkpoint`: evaluate that checkpoint instead of the newest. An earlier evaluation of the same split
     is replaced only with `overwrite` (else ConfigError before any work), once all new renders are written.
     `fit_poses` N > 0: each view's pose is first fitted to its photo (N iterations) against the frozen scene (BARF's
-    test-time protocol; models whose supports.fit_poses), written to eval_<split>_fitted.json."""
+    test-time protocol; models whose supports.fit_poses), written to eval_<split>_fitted.json. `fit_colour`: each
+    view's colour fitted on its photo's left half and the right half scored (colour.py; eval_<split>_colour.json)."""
     check_every(every)
     check_chunk(chunk)
     check_fit_poses(fit_poses)
@@ -104,7 +107,8 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     levels = level_specs(cap, split)
     name = (f"eval_{split_slug(split)}" + ("_multiscale" if levels is not None else "")
-            + ("_baked" if baked is not None else "") + ("_fitted" if fit_poses else ""))
+            + ("_baked" if baked is not None else "") + ("_fitted" if fit_poses else "")
+            + ("_colour" if fit_colour else ""))
     if write and not overwrite and ((run_dir / f"{name}.json").exists() or (run_dir / name).exists()):
         raise ConfigError(f"{run_dir / (name + '.json')}: an earlier evaluation of {split} is there; pass --overwrite "
                           f"to replace it")
@@ -113,7 +117,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     def score(spec, out_dir, ds, tw):
         data = load_frames(cap, spec, downscale=ds, target_width=tw, background=d.background, undistort=d.undistort)
         data = dataclasses.replace(data, poses=trained.seen_from(spec, data.poses, data_dir))
-        return score_views(renderer, params, aux, data, every, progress, out_dir, bg, fit_poses), data
+        return score_views(renderer, params, aux, data, every, progress, out_dir, bg, fit_poses, fit_colour), data
 
     with staged_folder(run_dir / name) if write else contextlib.nullcontext() as renders:  # all or none
         if levels is None:
@@ -126,7 +130,7 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
                 res, data = score(spec, renders / f"d{lvl}" if write else None, downscale or 1, None)
                 scales.append({"level": lvl, "spec": spec, "height": data.height, "width": data.width, **res})
             result = multiscale_result(split, step, scales)
-    result.update(result_notes(cfg, trained.refined_poses, fit_poses, baked))
+    result.update(result_notes(cfg, trained.refined_poses, fit_poses, baked, fit_colour))
     if write:
         (run_dir / f"{name}.json").write_text(json.dumps(result, indent=2))
         result["written"] = str(run_dir / f"{name}.json")
@@ -141,13 +145,14 @@ def multiscale_result(split: str, step: int, scales: list[dict]) -> dict:
             "per_view": [{**v, "level": r["level"]} for r in scales for v in r.pop("per_view")]}
 
 
-def result_notes(cfg, refined_poses: bool, fit_poses: int, baked: Path | None) -> dict:
-    """What an evaluation's JSON and table say about how its views were rendered: appearance, poses, fitted
-    poses, the baked scene."""
+def result_notes(cfg, refined_poses: bool, fit_poses: int, baked: Path | None, fit_colour: bool = False) -> dict:
+    """What an evaluation's JSON and table say about how its views were rendered and scored: appearance, poses,
+    fitted poses, the baked scene, fitted colour."""
     notes = {"appearance": appearance_note(cfg)} if appearance_note(cfg) else {}
     notes.update({"poses": POSE_NOTE} if refined_poses else {})
     notes.update({"fitted_poses": FIT_NOTE.format(n=fit_poses)} if fit_poses else {})
     notes.update({"baked": str(Path(baked).resolve())} if baked is not None else {})
+    notes.update({"fitted_colour": COLOUR_NOTE} if fit_colour else {})
     return notes
 
 
@@ -166,24 +171,30 @@ def train_and_evaluate(data_dir: Path, run_dir: Path, cfg, every: int = 1, progr
 
 
 def score_views(renderer, params, aux, data, every: int, progress: bool, out_dir: Path | None, bg,
-                fit_poses: int = 0) -> dict:
+                fit_poses: int = 0, fit_colour: bool = False) -> dict:
     """PSNR / SSIM of every `every`-th view of `data` (per view and mean); the renders (rgb, depth,
     rgb beside ground truth, depth .npy) go to out_dir when given. fit_poses N > 0: each view is rendered from its
-    pose fitted to its photo (renderer.fit_pose, N iterations), and how far the pose moved is in its row."""
-    if min(data.height, data.width) < 3:  # SSIM's window
+    pose fitted to its photo (renderer.fit_pose, N iterations), and how far the pose moved is in its row.
+    fit_colour: each render's colour fitted on its photo's left half, the right half scored (colour.py; with
+    fit_poses the pose is fitted with the photo's colour solved alongside)."""
+    if min(data.height, data.width // (2 if fit_colour else 1)) < 3:  # SSIM's window
         raise ConfigError(f"the photos are {data.width}x{data.height} px at this scale, too small to score (at least "
-                          f"3x3); use a smaller --downscale")
+                          f"{3 * (2 if fit_colour else 1)}x3); use a smaller --downscale")
     per_view, renders = [], []
     ids = list(range(0, len(data), every))
     t0 = time.perf_counter()
     for k in tqdm(ids, desc="eval", disable=not progress, unit="view"):
         c2w, moved = data.poses[k], {}
         if fit_poses:
-            c2w, moved = renderer.fit_pose(params, aux, c2w, data.cameras[k], data.images[k], fit_poses)
+            c2w, moved = renderer.fit_pose(params, aux, c2w, data.cameras[k], data.images[k], fit_poses,
+                                           fit_colour=fit_colour)
             moved = {"pose_fit": {"degrees": moved["degrees"], "shift": moved["shift"] / data.scale}}
         r = renderer.render_camera(params, aux, c2w, data.cameras[k])
-        per_view.append({"view": k, "name": data.names[k], "psnr": psnr(r["rgb"], data.images[k]),
-                         "ssim": ssim(r["rgb"], data.images[k]), **moved})
+        if fit_colour:  # the render as scored: its colour fitted on the photo's left half
+            r["rgb"], scores = colour_fitted(r, data.images[k], bg)
+        else:
+            scores = {"psnr": psnr(r["rgb"], data.images[k]), "ssim": ssim(r["rgb"], data.images[k])}
+        per_view.append({"view": k, "name": data.names[k], **scores, **moved})
         renders.append(r)
     seconds = time.perf_counter() - t0
     depth_imgs, (lo, hi) = colorize_renders(renders, bg)
@@ -230,6 +241,10 @@ def format_eval_table(result: dict) -> str:
         lines.append(result["fitted_poses"] + (f"; they moved a median {np.median([m['degrees'] for m in moved]):.3f} "
                                                f"degrees and {np.median([m['shift'] for m in moved]):.4g} units"
                                                if moved else ""))
+    if result.get("fitted_colour"):
+        before = [v["colour_fit"]["psnr_unfitted"] for v in result["per_view"] if "colour_fit" in v]
+        lines.append(result["fitted_colour"] + (f"; the right halves scored {np.mean(before):.2f} dB before the "
+                                                f"colour map" if before else ""))
     worst = result.get("worst") or worst_views(result["per_view"])
     if len(result["per_view"]) > 1 and worst:
         lines.append("worst views: " + ", ".join(f"{w['view']} {Path(w['name']).name} {w['psnr']:.2f} dB"

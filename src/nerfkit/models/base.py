@@ -54,7 +54,8 @@ class Supports:
     appearance: per-image appearance embeddings (--appearance-dim)
     pose_refine: learns a pose correction per training photo (--pose-refine; rays/correction.py)
     fit_poses:  its renderer fits a view's pose to its photo against the frozen scene (renderer.fit_pose(params, aux,
-                c2w, camera, image, iterations) -> (c2w, {"degrees", "shift"}); `nerfkit eval --fit-poses`)
+                c2w, camera, image, iterations, fit_colour=False) -> (c2w, {"degrees", "shift"}); `nerfkit eval
+                --fit-poses`; fit_colour: the photo's colour fitted alongside, `--fit-colour`)
     gaussians:  its parameters are 3D Gaussians (splat/gaussians.py's layout): export splat, the splat web page and
                 the viewer's splat layer read them; its point cloud is their centres
     points:     it starts from the capture's SfM points (Capture.points); model.wants_points(capture) says when a

@@ -20,7 +20,8 @@ Blender scenes paint their background white in every photo whatever the exposure
 background b, the rendered c = f + (1 - a) b of the scene's part f becomes (I + m[:, :3]) f + a m[:, 3] + (1 - a) b.
 
 Held-out photos, which have no transform of their own, use the mean of the training photos' (the fields'
-appearance embeddings do the same: fields/ngp.py).
+appearance embeddings do the same: fields/ngp.py), or one fitted to a part of the photo (fit_color, in closed
+form since the error is linear in m: `nerfkit eval --fit-colour`).
 """
 
 from __future__ import annotations
@@ -69,6 +70,32 @@ def corrected_composite(rgb: jnp.ndarray, alpha: jnp.ndarray, background: jnp.nd
     background kept (module docstring); alpha [...]."""
     rest = (1.0 - alpha)[..., None] * background
     return corrected_color(rgb - rest, m, alpha[..., None]) + rest
+
+
+COLOR_RIDGE = 1e-4  # per unit of pixel weight: holds at zero what the pixels leave free (a render of one colour)
+
+
+def fit_color(rgb: jnp.ndarray, target: jnp.ndarray, coverage=1.0, weight=None) -> jnp.ndarray:
+    """The transform m [3, 4] for which corrected_color(rgb, m, coverage) best matches target [..., 3] (rgb
+    [..., 3]; coverage [..., 1] or 1) in the least-squares sense over the pixels, each weighted by weight [...]
+    (None: all alike), with a ridge that keeps m at zero where the pixels leave it free:
+
+        m^T = (X^T W X + eps I)^-1 X^T W (target - rgb),   X = [rgb, coverage] [P, 4],   eps = COLOR_RIDGE sum_p w_p
+
+    (closed form: the error is linear in m)."""
+    x = jnp.concatenate([rgb, jnp.broadcast_to(jnp.asarray(coverage, rgb.dtype), rgb.shape[:-1] + (1,))], -1)
+    x, y = x.reshape(-1, 4), (target - rgb).reshape(-1, 3)
+    w = jnp.ones(x.shape[0], x.dtype) if weight is None else jnp.asarray(weight, x.dtype).reshape(-1)
+    xw = x * w[:, None]
+    return jnp.linalg.solve(xw.T @ x + COLOR_RIDGE * jnp.sum(w) * jnp.eye(4, dtype=x.dtype), xw.T @ y).T
+
+
+def fit_composite(rgb: jnp.ndarray, alpha: jnp.ndarray, background: jnp.ndarray, target: jnp.ndarray,
+                  weight=None) -> jnp.ndarray:
+    """m [3, 4] for which corrected_composite(rgb, alpha, background, m) best matches target [..., 3]: fit_color
+    of the scene's part f = rgb - (1 - alpha) background, its offset scaled by alpha [...]."""
+    rest = (1.0 - alpha)[..., None] * background
+    return fit_color(rgb - rest, target - rest, alpha[..., None], weight)
 
 
 def mean_color(m: np.ndarray) -> np.ndarray:

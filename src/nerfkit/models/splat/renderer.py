@@ -53,14 +53,15 @@ class SplatRenderer:
                                                dilation=g.screen_dilation)
         return out
 
-    def fit_pose(self, params, aux, c2w: np.ndarray, camera, image: np.ndarray,
-                 iterations: int) -> tuple[np.ndarray, dict]:
+    def fit_pose(self, params, aux, c2w: np.ndarray, camera, image: np.ndarray, iterations: int,
+                 fit_colour: bool = False) -> tuple[np.ndarray, dict]:
         """(c2w fitted to the photo image [H, W, 3] against the frozen Gaussians, how far it moved): pose_fit.py
-        (`nerfkit eval --fit-poses`; the model's supports.fit_poses)."""
+        (`nerfkit eval --fit-poses`; the model's supports.fit_poses); fit_colour: the photo's colour fitted alongside
+        (`--fit-colour`)."""
         _, on_device = self.gaussians(params, aux)
         intr, g = pinhole_of(camera), self.model.cfg.splat
         return fit_pose(on_device, c2w, intr, camera.width, camera.height, image, self.model.background,
-                        g.sh_degree, iterations, g.backend, g.screen_dilation)
+                        g.sh_degree, iterations, g.backend, g.screen_dilation, fit_color=fit_colour)
 
     def render_image(self, params, aux, c2w, height: int, width: int, focal: float) -> dict:
         return self.render_camera(params, aux, c2w, Camera.pinhole(width, height, focal))
