@@ -314,10 +314,12 @@ class SplatSettings:
     """With --pose-refine on: N times over the budget (each round) every photo's pose takes a Levenberg-Marquardt step
     against the Gaussians as they stand, the last after the last step. For scenes seen all around (docs: Splats)."""
     appearance: Literal["auto", "on", "off"] = "auto"
-    """A colour transform per training photo (an affine map of RGB: exposure and white balance change from photo
-    to photo), learned with the Gaussians; held-out photos use the mean of the training photos' transforms. auto:
-    on for photo captures without masks, off for Blender scenes and masked object captures (as the fields'
-    --appearance-dim)."""
+    """A colour transform per training photo (exposure and white balance change from photo to photo), learned with
+    the Gaussians; held-out photos use the mean of the training photos' transforms. auto: on for photo captures
+    without masks, off for Blender scenes and masked object captures (as the fields' --appearance-dim)."""
+    colour_transform: Literal["gain", "affine"] = "gain"
+    """--appearance's transform: gain (a gain per channel: 3 numbers a photo, what exposure and white balance do) or
+    affine (a 3x3 matrix and an offset: 12, which also soak up the scene's errors; docs: Splats)."""
     backend: str = "auto"
     """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host callback),
     pallas (tile kernels compiled to Triton on a GPU; on a CPU interpreted, far slower than numba) or reference (pure
@@ -366,14 +368,8 @@ class Config:
             sections["sampler"].setdefault("sampling", "occupancy")
             for k, v in FIELD_BEFORE.items():
                 sections["field"].setdefault(k, v)
-            if sections["splat"]:  # runs of earlier versions may have no splat section
-                sections["splat"].setdefault("pixel_loss", "l1")
-                sections["splat"].setdefault("appearance", "off")  # written before per-photo corrections existed
-                sections["splat"].setdefault("far_points", "off")
-                sections["splat"].setdefault("random_background", "off")
-                sections["splat"].setdefault("normal_consistency", 0.0)
-                sections["splat"].setdefault("normal_consistency_from", 0.0)
-                sections["splat"].setdefault("depth_distortion", 0.0)
+            for k, v in SPLAT_BEFORE.items() if sections["splat"] else ():  # earlier versions: may have none
+                sections["splat"].setdefault(k, v)
             sections["train"].setdefault("pose_refine", "off")
             cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
         except (KeyError, TypeError, AttributeError) as e:
@@ -384,6 +380,9 @@ class Config:
 # What a field config written before a setting existed trained with, where that differs from today's default:
 # before --warp an unbounded field was contracted (--resume, eval and checkpoints must not move it into NDC).
 FIELD_BEFORE = {"warp": "contract"}
+SPLAT_BEFORE = {"pixel_loss": "l1", "appearance": "off", "far_points": "off", "random_background": "off",
+                "normal_consistency": 0.0, "normal_consistency_from": 0.0, "depth_distortion": 0.0,
+                "colour_transform": "affine"}  # what runs written before each setting existed trained with
 
 
 @functools.cache

@@ -32,7 +32,7 @@ def left_half(height: int, width: int) -> np.ndarray:
     return np.broadcast_to(np.arange(width) < width // 2, (height, width))
 
 
-def colour_fitted(render: dict, image: np.ndarray, background) -> tuple[np.ndarray, dict]:
+def colour_fitted(render: dict, image: np.ndarray, background, form: str = "affine") -> tuple[np.ndarray, dict]:
     """(the render's rgb [H, W, 3] mapped by the colour transform fitted on the photo's left half, clipped to [0, 1];
     its scores: {"psnr", "ssim"} of the right half, and "colour_fit": {"transform": m [3, 4] as lists,
     "psnr_unfitted": the right half's PSNR before the map}) of a render (rgb [H, W, 3], opacity [H, W]) and its
@@ -41,7 +41,7 @@ def colour_fitted(render: dict, image: np.ndarray, background) -> tuple[np.ndarr
     image = np.asarray(image, np.float32)[..., :3]
     bg = jnp.asarray(background, jnp.float32)
     h, w = image.shape[:2]
-    m = fit_composite(rgb, alpha, bg, jnp.asarray(image), jnp.asarray(left_half(h, w), jnp.float32))
+    m = fit_composite(rgb, alpha, bg, jnp.asarray(image), jnp.asarray(left_half(h, w), jnp.float32), form)
     fitted = np.clip(np.asarray(corrected_composite(rgb, alpha, bg, m)), 0.0, 1.0)
     right = slice(w // 2, None)
     return fitted, {"psnr": psnr(fitted[:, right], image[:, right]), "ssim": ssim(fitted[:, right], image[:, right]),

@@ -106,9 +106,8 @@ def evaluate_run(run_dir: Path, data_dir: Path | None, split: str, downscale: in
     cap = read_capture(data_dir, split, d.format, d.masks, d.holdout_every)
     renderer = make_renderer(model, cfg.train.chunk if chunk is None else chunk)
     levels = level_specs(cap, split)
-    name = (f"eval_{split_slug(split)}" + ("_multiscale" if levels is not None else "")
-            + ("_baked" if baked is not None else "") + ("_fitted" if fit_poses else "")
-            + ("_colour" if fit_colour else ""))
+    name = f"eval_{split_slug(split)}" + "".join(f"_{k}" for k, on in (("multiscale", levels is not None), (
+        "baked", baked is not None), ("fitted", fit_poses), ("colour", fit_colour)) if on)
     if write and not overwrite and ((run_dir / f"{name}.json").exists() or (run_dir / name).exists()):
         raise ConfigError(f"{run_dir / (name + '.json')}: an earlier evaluation of {split} is there; pass --overwrite "
                           f"to replace it")

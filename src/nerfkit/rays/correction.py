@@ -75,27 +75,38 @@ def corrected_composite(rgb: jnp.ndarray, alpha: jnp.ndarray, background: jnp.nd
 COLOR_RIDGE = 1e-4  # per unit of pixel weight: holds at zero what the pixels leave free (a render of one colour)
 
 
-def fit_color(rgb: jnp.ndarray, target: jnp.ndarray, coverage=1.0, weight=None) -> jnp.ndarray:
-    """The transform m [3, 4] for which corrected_color(rgb, m, coverage) best matches target [..., 3] (rgb
-    [..., 3]; coverage [..., 1] or 1) in the least-squares sense over the pixels, each weighted by weight [...]
-    (None: all alike), with a ridge that keeps m at zero where the pixels leave it free:
+COLOR_FORMS = {  # the entries of m [3, 4] a colour transform may use
+    "affine": np.ones((3, 4), np.float32),  # a 3x3 matrix and an offset: 12 numbers
+    "gain": np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]], np.float32),  # a gain per channel: 3
+}
 
-        m^T = (X^T W X + eps I)^-1 X^T W (target - rgb),   X = [rgb, coverage] [P, 4],   eps = COLOR_RIDGE sum_p w_p
+
+def fit_color(rgb: jnp.ndarray, target: jnp.ndarray, coverage=1.0, weight=None, form: str = "affine") -> jnp.ndarray:
+    """The transform m [3, 4] (its entries outside COLOR_FORMS[form] zero) for which corrected_color(rgb, m,
+    coverage) best matches target [..., 3] (rgb [..., 3]; coverage [..., 1] or 1) in the least-squares sense over
+    the pixels, each weighted by weight [...] (None: all alike), with a ridge that keeps m at zero where the pixels
+    leave it free. Row c of m (output channel c) is, with D_c = diag(COLOR_FORMS[form][c]) the entries it may use,
+
+        m_c = (D_c X^T W X D_c + eps I + (I - D_c))^-1 D_c X^T W (target_c - rgb_c),
+        X = [rgb, coverage] [P, 4],   eps = COLOR_RIDGE sum_p w_p
 
     (closed form: the error is linear in m)."""
     x = jnp.concatenate([rgb, jnp.broadcast_to(jnp.asarray(coverage, rgb.dtype), rgb.shape[:-1] + (1,))], -1)
     x, y = x.reshape(-1, 4), (target - rgb).reshape(-1, 3)
     w = jnp.ones(x.shape[0], x.dtype) if weight is None else jnp.asarray(weight, x.dtype).reshape(-1)
     xw = x * w[:, None]
-    return jnp.linalg.solve(xw.T @ x + COLOR_RIDGE * jnp.sum(w) * jnp.eye(4, dtype=x.dtype), xw.T @ y).T
+    d = jnp.asarray(COLOR_FORMS[form], x.dtype)  # [3, 4]: D_c's diagonals
+    eye = jnp.eye(4, dtype=x.dtype)
+    a = d[:, :, None] * (xw.T @ x)[None] * d[:, None, :] + COLOR_RIDGE * jnp.sum(w) * eye + (1.0 - d)[:, :, None] * eye
+    return jnp.linalg.solve(a, (d * (xw.T @ y).T)[..., None])[..., 0]
 
 
 def fit_composite(rgb: jnp.ndarray, alpha: jnp.ndarray, background: jnp.ndarray, target: jnp.ndarray,
-                  weight=None) -> jnp.ndarray:
+                  weight=None, form: str = "affine") -> jnp.ndarray:
     """m [3, 4] for which corrected_composite(rgb, alpha, background, m) best matches target [..., 3]: fit_color
     of the scene's part f = rgb - (1 - alpha) background, its offset scaled by alpha [...]."""
     rest = (1.0 - alpha)[..., None] * background
-    return fit_color(rgb - rest, target - rest, alpha[..., None], weight)
+    return fit_color(rgb - rest, target - rest, alpha[..., None], weight, form)
 
 
 def mean_color(m: np.ndarray) -> np.ndarray:

@@ -39,7 +39,9 @@ def test_corrections_find_the_gains_and_the_poses(capture, tmp_path, capsys):
     # Gains: each photo's colour transform's diagonal, relative to their mean (the scene's own colours take the
     # mean gain), against the true gains relative to theirs.
     gains = np.load(capture / "truth" / "gains.npy")[idx]
-    diag = 1.0 + np.einsum("vii->vi", np.asarray(loaded.params["cam_color"])[:, :, :3])
+    m = np.asarray(loaded.params["cam_color"])
+    assert np.all(m[:, ~np.eye(3, 4, dtype=bool)] == 0) and np.abs(np.einsum("vii->vi", m[:, :, :3])).max() > 0.01  # gains
+    diag = 1.0 + np.einsum("vii->vi", m[:, :, :3])
     truth, found = gains / gains.mean(0), diag / diag.mean(0)
     assert np.median(np.abs(found - truth)) < 0.8 * np.median(np.abs(truth - 1.0)), (found, truth)  # 0.65 measured
     # Poses: the refined ones nearer the truth than the given ones, in angle and in position.
@@ -69,7 +71,8 @@ def test_corrections_find_the_gains_and_the_poses(capture, tmp_path, capsys):
 
 def test_the_corrections_resolve_from_the_data_and_old_runs_have_none(tmp_path, capsys):
     """--appearance auto: on for photos without masks, off for masked ones (--pose-refine is off unless asked); a
-    config written before the settings existed reads back with both off (the run trained without them)."""
+    config written before the settings existed reads back with both off (the run trained without them), and one
+    written before --colour-transform with the affine transform it learned."""
     from nerfkit.training.resolve import resolve_config
 
     for masks in (False, True):
@@ -82,6 +85,12 @@ def test_the_corrections_resolve_from_the_data_and_old_runs_have_none(tmp_path, 
     del old["splat"]["appearance"], old["train"]["pose_refine"], old["splat"]["far_points"]
     cfg = Config.from_dict(old)
     assert (cfg.splat.appearance, cfg.train.pose_refine, cfg.splat.far_points) == ("off", "off", "off")
+    # runs that learned colour transforms before --colour-transform existed learned the full affine map
+    old = preset("splat").to_dict()
+    old["splat"]["appearance"] = "on"
+    assert Config.from_dict(old).splat.colour_transform == "gain"
+    del old["splat"]["colour_transform"]
+    assert Config.from_dict(old).splat.colour_transform == "affine"
 
 
 def test_the_mean_colour_transform_folds_into_the_gaussians():

@@ -83,7 +83,8 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
     return SplatConfig(capacity=g.capacity, strategy=g.strategy, sh_degree=g.sh_degree, sh_interval=g.sh_interval,
                        ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
-                       appearance=g.appearance == "on", pose_refine=cfg.train.pose_refine == "on",
+                       appearance=g.appearance == "on", colour_transform=g.colour_transform,
+                       pose_refine=cfg.train.pose_refine == "on",
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
@@ -138,8 +139,8 @@ class SplatModel:
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
-        "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves")
-    ) | {"train.pose_refine"}
+        "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves",
+        "colour_transform")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -149,7 +150,7 @@ class SplatModel:
                 f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, loss {g.loss_name()}, "
                 f"{_describe_coarse(g.coarse)}"
                 f"{f'init from {Path(g.init).name}' if g.init else f'{g.init_points} init'}, one view per step"
-                f"{'; a colour transform per photo' if g.appearance == 'on' else ''}"
+                f"{f'; a colour transform per photo ({g.colour_transform})' if g.appearance == 'on' else ''}"
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{_describe_surface(g)}"
@@ -170,8 +171,8 @@ class SplatModel:
         if g.random_background == "auto":
             g.random_background = "off" if photos else "on"
         if g.appearance == "on":
-            log(f"appearance: a colour transform per training photo ({n_train}); held-out photos use their mean "
-                f"(--appearance off: none)")
+            log(f"appearance: a colour transform per training photo ({n_train}; --colour-transform "
+                f"{g.colour_transform}); held-out photos use their mean (--appearance off: none)")
         cfg.field.appearance_count = n_train if "on" in (g.appearance, cfg.train.pose_refine) else 0
 
     @staticmethod
@@ -199,6 +200,8 @@ class SplatModel:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if cfg.train.pose_refine != "on":
             out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
+        if cfg.splat.appearance == "off":
+            out["splat.colour_transform"] = "there are no colour transforms (--appearance on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
                 and (capture.has_masks or capture.alpha)):
             out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
@@ -222,7 +225,6 @@ class SplatModel:
         self.init_gaussians: dict | None = None
         self.init_note = "random in the box (no training data bound)"
 
-    # -- data and initialisation ---------------------------------------------------------------
     def bind_data(self, capture, data, log=print) -> None:
         """Take the scene extent from the training poses and the initial Gaussians (--init-points): the
         capture's SfM points (in the normalised frame); else, with masks or alpha, uniform in the visual
@@ -354,7 +356,6 @@ class SplatModel:
         """--pose-rounds where pose refinement is on, else 1."""
         return self.cfg.splat.pose_rounds if self.cfg.train.pose_refine == "on" else 1
 
-    # -- optimisation ----------------------------------------------------------------------------
     def make_optimizer(self, cfg):
         """(SplatOptimizer, schedule): schedule(step) is the means' rate per unit extent by step count alone
         (the time budget can end the decay sooner; the log's lr column is the rate used)."""

@@ -44,7 +44,7 @@ from nerfkit.models.splat.pose_solve import solve_corrections, solve_due
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
 from nerfkit.models.splat.surface import depth_distortion, normal_consistency, with_surface_channels
-from nerfkit.rays.correction import corrected_composite, corrected_pose
+from nerfkit.rays.correction import COLOR_FORMS, corrected_composite, corrected_pose
 
 
 _USER = SplatSettings()  # the user-facing defaults
@@ -72,6 +72,7 @@ class SplatConfig:
     seed: int = 0
     backend: str = _USER.backend
     appearance: bool = False  # a colour transform per training photo (rays/correction.py)
+    colour_transform: str = "gain"  # the entries of those transforms learned (correction.COLOR_FORMS)
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     pose_solves: int = 0  # Levenberg-Marquardt solves of the pose corrections per run or round (pose_solve.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
@@ -94,6 +95,8 @@ class SplatConfig:
             raise ValueError(f"pixel_loss must be one of {sorted(PIXEL_LOSSES)}, got {self.pixel_loss!r}")
         if not 0 <= self.sh_degree <= 3:
             raise ValueError(f"sh_degree must be 0..3, got {self.sh_degree}")
+        if self.colour_transform not in COLOR_FORMS:
+            raise ValueError(f"colour_transform must be one of {sorted(COLOR_FORMS)}, got {self.colour_transform!r}")
         if self.corrections and self.n_views < 1:
             raise ValueError("per-photo corrections need n_views, the number of training photos")
 
@@ -144,7 +147,7 @@ def _loss_fn(params, offset, image, c2w, intr, bg, sh_mask, active, idx, key, *,
                                 bg_in, width, height, backend=cfg.backend)
     rgb = rendered[..., :3]
     if "cam_color" in params:
-        rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx])
+        rgb = corrected_composite(rgb, alpha, bg, params["cam_color"][idx] * COLOR_FORMS[cfg.colour_transform])
     photo = photometric_loss(rgb, image, cfg.ssim_lambda, cfg.pixel_loss)
     loss = photo + cfg.strategy.regularizer(params, active)
     if cfg.normal_consistency > 0:
