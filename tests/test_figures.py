@@ -225,6 +225,9 @@ def megabytes(v):
     """Bytes as the splat format table writes them: MB with 2 decimals under 1 MB, else 1."""
     return f"{v / 1e6:.2f}" if v < 1e6 else f"{v / 1e6:.1f}"
 
+CO = "colour_{}.json".format  # corrections.py --fit-colour: the exact capture and the runs with gains (forward128, ring256)
+
+
 def pose_run(record: str, variant: str = "pose") -> list:
     """The three figures a pose paragraph quotes of one corrections.py run, in that order: the refined poses' degrees
     off and share of the radius, the held-out PSNR with poses fitted."""
@@ -639,6 +642,14 @@ CHECKS = [
      "refinement leaves them {} degrees off at {} px and {} at {} px (`corrections_ring_area_from_truth_64.json`",
      [((TRUTH64, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH64, "size"), d),
       ((TRUTH128, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH128, "size"), d)]),
+    ("docs/verbs/eval.md", "**Fitted colour**",
+     "`colour_forward128_exact.json`) scores {} dB on the right halves before the map and {} after.",
+     [((CO("forward128_exact"), "runs", "exact", "eval_psnr_fitted_colour_unmapped"), f2),
+      ((CO("forward128_exact"), "runs", "exact", "eval_psnr_fitted_colour"), f2)]),
+    ("docs/verbs/eval.md", "**Fitted colour**",
+     "the held-out photos' right halves score {} dB before the map and {} after.",
+     [((CO("forward128_rounds_gains"), "runs", "both", "eval_psnr_fitted_colour_unmapped"), f2),
+      ((CO("forward128_rounds_gains"), "runs", "both", "eval_psnr_fitted_colour"), f2)]),
     ("docs/verbs/eval.md", "`corrections_ring_area_fit_poses.json`",
      "the exact capture's run {} dB, fitted {} (a true pose hardly moves); without refinement {}, fitted {}; with pose "
      "refinement {}, fitted {}.",
@@ -796,19 +807,23 @@ CHECKS = [
       ((CS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
       ((CS("ring256_rounds"), "runs", "pose", "train_s"), f0), ((CS("ring256_exact"), "runs", "exact", "train_s"), f0)]),
     ("docs/splats.md", "With per-photo gains as well",
-     "(facing one way {} degrees and {}%, all around {} degrees and {}%) and the gains within {} and {} of the truth "
-     "({} if taken as equal), but the held-out photos score {} and {} dB against {} and {}",
-     [((CS("forward128_rounds_gains"), "runs", "both", "refined_pose_error", "degrees"), f2),
-      ((CS("forward128_rounds_gains"), "runs", "both", "refined_pose_error", "radius_share"), pct2),
-      ((CS("ring256_rounds_gains"), "runs", "both", "refined_pose_error", "degrees"), f2),
-      ((CS("ring256_rounds_gains"), "runs", "both", "refined_pose_error", "radius_share"), pct2),
-      ((CS("forward128_rounds_gains"), "runs", "both", "gain_error"), f3),
-      ((CS("ring256_rounds_gains"), "runs", "both", "gain_error"), f3),
-      ((CS("ring256_rounds_gains"), "runs", "both", "identity_gain_error"), f3),
-      ((CS("forward128_rounds_gains"), "runs", "both", "eval_psnr_fitted_poses"), f2),
-      ((CS("ring256_rounds_gains"), "runs", "both", "eval_psnr_fitted_poses"), f2),
-      ((CS("forward128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
-      ((CS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2)]),
+     "Facing one way ({} px): poses {} degrees and {}% off, gains within {} of the truth ({} if taken as equal), and {} "
+     "dB on the right halves against the exact capture's {}",
+     [((CO("forward128_rounds_gains"), "size"), d), *[((CO("forward128_rounds_gains"), "runs", "both", *k), f) for k, f in (
+         (("refined_pose_error", "degrees"), f2), (("refined_pose_error", "radius_share"), pct2), (("gain_error",), f3),
+         (("identity_gain_error",), f3), (("eval_psnr_fitted_colour",), f2))],
+      ((CO("forward128_exact"), "runs", "exact", "eval_psnr_fitted_colour"), f2)]),
+    ("docs/splats.md", "With per-photo gains as well",
+     "all around ({} px): poses {} degrees and {}% off, gains within {}, and {} dB against {}",
+     [((CO("ring256_rounds_gains"), "size"), d), *[((CO("ring256_rounds_gains"), "runs", "both", *k), f) for k, f in (
+         (("refined_pose_error", "degrees"), f2), (("refined_pose_error", "radius_share"), pct2), (("gain_error",), f3),
+         (("eval_psnr_fitted_colour",), f2))],
+      ((CO("ring256_exact"), "runs", "exact", "eval_psnr_fitted_colour"), f2)]),
+    ("docs/splats.md", "With per-photo gains as well",
+     "come out alike ({} degrees, {}%, {}) but the held-out right halves score {} dB",
+     [*[((CO("forward128_rounds_gains_affine"), "runs", "both", *k), f) for k, f in (
+         (("refined_pose_error", "degrees"), f2), (("refined_pose_error", "radius_share"), pct2), (("gain_error",), f3),
+         (("eval_psnr_fitted_colour",), f2))]]),
     ("docs/methods.md", "the strongest setting is",
      "`--pose-refine on --pose-rounds {} --pose-solves {}`: Gauss-Newton solves of every photo's pose during "
      "training, and a second round whose Gaussians grow at the solved poses. On procedural captures (the "
