@@ -81,7 +81,8 @@ def test_colour_correction_is_affine_and_the_mean_transform_is_the_mean():
 
 def test_a_colour_transform_is_recovered_from_the_pixels_it_is_fitted_on_only():
     """fit_color undoes a known transform (full 3x3 and offset); pixels of weight 0 (the other half, corrupted)
-    change nothing; a render of one colour still maps that colour onto the target (the ridge picks a small m);
+    change nothing; a render of one colour still maps that colour onto the target (the ridge picks a small m); the
+    gain form fits the diagonal alone;
     fit_composite recovers the transform of a composite and leaves the background's share as it is."""
     rng = np.random.default_rng(3)
     rgb = rng.uniform(size=(6, 10, 3)).astype(np.float32)
@@ -96,6 +97,12 @@ def test_a_colour_transform_is_recovered_from_the_pixels_it_is_fitted_on_only():
     flat = np.full((4, 4, 3), 0.5, np.float32)
     fit = fit_color(jnp.asarray(flat), jnp.full((4, 4, 3), 0.6))
     assert np.allclose(corrected_color(jnp.asarray(flat), fit), 0.6, atol=1e-3) and np.abs(fit).max() < 0.2
+    # a gain per channel only: the diagonal of m comes back, every other entry stays zero
+    gains = np.diag([0.1, -0.1, 0.15]).astype(np.float32)
+    fit = np.asarray(fit_color(jnp.asarray(rgb), jnp.asarray(rgb * [1.1, 0.9, 1.15]), form="gain"))
+    assert np.allclose(fit[:, :3], gains, atol=2e-3) and np.all(fit[:, 3] == 0)
+    fit = np.asarray(fit_color(jnp.asarray(rgb), jnp.asarray(target), form="gain"))  # m has more than gains
+    assert np.all(fit[~np.eye(3, 4, dtype=bool)] == 0) and not np.allclose(fit, m, atol=1e-2)
     alpha = rng.uniform(size=(6, 10)).astype(np.float32)
     bg = np.array([1.0, 1.0, 1.0], np.float32)
     comp = rgb * alpha[..., None] + (1 - alpha[..., None]) * bg

@@ -24,7 +24,6 @@ from nerfkit.rays.correction import corrected_composite, fit_composite
 COLOUR_NOTE = ("each view's colour fitted to its photo (an affine colour map, least squares on the photo's left "
                "half; --fit-colour) and scored on the right half only (NeRF-W's protocol for photos whose exposure "
                "no training photo shares)")
-MIN_WIDTH = 6  # pixels: each half at least 3 wide (SSIM's window)
 
 
 def left_half(height: int, width: int) -> np.ndarray:
@@ -36,7 +35,8 @@ def colour_fitted(render: dict, image: np.ndarray, background, form: str = "affi
     """(the render's rgb [H, W, 3] mapped by the colour transform fitted on the photo's left half, clipped to [0, 1];
     its scores: {"psnr", "ssim"} of the right half, and "colour_fit": {"transform": m [3, 4] as lists,
     "psnr_unfitted": the right half's PSNR before the map}) of a render (rgb [H, W, 3], opacity [H, W]) and its
-    photo image [H, W, 3] on `background` (an RGB triple)."""
+    photo image [H, W, 3] on `background` (an RGB triple); form: the entries of the map fitted
+    (correction.COLOR_FORMS; `eval` fits the whole affine map)."""
     rgb, alpha = jnp.asarray(render["rgb"], jnp.float32), jnp.asarray(render["opacity"], jnp.float32)
     image = np.asarray(image, np.float32)[..., :3]
     bg = jnp.asarray(background, jnp.float32)

@@ -119,3 +119,17 @@ def test_the_mean_colour_transform_folds_into_the_gaussians():
     held = held_out_gaussians(params, aux)
     assert set(held) == set(p) and len(held["means"]) == aux["active"].sum()
     assert np.allclose(held["sh_dc"], with_color_transform(p, m)["sh_dc"][aux["active"]], atol=1e-5)
+
+
+def test_the_colour_transform_setting_reaches_training():
+    """--colour-transform reaches the trainer's config (whose loss masks the transforms by correction.COLOR_FORMS:
+    the slow test above checks a gain run's other entries stay zero); a form that does not exist is refused."""
+    from nerfkit.models.splat.method import splat_config
+    from nerfkit.models.splat.train import SplatConfig
+
+    cfg = preset("splat")
+    assert splat_config(cfg).colour_transform == "gain"
+    cfg.splat.colour_transform = "affine"
+    assert splat_config(cfg).colour_transform == "affine"
+    with pytest.raises(ValueError, match="colour_transform"):
+        SplatConfig(colour_transform="curve")
