@@ -161,8 +161,7 @@ class SplatModel:
     @staticmethod
     def resolve_settings(cfg, photos: bool, n_train: int, log=print) -> None:
         """--appearance and --far-points auto: on for photos without masks, --random-background auto: on for the others
-        (masked captures and Blender scenes; registry.resolve_settings); the per-photo
-        corrections' count (field.appearance_count) is the training photos' where any is on."""
+        (registry.resolve_settings); the corrections' count (field.appearance_count): the training photos' if one is."""
         g = cfg.splat
         if g.appearance == "auto":
             g.appearance = "on" if photos else "off"
@@ -188,7 +187,8 @@ class SplatModel:
     @staticmethod
     def unused(cfg, capture=None) -> dict[str, str]:
         """Settings left unread at these values: field.kind (splats are no field), normal_consistency_from without
-        a surface term, sh_interval at SH degree 0, init_points auto on a capture without SfM points."""
+        a surface term, sh_interval at SH degree 0, init_points auto on a capture without SfM points, colour_transform
+        without colour transforms."""
         out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
         if cfg.splat.init:
             out["splat.init_points"] = f"the Gaussians start from --init {cfg.splat.init}"
@@ -200,7 +200,8 @@ class SplatModel:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if cfg.train.pose_refine != "on":
             out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
-        if cfg.splat.appearance == "off":
+        if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and capture is not None
+                                             and (capture.format == "blender" or capture.has_masks)):
             out["splat.colour_transform"] = "there are no colour transforms (--appearance on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
                 and (capture.has_masks or capture.alpha)):
