@@ -39,7 +39,7 @@ from nerfkit.core.config import SplatSettings
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, init_random, splat_inputs
-from nerfkit.models.splat.optim import LearningRates, adam_step, means_lr, pose_lr, reset_rows
+from nerfkit.models.splat.optim import LearningRates, adam_step, colour_lr, means_lr, pose_lr, reset_rows
 from nerfkit.models.splat.pose_solve import solve_corrections, solve_due
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
@@ -170,21 +170,23 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
     """The jitted training step
 
         step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree,
-             lr_pose=0) -> params, opt_state, stats, photometric loss [, mse, finite]
+             lr_pose=0, lr_color=None) -> params, opt_state, stats, photometric loss [, mse, finite]
 
     images [V, H, W, 3] (or RGBA [V, H, W, 4]: a random background, _loss_fn), poses [V, 4, 4], intrinsics [V, 4]
     stay on the device; idx picks the view.
     A step whose loss or gradients are not finite changes nothing (finite: False). with_health also
     returns the view's MSE and that flag (what nerfkit's run loop logs). scale: the views' resolution as a
     fraction of the photos' (1/2 in the coarse phase); the screen dilation is cfg.screen_dilation scale^2, the
-    same footprint in the photos' pixels (project.py). extent: the unit of the pose corrections' translations."""
+    same footprint in the photos' pixels (project.py). extent: the unit of the pose corrections' translations.
+    lr_pose, lr_color: the rates of the pose corrections and colour transforms this step (optim.pose_lr,
+    optim.colour_lr; lr_color None keeps the optimiser's own)."""
     loss_grad = jax.value_and_grad(partial(_loss_fn, cfg=cfg, width=width, height=height, extent=extent,
                                            dilation=cfg.screen_dilation * scale * scale), argnums=(0, 1),
                                    has_aux=True)
 
     @jax.jit
     def step(params, opt_state, stats, active, images, poses, intrinsics, background, idx, key, lr_means, sh_degree,
-             lr_pose=0.0):
+             lr_pose=0.0, lr_color=None):
         offset = jnp.zeros((params["means"].shape[0], 2), jnp.float32)
         (loss, (photo, radii, mse)), (grads, g_m2d) = loss_grad(params, offset, images[idx], poses[idx],
                                                                 intrinsics[idx], background, band_mask(sh_degree),
@@ -192,7 +194,7 @@ def make_step(cfg: SplatConfig, opts: dict, width: int, height: int, with_health
         finite = jnp.isfinite(loss)
         for g in jax.tree_util.tree_leaves(grads):
             finite = finite & jnp.all(jnp.isfinite(g))
-        new_params, new_opt = adam_step(opts, opt_state, grads, params, lr_means, lr_pose)
+        new_params, new_opt = adam_step(opts, opt_state, grads, params, lr_means, lr_pose, lr_color)
         new_params, new_stats = cfg.strategy.after_adam(key, new_params, stats, g_m2d, radii, active, lr_means, width,
                                                         height)
         keep = partial(jax.tree_util.tree_map, lambda new, old: jnp.where(finite, new, old))
@@ -298,7 +300,7 @@ class ViewStep:
         params, opt_state, stats, photo, mse, finite = fn(
             params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, self.background,
             view_of(sc.seed, len(poses), step), jax.random.fold_in(self.base_key, step), lr, plan["sh_degree"],
-            pose_lr(progress, sc.lrs))
+            pose_lr(progress, sc.lrs), colour_lr(progress, sc.lrs))
         rng = np.random.default_rng([sc.seed, step + 1])
         params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats, active,
                                                            rng, self.extent, w_now)
