@@ -3,13 +3,16 @@ CLI's own wall clock, and the held-out photos side by side.
 
     python benchmarks/capture_cli.py [--data MARYROSE] [--presets ngp splat] [--minutes 10] [--downscale 2]
                                      [--name maryrose] [--out runs/capture_cli] [--common=--no-masks]
-                                     [--fit-poses N]
+                                     [--fit-poses N] [--fit-colour]
 
 For each preset P, one fresh run of exactly what a user types:
 
     nerfkit train DATA --out OUT/<P> --preset P --max-minutes M --downscale D [COMMON]
     nerfkit eval OUT/<P> --split test
     nerfkit eval OUT/<P> --split test --fit-poses N     (--fit-poses N, splat runs: under "fitted")
+    nerfkit eval OUT/<P> --split test --fit-colour [--fit-poses N]   (--fit-colour: under "fitted_colour", each
+        held-out photo's colour fitted on its left half and its right half scored, with its pose fitted first
+        where --fit-poses N is given and the preset supports it)
 
 A preset may be a variant LABEL=ARGS (e.g. "splat-random=--preset splat --init-points random"): the run is
 OUT/LABEL, trained with ARGS in place of --preset LABEL. `--data-for LABEL=PATH` trains that variant on another
@@ -80,6 +83,22 @@ def side_by_side(runs: dict[str, Path], views: list[int], out: Path) -> None:
     iio.imwrite(out, np.concatenate(rows, axis=0), quality=90)
 
 
+def fitted_colour(run: Path, fit_poses: int) -> dict:
+    """`nerfkit eval RUN --split test --fit-colour` (with --fit-poses N where N > 0 and the run's method fits
+    poses): the right halves' PSNR and SSIM after the colour map, and the same halves before it."""
+    from nerfkit.models.registry import method_class
+    from nerfkit.run.folder import RunFolder
+
+    poses = fit_poses if fit_poses and method_class(RunFolder(run).config()).supports.fit_poses else 0
+    extra = ["--fit-poses", str(poses)] if poses else []
+    wall, _ = nerfkit("eval", str(run), "--split", "test", "--fit-colour", *extra, "--overwrite")
+    name = "eval_test_fitted_colour.json" if poses else "eval_test_colour.json"
+    ev = json.loads((run / name).read_text())
+    return {"fit_poses": poses, "psnr": round(ev["psnr"], 3), "ssim": round(ev["ssim"], 4),
+            "psnr_unmapped": round(float(np.mean([v["colour_fit"]["psnr_unfitted"] for v in ev["per_view"]])), 3),
+            "per_view_psnr": [round(v["psnr"], 3) for v in ev["per_view"]], "eval_wall_s": round(wall, 1)}
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
@@ -93,6 +112,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--fit-poses", type=int, default=0,
                     help="N > 0: also `nerfkit eval --fit-poses N` for the presets that support it (splats): each "
                          "held-out photo scored after its pose is fitted to it against the frozen scene")
+    ap.add_argument("--fit-colour", action="store_true",
+                    help="also `nerfkit eval --fit-colour` (with --fit-poses N where the preset supports it): each "
+                         "held-out photo's colour fitted on its left half and the right half scored")
     ap.add_argument("--data-for", action="append", default=[], metavar="LABEL=PATH",
                     help="train the variant LABEL on the capture PATH (same photos and poses) instead of --data")
     a = ap.parse_args(argv)
@@ -136,6 +158,8 @@ def main(argv: list[str] | None = None) -> None:
                 "per_view_moved_degrees": [round(v["pose_fit"]["degrees"], 4) for v in fit["per_view"]],
                 "eval_wall_s": round(fit_s, 1)}
             print(f"{preset}, poses fitted: {fit['psnr']:.2f} dB / SSIM {fit['ssim']:.4f}", flush=True)
+        if a.fit_colour:
+            result["presets"][preset]["fitted_colour"] = fitted_colour(run, a.fit_poses)
     a.results.mkdir(parents=True, exist_ok=True)
     path = a.results / f"{a.name}_cli.json"
     path.write_text(json.dumps(result, indent=2))
