@@ -211,3 +211,19 @@ def test_the_steps_draw_with_the_configs_screen_dilation(scene, monkeypatch):
     first_loss(screen_dilation=0.7, coarse_until=0.5)
     assert sorted(set(seen)) == [pytest.approx(0.175), pytest.approx(0.7)]
     assert first_loss(screen_dilation=0.05) != first_loss()
+
+
+def test_each_step_sets_the_colour_transforms_rate_from_the_schedule(scene, monkeypatch):
+    """The step's colour-transform rate is optim.colour_lr at the step's progress: a schedule that answers 0 keeps
+    every transform at the identity, where the optimiser's own rate (1e-3) would have moved them."""
+    from nerfkit.models.splat import train as train_module
+
+    train, _ = scene
+    asked = []
+    monkeypatch.setattr(train_module, "colour_lr", lambda progress, lrs: asked.append(progress) or 0.0)
+    cfg = SplatConfig(capacity=600, init_count=600, appearance=True, n_views=len(train.images), log_every=5)
+    last = {}
+    train_splats(train.images, train.poses, train.cameras, (1.0, 1.0, 1.0), cfg, steps=10,
+                 callback=lambda step, elapsed, params, active: last.update(params))
+    assert asked == pytest.approx([k / 10 for k in range(10)])
+    assert last["cam_color"].shape == (len(train.images), 3, 4) and np.all(np.asarray(last["cam_color"]) == 0.0)
