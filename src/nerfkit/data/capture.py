@@ -136,6 +136,12 @@ class Capture:
     def has_masks(self) -> bool:
         return any(f.mask is not None for f in self.all_frames)
 
+    @property
+    def photos(self) -> bool:
+        """Photos without masks, whose poses and exposure vary from photo to photo: neither a Blender scene nor
+        a masked capture (what the per-photo corrections' auto settings turn on for)."""
+        return self.format != "blender" and not self.has_masks
+
     def frames(self, spec: str) -> list[Frame]:
         """The frames a split spec selects, in order."""
         out = []

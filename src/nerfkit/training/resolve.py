@@ -100,7 +100,7 @@ def resolve_config(cfg: Config, cap: Capture, train: SceneData, log=print) -> Co
         s.near = UNBOUNDED_NEAR if scene == "unbounded" else 0.0
     if s.far is None:
         s.far = UNBOUNDED_FAR if scene == "unbounded" else _round_up(float(dist.max()) + math.sqrt(3) * f.bound)
-    photos = cap.format != "blender" and not cap.has_masks  # a capture whose photos' poses and exposure vary
+    photos = cap.photos
     if f.appearance_dim is None and not supports.appearance:
         f.appearance_dim = 0
     if f.appearance_dim is None:

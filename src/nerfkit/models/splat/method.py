@@ -201,7 +201,7 @@ class SplatModel:
         if cfg.train.pose_refine != "on":
             out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
         if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and capture is not None
-                                             and (capture.format == "blender" or capture.has_masks)):
+                                             and not capture.photos):
             out["splat.colour_transform"] = "there are no colour transforms (--appearance on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
                 and (capture.has_masks or capture.alpha)):
