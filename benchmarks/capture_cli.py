@@ -83,13 +83,9 @@ def side_by_side(runs: dict[str, Path], views: list[int], out: Path) -> None:
     iio.imwrite(out, np.concatenate(rows, axis=0), quality=90)
 
 
-def fitted_colour(run: Path, fit_poses: int) -> dict:
-    """`nerfkit eval RUN --split test --fit-colour` (with --fit-poses N where N > 0 and the run's method fits
-    poses): the right halves' PSNR and SSIM after the colour map, and the same halves before it."""
-    from nerfkit.models.registry import method_class
-    from nerfkit.run.folder import RunFolder
-
-    poses = fit_poses if fit_poses and method_class(RunFolder(run).config()).supports.fit_poses else 0
+def fitted_colour(run: Path, poses: int) -> dict:
+    """`nerfkit eval RUN --split test --fit-colour` (with --fit-poses N where poses N > 0): the right halves' PSNR
+    and SSIM after the colour map, and the same halves before it."""
     extra = ["--fit-poses", str(poses)] if poses else []
     wall, _ = nerfkit("eval", str(run), "--split", "test", "--fit-colour", *extra, "--overwrite")
     name = "eval_test_fitted_colour.json" if poses else "eval_test_colour.json"
@@ -149,7 +145,8 @@ def main(argv: list[str] | None = None) -> None:
         runs[preset] = run
         print(f"{preset}: {result['presets'][preset]['steps']} steps in {train_s / 60:.2f} min, "
               f"{ev['psnr']:.2f} dB / SSIM {ev['ssim']:.4f} on {ev['n_views']} held-out photos", flush=True)
-        if a.fit_poses and method_class(RunFolder(run).config()).supports.fit_poses:
+        fit_poses = a.fit_poses if method_class(RunFolder(run).config()).supports.fit_poses else 0
+        if fit_poses:
             fit_s, _ = nerfkit("eval", str(run), "--split", "test", "--fit-poses", str(a.fit_poses), "--overwrite")
             fit = json.loads((run / "eval_test_fitted.json").read_text())
             result["presets"][preset]["fitted"] = {
@@ -159,7 +156,7 @@ def main(argv: list[str] | None = None) -> None:
                 "eval_wall_s": round(fit_s, 1)}
             print(f"{preset}, poses fitted: {fit['psnr']:.2f} dB / SSIM {fit['ssim']:.4f}", flush=True)
         if a.fit_colour:
-            result["presets"][preset]["fitted_colour"] = fitted_colour(run, a.fit_poses)
+            result["presets"][preset]["fitted_colour"] = fitted_colour(run, fit_poses)
     a.results.mkdir(parents=True, exist_ok=True)
     path = a.results / f"{a.name}_cli.json"
     path.write_text(json.dumps(result, indent=2))
