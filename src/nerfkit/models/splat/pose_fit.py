@@ -34,36 +34,21 @@ MAX_TRIES = 10
 
 
 @lru_cache(maxsize=8)
-def _residual_fn(width: int, height: int, backend: str, dilation: float, fit_color: str | None):
+def _residual_fn(width: int, height: int, backend: str, dilation: float, fit_color: bool):
     """r(xi) of the module docstring, jitted, for views of width x height; the render's scene part is moved by
-    the photo's colour transform m [3, 4] (rays/correction.corrected_composite; zeros: none), or with fit_color (a
-    correction.COLOR_FORMS name) by the transform of that form that best maps this render onto the photo
-    (correction.fit_composite, solved afresh at every xi: E is then the error left after the best colour, and m is
-    not used)."""
+    the photo's colour transform m [3, 4] (rays/correction.corrected_composite; zeros: none), or with fit_color by
+    the transform that best maps this render onto the photo (correction.fit_composite, solved afresh at every xi:
+    E is then the error left after the best colour, and m is not used)."""
 
     @jax.jit
     def residual(xi, params, c2w, intr, bg, sh_degree, image, unit, m):
         r = render_arrays(params, corrected_pose(c2w, xi, unit), intr, bg, sh_degree, width, height,
                           backend=backend, depth=False, dilation=dilation)
         if fit_color:
-            m = fit_composite(r["rgb"], r["alpha"], bg, image, form=fit_color)
+            m = fit_composite(r["rgb"], r["alpha"], bg, image)
         return (corrected_composite(r["rgb"], r["alpha"], bg, m) - image).ravel()
 
     return residual
-
-
-@lru_cache(maxsize=8)
-def _colour_fn(width: int, height: int, backend: str, dilation: float, form: str):
-    """m [3, 4] of the given form that best maps the render at c2w T(xi) onto the photo (correction.fit_composite),
-    jitted for views of width x height."""
-
-    @jax.jit
-    def colour(xi, params, c2w, intr, bg, sh_degree, image, unit):
-        r = render_arrays(params, corrected_pose(c2w, xi, unit), intr, bg, sh_degree, width, height,
-                          backend=backend, depth=False, dilation=dilation)
-        return fit_composite(r["rgb"], r["alpha"], bg, image, form=form)
-
-    return colour
 
 
 def levenberg_marquardt(residual, xi: np.ndarray, iterations: int) -> np.ndarray:
@@ -88,36 +73,20 @@ def levenberg_marquardt(residual, xi: np.ndarray, iterations: int) -> np.ndarray
     return xi
 
 
-def _view_args(params: dict, c2w, intrinsics, background, sh_degree: int, image, unit: float) -> tuple:
-    """The device arguments _residual_fn's and _colour_fn's functions take after xi."""
-    return (params, jnp.asarray(c2w, jnp.float32), jnp.asarray(intrinsics, jnp.float32),
-            jnp.asarray(background, jnp.float32), jnp.int32(sh_degree), jnp.asarray(image, jnp.float32)[..., :3],
-            jnp.float32(unit))
-
-
 def fit_correction(params: dict, c2w, xi, unit: float, intrinsics, width: int, height: int, image, background,
                    sh_degree: int, iterations: int, backend: str = "auto", dilation: float = LOWPASS_DILATION,
-                   color=None, fit_color: str | None = None) -> np.ndarray:
+                   color=None, fit_color: bool = False) -> np.ndarray:
     """The correction xi [6] (rays/correction.py, translations in units of `unit`) of the view c2w [4, 4] after
     `iterations` Levenberg-Marquardt iterations from xi against the photo image [H, W, 3] (on `background`) and
     the Gaussians `params` (device arrays, splat/gaussians.PARAM_NAMES); color: the photo's colour transform
-    [3, 4] where it has one; fit_color: the form (correction.COLOR_FORMS) of a colour transform fitted to the
-    photo at every step instead (_residual_fn)."""
-    fn = _residual_fn(int(width), int(height), backend, float(dilation), fit_color or None)
-    args = (*_view_args(params, c2w, intrinsics, background, sh_degree, image, unit),
-            jnp.zeros((3, 4), jnp.float32) if color is None else jnp.asarray(color, jnp.float32))
+    [3, 4] where it has one; fit_color: the colour transform fitted to the photo at every step instead
+    (_residual_fn)."""
+    fn = _residual_fn(int(width), int(height), backend, float(dilation), bool(fit_color))
+    args = (params, jnp.asarray(c2w, jnp.float32), jnp.asarray(intrinsics, jnp.float32),
+            jnp.asarray(background, jnp.float32), jnp.int32(sh_degree), jnp.asarray(image, jnp.float32)[..., :3],
+            jnp.float32(unit), jnp.zeros((3, 4), jnp.float32) if color is None else jnp.asarray(color, jnp.float32))
     return levenberg_marquardt(lambda x: np.asarray(fn(jnp.asarray(x, jnp.float32), *args), np.float64), xi,
                                iterations)
-
-
-def fit_colour_at(params: dict, c2w, xi, unit: float, intrinsics, width: int, height: int, image, background,
-                  sh_degree: int, form: str, backend: str = "auto", dilation: float = LOWPASS_DILATION) -> np.ndarray:
-    """The colour transform m [3, 4] of `form` (correction.COLOR_FORMS; its other entries zero) that best maps the
-    render of the view c2w T(xi) onto the photo image [H, W, 3] (least squares, correction.fit_composite); the
-    arguments as fit_correction's."""
-    fn = _colour_fn(int(width), int(height), backend, float(dilation), form)
-    return np.asarray(fn(jnp.asarray(xi, jnp.float32),
-                         *_view_args(params, c2w, intrinsics, background, sh_degree, image, unit)), np.float32)
 
 
 def fit_pose(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int, image: np.ndarray, background,
@@ -130,7 +99,7 @@ def fit_pose(params: dict, c2w: np.ndarray, intrinsics, width: int, height: int,
     after the affine colour map that best fits the render to the photo: `nerfkit eval --fit-colour`)."""
     unit = max(float(np.linalg.norm(np.asarray(c2w, np.float64)[:3, 3])), 1e-6)
     xi = fit_correction(params, c2w, np.zeros(6), unit, intrinsics, width, height, image, background, sh_degree,
-                        iterations, backend, dilation, fit_color="affine" if fit_color else None)
+                        iterations, backend, dilation, fit_color=fit_color)
     fitted = np.asarray(corrected_pose(jnp.asarray(c2w, jnp.float32), jnp.asarray(xi, jnp.float32), unit), np.float64)
     # how far it moved, from xi itself (|w|, and unit |v| since T's shift is turned by c2w's rotation only)
     return fitted, {"degrees": float(np.degrees(np.linalg.norm(xi[:3]))), "shift": float(unit * np.linalg.norm(xi[3:]))}

@@ -5,16 +5,6 @@ applied where the run learns one:
 
     xi_k <- argmin over one LM iteration from xi_k of  |R(c2w_k T(xi)) - I_k|^2
 
-Where the run learns colour transforms (--appearance on), each photo's is solved with its pose: the LM iteration
-measures the error left after the transform of the run's form (--colour-transform) that best maps the render onto
-the photo, and the transform is then set to that best one at the solved pose (least squares, closed form):
-
-    (xi_k, m_k) <- one LM iteration of  min_xi min_m |C(R(c2w_k T(xi)), m) - I_k|^2,  m_k the inner argmin at xi_k
-
-(C the composite of rays/correction.py). Adam's transforms, each moved only when its photo is drawn and by its
-rate, wander about the answer the photos give (docs: Splats); a solve puts each at it for the Gaussians as
-they stand.
-
 Adam alone crawls along each pose's orbit about the scene's centre (a turn and the shift that keeps the centre in
 view change a photo little, so the two are nearly one direction of its 6 parameters, which a per-parameter step
 cannot follow; pose_fit.py), and the Gaussians bend to hold what is left. A Gauss-Newton step solves that 6 x 6
@@ -33,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from nerfkit.models.splat.gaussians import PARAM_NAMES
-from nerfkit.models.splat.pose_fit import fit_colour_at, fit_correction
+from nerfkit.models.splat.pose_fit import fit_correction
 
 # per solve (probes on the ring capture at 64 px: 13 solves of one iteration left 0.21 degrees, 4 of three 0.24)
 ITERATIONS = 1
@@ -53,23 +43,16 @@ def solve_due(before: float, after: float, n: int, start: float) -> bool:
 
 
 def solve_corrections(params: dict, active, poses, images, intrinsics, extent: float, width: int, height: int,
-                      background, sh_degree: int, backend: str, dilation: float,
-                      colour_form: str | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    """(cam_pose [V, 6], cam_color [V, 3, 4] or None) after one solve (module docstring) of every training photo:
-    poses [V, 4, 4] the photos' given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on the
-    background), intrinsics [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color"
-    [V, 3, 4]); active [capacity] the slots in use; colour_form: the form (correction.COLOR_FORMS) of the colour
-    transforms solved with the poses (None: the run's transforms, if any, applied as they are and kept)."""
+                      background, sh_degree: int, backend: str, dilation: float) -> np.ndarray:
+    """cam_pose [V, 6] after one solve (module docstring) of every training photo: poses [V, 4, 4] the photos'
+    given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on the background), intrinsics
+    [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color" [V, 3, 4]); active
+    [capacity] the slots in use."""
     scene = {k: jnp.asarray(params[k]) for k in PARAM_NAMES}
     scene["opacity"] = jnp.where(jnp.asarray(active), scene["opacity"], HIDDEN_OPACITY)
     xi = np.asarray(params["cam_pose"], np.float64).copy()
     color = np.asarray(params["cam_color"]) if "cam_color" in params else None
-    solved = None if colour_form is None else np.zeros((len(xi), 3, 4), np.float32)
     for k in range(len(xi)):
         xi[k] = fit_correction(scene, poses[k], xi[k], extent, intrinsics[k], width, height, images[k], background,
-                               sh_degree, ITERATIONS, backend, dilation, None if color is None else color[k],
-                               fit_color=colour_form)
-        if solved is not None:
-            solved[k] = fit_colour_at(scene, poses[k], xi[k], extent, intrinsics[k], width, height, images[k],
-                                      background, sh_degree, colour_form, backend, dilation)
-    return xi.astype(np.float32), solved
+                               sh_degree, ITERATIONS, backend, dilation, None if color is None else color[k])
+    return xi.astype(np.float32)

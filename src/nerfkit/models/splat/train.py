@@ -310,18 +310,15 @@ class ViewStep:
         return {"params": params, "opt_state": opt_state, "aux": aux}, metrics
 
     def solve_poses(self, state: dict, step: int, before: float, after: float, images, poses, intrinsics) -> dict:
-        """state with its pose corrections (and colour transforms, where learned) solved (pose_solve.py) where the
-        step that took the progress from before to after crossed one of the run's (or round's) solves; else state
-        as it is."""
+        """state with its pose corrections solved (pose_solve.py) where the step that took the progress from before
+        to after crossed one of the run's (or round's) solves; else state as it is."""
         sc = self.sc
         if not (sc.pose_refine and solve_due(before, after, sc.pose_solves, 2 * sc.lrs.pose_warmup)):
             return state
-        xi, color = solve_corrections(state["params"], state["aux"]["active"], np.asarray(poses), images,
-                                      np.asarray(intrinsics), self.extent, self.width, self.height, self.background,
-                                      schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation,
-                                      sc.colour_transform if sc.appearance else None)
-        solved = {"cam_pose": jnp.asarray(xi)} | ({} if color is None else {"cam_color": jnp.asarray(color)})
-        return {**state, "params": {**state["params"], **solved}}
+        xi = solve_corrections(state["params"], state["aux"]["active"], np.asarray(poses), images,
+                               np.asarray(intrinsics), self.extent, self.width, self.height, self.background,
+                               schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation)
+        return {**state, "params": {**state["params"], "cam_pose": jnp.asarray(xi)}}
 
 
 def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
