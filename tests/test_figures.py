@@ -844,7 +844,7 @@ CHECKS = [
      "all around, the exact capture scored {}, {} and {} dB with `--seed {}`, `{}` and `{}`",
      [*[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in RING_EXACT],
       *[((r, "provenance", "command"), lambda c: re.search(r"--seed (\d+)", c).group(1) if "--seed" in c else "0")
-        for r in RING_GAINS]]),
+        for r in RING_EXACT]]),
     ("docs/splats.md", "With per-photo gains as well",
      "and the runs with corrections {}, {} and {} (`colour_ring256_rounds_gains_seed1.json`, "
      "`colour_ring256_rounds_gains_seed2.json`; poses {}, {} and {} degrees off): {} dB against {} over the three seeds",
