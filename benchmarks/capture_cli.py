@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> None:
               f"{ev['psnr']:.2f} dB / SSIM {ev['ssim']:.4f} on {ev['n_views']} held-out photos", flush=True)
         fit_poses = a.fit_poses if method_class(RunFolder(run).config()).supports.fit_poses else 0
         if fit_poses:
-            fit_s, _ = nerfkit("eval", str(run), "--split", "test", "--fit-poses", str(a.fit_poses), "--overwrite")
+            fit_s, _ = nerfkit("eval", str(run), "--split", "test", "--fit-poses", str(fit_poses), "--overwrite")
             fit = json.loads((run / "eval_test_fitted.json").read_text())
             result["presets"][preset]["fitted"] = {
                 "fit_poses": a.fit_poses, "psnr": round(fit["psnr"], 3), "ssim": round(fit["ssim"], 4),

@@ -40,10 +40,13 @@ def _curve_psnr(run: str, step: int) -> float:
     return next(p["psnr"] for p in R("maryrose_real_capture.json", run, "curve") if p["step"] == step)
 
 
-def _command_number(name: str, flag: str = "views") -> int:
+def _command_number(name: str, flag: str = "views", default: int | None = None) -> int:
     """The number a record's command gave a flag: a benchmarks/forward_facing.py capture's photos (--views), its
-    photos' size (--size)."""
-    return int(re.search(rf"--{flag} (\d+)", R(name, "provenance", "command")).group(1))
+    photos' size (--size), a training seed (--seed, `default` 0 where the command gave none)."""
+    m = re.search(rf"--{flag} (\d+)", R(name, "provenance", "command"))
+    if m is None and default is not None:
+        return default
+    return int(m.group(1))
 
 
 # formats: how the pages round
@@ -843,8 +846,7 @@ CHECKS = [
     ("docs/splats.md", "With per-photo gains as well",
      "all around, the exact capture scored {}, {} and {} dB with `--seed {}`, `{}` and `{}`",
      [*[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in RING_EXACT],
-      *[((r, "provenance", "command"), lambda c: re.search(r"--seed (\d+)", c).group(1) if "--seed" in c else "0")
-        for r in RING_EXACT]]),
+      *[((lambda r=r: _command_number(r, "seed", default=0)), d) for r in RING_EXACT]]),
     ("docs/splats.md", "With per-photo gains as well",
      "and the runs with corrections {}, {} and {} (`colour_ring256_rounds_gains_seed1.json`, "
      "`colour_ring256_rounds_gains_seed2.json`; poses {}, {} and {} degrees off): {} dB against {} over the three seeds",
