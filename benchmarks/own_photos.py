@@ -10,8 +10,8 @@ runs, each in its own process, exactly what the README says (no size or budget f
 
     nerfkit process-data images PHOTOS --out OUT/data [--masks MASKS]   (or: process-data video VIDEO --out OUT/data)
     nerfkit train OUT/data --out OUT/<P> --preset P                    (P in --presets)
-    nerfkit eval OUT/<P> --split test                                  (the run's own resolution)
-    nerfkit eval OUT/<P> --split test --downscale 4 --out-name ...     (a quarter of the photos' size)
+    nerfkit eval OUT/<P> --split test --overwrite                      (the run's own resolution)
+    nerfkit eval OUT/<P> --split test --downscale 4 --overwrite        (a quarter of the photos' size)
     nerfkit render OUT/<P> --orbit 60
 
 and writes benchmarks/results/own_photos_<name>.json (with the commit it ran on): the SfM's registration, time
