@@ -78,7 +78,7 @@ def alternative(name: str, cfg) -> list[str]:
         "splat.far_points": "on", "splat.random_background": "on", "splat.init": str(INIT_FILE.get("path")),
         "splat.normal_consistency": "0.05", "splat.normal_consistency_from": "0.3",
         "splat.depth_distortion": "100", "splat.colour_transform": "affine" if v == "gain" else "gain",
-        "splat.coarse": "0.25", "splat.ssim_lambda": "0.2", "splat.pixel_loss": "rmse" if v == "l1" else "l1",
+        "splat.coarse": "0.25", "splat.ssim_lambda": "0.2", "splat.colour_lr": "0.005", "splat.pixel_loss": "rmse" if v == "l1" else "l1",
         "sampler.sampling": "proposal" if v != "proposal" else "occupancy",
     }
     if name == "field.kind" and v == "ngp":  # the MLP fields need a fixed [near, far]

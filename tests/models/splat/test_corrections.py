@@ -133,3 +133,31 @@ def test_the_colour_transform_setting_reaches_training():
     assert splat_config(cfg).colour_transform == "affine"
     with pytest.raises(ValueError, match="colour_transform"):
         SplatConfig(colour_transform="curve")
+
+
+def test_the_colour_rate_resolves_from_the_data(tmp_path, capsys):
+    """--colour-lr unset: 3DGS's rate (optim.COLOUR_LR_PHOTOS) for photos without masks, the LearningRates default
+    (8x that) for masked ones; a rate given is kept and reaches the optimiser's colour groups (sh_rest a twentieth);
+    a config written before the setting reads back with the rate it trained at; a rate <= 0 is refused in one line."""
+    from nerfkit.models.splat.method import splat_config
+    from nerfkit.models.splat.optim import COLOUR_LR_PHOTOS, LearningRates
+    from nerfkit.training.resolve import resolve_config
+
+    for masks, given, want in ((False, None, COLOUR_LR_PHOTOS), (True, None, LearningRates().sh_dc),
+                               (False, 0.01, 0.01)):
+        cap = read_capture(make_capture(tmp_path / f"m{masks}{given}", "nerfstudio", n_views=8, size=16, masks=masks),
+                           "train")
+        cfg = preset("splat")
+        cfg.splat.colour_lr = given
+        cfg = resolve_config(cfg, cap, load_frames(cap, "train"), log=lambda _: None)
+        lrs = splat_config(cfg).lrs
+        assert (cfg.splat.colour_lr, lrs.sh_dc, lrs.sh_rest) == (want, want, want / 20)
+    assert COLOUR_LR_PHOTOS < LearningRates().sh_dc
+    old = preset("splat").to_dict()
+    del old["splat"]["colour_lr"]
+    assert Config.from_dict(old).splat.colour_lr == LearningRates().sh_dc
+    cap = make_capture(tmp_path / "bad", "nerfstudio", n_views=8, size=16)
+    assert main(["train", str(cap), "--out", str(tmp_path / "run"), "--preset", "splat", "--colour-lr", "0"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--colour-lr" in err
+    assert not (tmp_path / "run").exists()

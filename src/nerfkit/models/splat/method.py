@@ -34,7 +34,8 @@ from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, init_random, intrinsics_of
-from nerfkit.models.splat.optim import LearningRates, init_state, make_optimizers, means_lr
+from nerfkit.models.splat.optim import (COLOUR_LR_PHOTOS, LearningRates, colour_rates, init_state, make_optimizers,
+                                        means_lr)
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
 from nerfkit.models.splat.rounds import in_round, round_aux, within_round
@@ -88,7 +89,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
-                       pose_solves=g.pose_solves)
+                       pose_solves=g.pose_solves, lrs=colour_rates(LearningRates(), g.colour_lr))
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -140,7 +141,7 @@ class SplatModel:
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
         "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves",
-        "colour_transform")) | {"train.pose_refine"}
+        "colour_transform", "colour_lr")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -160,9 +161,12 @@ class SplatModel:
 
     @staticmethod
     def resolve_settings(cfg, photos: bool, n_train: int, log=print) -> None:
-        """--appearance and --far-points auto: on for photos without masks, --random-background auto: on for the others
+        """--appearance and --far-points auto: on for photos without masks, --random-background auto: on for the others,
+        --colour-lr unset: optim.COLOUR_LR_PHOTOS for photos without masks, else the LearningRates default
         (registry.resolve_settings); the corrections' count (field.appearance_count): the training photos' if one is."""
         g = cfg.splat
+        if g.colour_lr is None:
+            g.colour_lr = COLOUR_LR_PHOTOS if photos else LearningRates().sh_dc
         if g.appearance == "auto":
             g.appearance = "on" if photos else "off"
         if g.far_points == "auto":
@@ -181,6 +185,8 @@ class SplatModel:
         backend(cfg.splat.backend)
         if cfg.splat.pose_rounds < 1:
             raise ConfigError(f"--pose-rounds must be at least 1 (got {cfg.splat.pose_rounds}); 1: one round")
+        if cfg.splat.colour_lr is not None and not cfg.splat.colour_lr > 0:
+            raise ConfigError(f"--colour-lr must be above 0 (got {cfg.splat.colour_lr:g}); unset: chosen by the capture")
         if cfg.splat.pose_solves < 0:
             raise ConfigError(f"--pose-solves must be at least 0 (got {cfg.splat.pose_solves}); 0: Adam alone")
 

@@ -12,7 +12,11 @@ mid-grey start (a Blender scene's points) needs ~700 consistent steps to reach w
 positions x2 and scales x2 were chosen on lego (seed protocol, held-out val[50:75], a fixed number of steps;
 CHANGELOG.md): 28.96 -> 31.71 dB after 1200 steps, 33.96 -> 35.20 after 6000 (colour x16: 30.46 at 1200;
 positions x4: 31.97 and 35.05; opacity x2 on top of that: 32.05 and 34.66); maryrose's held-out photos, 2000
-steps: 23.22 -> 24.85 dB.
+steps: 23.22 -> 24.85 dB. Both are masked objects whose Gaussians start grey (the hull). Photos without masks
+(core/config --colour-lr unset) learn colour at 3DGS's COLOUR_LR_PHOTOS instead: on buddha (11 photos of a head in
+a room, SfM points, 3 minutes at 342 px, training seeds 0-2) 19.93 dB held out against 19.17 at 2e-2, ahead with
+each seed; positions and scales at 3DGS's as well 19.75, those alone 18.54. maryrose from its own SfM points
+(masks, 3 minutes at 432 px, seeds 0-1) keeps 2e-2: 24.48 against 23.66 at 2.5e-3 (CHANGELOG.md).
 
 E is the scene extent: 1.1 x the largest distance of a training camera centre from their
 mean (3DGS's "cameras_extent"), so the position step is relative to the scene's size.
@@ -44,7 +48,7 @@ rate can be set every step from the host (a traced scalar, no recompilation).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import jax
 import jax.numpy as jnp
@@ -70,7 +74,14 @@ class LearningRates:
     pose_warmup: float = 0.1  # progress before which the poses stay put (then a ramp of the same length)
 
 
+COLOUR_LR_PHOTOS = 2.5e-3  # sh_dc's rate for photos without masks (3DGS's; module docstring)
 CORRECTIONS = ("cam_color", "cam_pose")  # the per-photo groups (their leading axis is the photo, not the Gaussian)
+
+
+def colour_rates(lrs: LearningRates, colour: float | None) -> LearningRates:
+    """lrs with the colour groups' rates set from `colour` (sh_dc = colour, sh_rest = colour / 20, 3DGS's ratio);
+    None keeps lrs."""
+    return lrs if colour is None else replace(lrs, sh_dc=colour, sh_rest=colour / 20)
 
 
 def means_lr(progress: float, extent: float, lrs: LearningRates = LearningRates()) -> float:
