@@ -250,27 +250,26 @@ class SplatSettings:
     sh_interval: int = 500
     """Steps per SH degree: the degree rises by one every N steps up to --sh-degree (3DGS: 1000 of 30k)."""
     ssim_lambda: float = 0.0
-    """Loss = (1 - lambda) D + lambda (1 - SSIM), D the --pixel-loss; 3DGS: 0.2 (with L1). 0 by measurement on
-    the PSNR of held-out views (10 min through the CLI, 2 cores, probes, with L1): maryrose 23.86 dB at 0, 23.46
-    at 0.05, 23.15 at 0.2 (ngp 23.39-23.57); lego 34.01 dB at 0, 34.61 at 0.2 (ngp 33.09). D-SSIM trades PSNR
-    for SSIM (maryrose 0.850 at 0, 0.882 at 0.2)."""
+    """Loss = (1 - lambda) D + lambda (1 - SSIM), D the --pixel-loss; 3DGS: 0.2 (with L1). 0 by measurement on the
+    PSNR of held-out views (10 min through the CLI, 2 cores, probes, with L1): maryrose 23.86 dB at 0, 23.46 at 0.05,
+    23.15 at 0.2 (ngp 23.39-23.57); lego 34.01 dB at 0, 34.61 at 0.2 (ngp 33.09). D-SSIM trades PSNR for SSIM
+    (maryrose 0.850 at 0, 0.882 at 0.2)."""
     pixel_loss: Literal["l1", "rmse"] = "rmse"
-    """The loss's pixel term: rmse (the root of the mean squared error: where views disagree on a colour it
-    fits their mean, which is what PSNR scores, L1 their median; its gradients have L1's size, so the
-    density-control threshold holds) or l1 (3DGS). Probes, 10 min through the CLI, 2 cores: maryrose
-    24.39 dB with rmse against 23.86 with l1; lego 34.41 against 34.01 (ngp 23.39-23.57 and 33.10)."""
+    """The loss's pixel term: rmse (the root of the mean squared error: where views disagree on a colour it fits
+    their mean, which is what PSNR scores, L1 their median; its gradients have L1's size, so the density-control
+    threshold holds) or l1 (3DGS). Probes, 10 min through the CLI, 2 cores: maryrose 24.39 dB with rmse against 23.86
+    with l1; lego 34.41 against 34.01 (ngp 23.39-23.57 and 33.10)."""
     coarse: float | None = None
-    """Coarse to fine: the first COARSE of the budget trains on the photos at half resolution (2x2 pixels
-    averaged: a quarter of the rasteriser's work per step, so more steps), the rest at full resolution; 0: full
-    resolution throughout; auto (default): 0.5 for photos of at least 100,000 pixels, else 0 (smaller photos
-    gain few steps from it: lego at 200 px, 1.2x the steps per second and 0.8 dB lower; maryrose at 432 px,
-    2.6x and 0.6 dB higher)."""
+    """Coarse to fine: the first COARSE of the budget trains on the photos at half resolution (2x2 pixels averaged: a
+    quarter of the rasteriser's work per step, so more steps), the rest at full resolution; 0: full resolution
+    throughout; auto (default): 0.5 for photos of at least 100,000 pixels, else 0 (smaller photos gain few steps from
+    it: lego at 200 px, 1.2x the steps per second and 0.8 dB lower; maryrose at 432 px, 2.6x and 0.6 dB higher)."""
     init_points: Literal["auto", "sfm", "hull", "random"] = "auto"
     """Initial Gaussians: sfm (the capture's points: sparse_pc.ply or COLMAP points3D; a capture with poses but no
-    points, such as LLFF's poses_bounds.npy, gets them triangulated from its training photos at their poses,
-    about 1.5 s a photo, cached in ~/.cache/nerfkit/points), hull (uniform in the visual hull of the masks or
-    alpha channel), random (uniform in the scene box) or auto (the capture's points; else hull where it has
-    masks or alpha; else triangulated; random only where no point could be triangulated)."""
+    points, such as LLFF's poses_bounds.npy, gets them triangulated from its training photos at their poses, about
+    1.5 s a photo, cached in ~/.cache/nerfkit/points), hull (uniform in the visual hull of the masks or alpha
+    channel), random (uniform in the scene box) or auto (the capture's points; else hull where it has masks or alpha;
+    else triangulated; random only where no point could be triangulated)."""
     init: str | None = None
     """A splat file to start from instead of --init-points: .ply (Inria layout, from nerfkit, gsplat, 3DGS, Brush,
     SuperSplat), .spz, .splat, .glb or .gltf, in the capture's own coordinates (as nerfkit export splat writes
@@ -279,17 +278,17 @@ class SplatSettings:
     """The SH degree of the --init file, filled in when the run starts (never from the command line): --resume
     takes the Gaussians from the run's checkpoint and this degree from its config, so the file may be gone."""
     far_points: Literal["auto", "on", "off"] = "auto"
-    """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre
-    as the farthest camera, or behind 95% of the SfM points where they reach further (a forward-facing capture's
-    far wall), each coloured by a training photo that sees it (on a forward-facing capture, where the
-    rays of pixels drawn over the photos meet that sphere), so that what lies far away (walls, sky) has Gaussians
-    of its own instead of being smeared over the near ones. auto: on for photos without masks (unbounded scenes),
-    off for masked objects and Blender scenes."""
+    """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre as
+    the farthest camera, or behind 95% of the SfM points where they reach further (a forward-facing capture's far
+    wall), each coloured by a training photo that sees it (on a forward-facing capture, where the rays of pixels
+    drawn over the photos meet that sphere), so that what lies far away (walls, sky) has Gaussians of its own instead
+    of being smeared over the near ones. auto: on for photos without masks (unbounded scenes), off for masked objects
+    and Blender scenes."""
     random_background: Literal["auto", "on", "off"] = "off"
-    """Train on a random background colour per step where the photos have masks or an alpha channel (the photo
-    is composited onto it by its alpha): a surface can then not be left see-through where its colour matches
-    the background (a light floor on white), which the rendered opacity, and so `export mesh`, would show as
-    holes. auto: on for captures with masks or alpha."""
+    """Train on a random background colour per step where the photos have masks or an alpha channel (the photo is
+    composited onto it by its alpha): a surface can then not be left see-through where its colour matches the
+    background (a light floor on white), which the rendered opacity, and so `export mesh`, would show as holes. auto:
+    on for captures with masks or alpha."""
     normal_consistency: float = 0.0
     """Weight of a training term that lays each Gaussian flat along the surface its neighbours' depth describes
     (2DGS's normal consistency: the blended normals of the Gaussians against the normals of the rendered
@@ -318,11 +317,9 @@ class SplatSettings:
     the Gaussians; held-out photos use the mean of the training photos' transforms. auto: on for photo captures
     without masks, off for Blender scenes and masked object captures (as the fields' --appearance-dim)."""
     colour_lr: float | None = None
-    """The Gaussians' colour learning rate (Adam, in SH units a step; the view-dependent bands learn at a twentieth of
-    it). auto (unset): 2.5e-3 (3DGS's) for photos without masks, 2e-2 for masked objects and Blender scenes, whose
-    Gaussians need their colours fast on a CPU budget. buddha (11 photos, no masks, 3 minutes at 342 px, 3 seeds):
-    19.93 dB held out at 2.5e-3 against 19.17 at 2e-2; maryrose (masks, 3 minutes at 432 px, 2 seeds): 24.48 at 2e-2
-    against 23.66 (docs: Splats)."""
+    """The Gaussians' colour learning rate (Adam, SH units; the higher bands a twentieth of it). Unset: 3DGS's 2.5e-3
+    for photos without masks, 2e-2 for masked objects and Blender scenes, which need their colours fast on a CPU
+    budget (buddha held out: 19.93 dB at 2.5e-3 against 19.17 at 2e-2; maryrose 24.48 against 23.66; docs: Splats)."""
     colour_transform: Literal["gain", "affine"] = "gain"
     """--appearance's transform: gain (a gain per channel: 3 numbers a photo, what exposure and white balance do) or
     affine (a 3x3 matrix and an offset: 12, which also soak up the scene's errors; docs: Splats)."""
@@ -372,10 +369,8 @@ class Config:
                 raise KeyError(missing[0])
             # configs written before --sampling existed: their samples came from the occupancy grid
             sections["sampler"].setdefault("sampling", "occupancy")
-            for k, v in FIELD_BEFORE.items():
-                sections["field"].setdefault(k, v)
-            for k, v in SPLAT_BEFORE.items() if sections["splat"] else ():  # earlier versions: may have none
-                sections["splat"].setdefault(k, v)
+            sections["field"] = {**FIELD_BEFORE, **sections["field"]}
+            sections["splat"] = {**SPLAT_BEFORE, **sections["splat"]} if sections["splat"] else {}  # may have none
             sections["train"].setdefault("pose_refine", "off")
             cfg = Config(**{k: cls(**sections[k]) for k, cls in Config.sections().items()})
         except (KeyError, TypeError, AttributeError) as e:
@@ -383,12 +378,12 @@ class Config:
         return validate(cfg)
 
 
-# What a field config written before a setting existed trained with, where that differs from today's default:
-# before --warp an unbounded field was contracted (--resume, eval and checkpoints must not move it into NDC).
+# What a field or splat config written before a setting existed trained with, where that differs from today's
+# default: before --warp an unbounded field was contracted (--resume, eval and checkpoints must not move it into NDC).
 FIELD_BEFORE = {"warp": "contract"}
 SPLAT_BEFORE = {"pixel_loss": "l1", "appearance": "off", "far_points": "off", "random_background": "off",
                 "normal_consistency": 0.0, "normal_consistency_from": 0.0, "depth_distortion": 0.0,
-                "colour_transform": "affine", "colour_lr": 2e-2}  # what runs written before each setting existed trained with
+                "colour_transform": "affine", "colour_lr": 2e-2}
 
 
 @functools.cache

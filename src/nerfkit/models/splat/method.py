@@ -11,12 +11,11 @@ nerfkit's run loop (training/trainer.Trainer) asks a model for five things; the 
     renderer(chunk)                 .render_camera(params, aux, c2w, camera) -> rgb, depth, opacity
                                     (.render_cameras: a list of views in one call)
 
-One step is train.ViewStep, the step fit.train_splats (tests, benchmarks) drives too: it renders one
-training view (a random order per epoch, fixed by the seed), takes an Adam step (train.make_step)
-and, on the host, the density control of its strategy (strategy.py: 3DGS-MCMC or classic 3DGS). params are all `capacity` slots; aux["active"] marks the slots in use, aux
-holds the classic statistics and aux["clock"] the seconds spent in steps, so that progress
-t = max(step / max_steps, clock / budget), which schedules the means' learning rate and the
-density-control window, survives --resume.
+One step is train.ViewStep (fit.train_splats drives it too): one training view (a random order per epoch, fixed by
+the seed), an Adam step (train.make_step) and, on the host, its strategy's density control (strategy.py). params are
+all `capacity` slots; aux["active"] marks the slots in use, aux holds the classic statistics and aux["clock"] the
+seconds spent in steps, so that progress t = max(step / max_steps, clock / budget), which schedules the means'
+learning rate and the density-control window, survives --resume.
 """
 
 from __future__ import annotations
@@ -34,8 +33,7 @@ from nerfkit.models.base import Supports
 from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, init_random, intrinsics_of
-from nerfkit.models.splat.optim import (COLOUR_LR_PHOTOS, LearningRates, colour_rates, init_state, make_optimizers,
-                                        means_lr)
+from nerfkit.models.splat.optim import LearningRates, colour_lr_for, colour_rates, init_state, make_optimizers, means_lr
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
 from nerfkit.models.splat.rounds import in_round, round_aux, within_round
@@ -100,8 +98,7 @@ def progress_of(step: int, clock: float, cfg) -> float:
 
 
 def _describe_pose(cfg) -> str:
-    n = cfg.splat.pose_rounds
-    k = cfg.splat.pose_solves
+    n, k = cfg.splat.pose_rounds, cfg.splat.pose_solves
     solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
     return "" if cfg.train.pose_refine != "on" else f"; pose refinement{f' in {n} rounds' if n > 1 else ''}{solves}"
 
@@ -161,12 +158,11 @@ class SplatModel:
 
     @staticmethod
     def resolve_settings(cfg, photos: bool, n_train: int, log=print) -> None:
-        """--appearance and --far-points auto: on for photos without masks, --random-background auto: on for the others,
-        --colour-lr unset: optim.COLOUR_LR_PHOTOS for photos without masks, else the LearningRates default
-        (registry.resolve_settings); the corrections' count (field.appearance_count): the training photos' if one is."""
+        """--appearance and --far-points auto: on for photos without masks, --random-background auto: on for the
+        others, --colour-lr unset: optim.colour_lr_for (registry.resolve_settings); the corrections' count
+        (field.appearance_count): the training photos' if one is."""
         g = cfg.splat
-        if g.colour_lr is None:
-            g.colour_lr = COLOUR_LR_PHOTOS if photos else LearningRates().sh_dc
+        g.colour_lr = colour_lr_for(photos) if g.colour_lr is None else g.colour_lr
         if g.appearance == "auto":
             g.appearance = "on" if photos else "off"
         if g.far_points == "auto":
@@ -185,8 +181,6 @@ class SplatModel:
         backend(cfg.splat.backend)
         if cfg.splat.pose_rounds < 1:
             raise ConfigError(f"--pose-rounds must be at least 1 (got {cfg.splat.pose_rounds}); 1: one round")
-        if cfg.splat.colour_lr is not None and not cfg.splat.colour_lr > 0:
-            raise ConfigError(f"--colour-lr must be above 0 (got {cfg.splat.colour_lr:g}); unset: chosen by the capture")
         if cfg.splat.pose_solves < 0:
             raise ConfigError(f"--pose-solves must be at least 0 (got {cfg.splat.pose_solves}); 0: Adam alone")
 

@@ -78,6 +78,11 @@ COLOUR_LR_PHOTOS = 2.5e-3  # sh_dc's rate for photos without masks (3DGS's; modu
 CORRECTIONS = ("cam_color", "cam_pose")  # the per-photo groups (their leading axis is the photo, not the Gaussian)
 
 
+def colour_lr_for(photos: bool) -> float:
+    """--colour-lr unset: COLOUR_LR_PHOTOS for photos without masks, else the LearningRates default (docstring)."""
+    return COLOUR_LR_PHOTOS if photos else LearningRates().sh_dc
+
+
 def colour_rates(lrs: LearningRates, colour: float | None) -> LearningRates:
     """lrs with the colour groups' rates set from `colour` (sh_dc = colour, sh_rest = colour / 20, 3DGS's ratio);
     None keeps lrs."""
