@@ -319,7 +319,7 @@ class SplatSettings:
     colour_lr: float | None = None
     """The Gaussians' colour learning rate (Adam, SH units; the higher bands a twentieth of it). Unset: 3DGS's 2.5e-3
     for photos without masks, 2e-2 for masked objects and Blender scenes, which need their colours fast on a CPU
-    budget (buddha held out: 19.93 dB at 2.5e-3 against 19.17 at 2e-2; maryrose 24.48 against 23.66; docs: Splats)."""
+    budget (buddha held out: 19.88 dB at 2.5e-3 against 19.25 at 2e-2; maryrose 24.48 against 23.66; docs: Splats)."""
     colour_transform: Literal["gain", "affine"] = "gain"
     """--appearance's transform: gain (a gain per channel: 3 numbers a photo, what exposure and white balance do) or
     affine (a 3x3 matrix and an offset: 12, which also soak up the scene's errors; docs: Splats)."""

@@ -14,9 +14,9 @@ CHANGELOG.md): 28.96 -> 31.71 dB after 1200 steps, 33.96 -> 35.20 after 6000 (co
 positions x4: 31.97 and 35.05; opacity x2 on top of that: 32.05 and 34.66); maryrose's held-out photos, 2000
 steps: 23.22 -> 24.85 dB. Both are masked objects whose Gaussians start grey (the hull). Photos without masks
 (core/config --colour-lr unset) learn colour at 3DGS's COLOUR_LR_PHOTOS instead: on buddha (11 photos of a head in
-a room, SfM points, 3 minutes at 342 px, training seeds 0-2) 19.93 dB held out against 19.17 at 2e-2, ahead with
-each seed; positions and scales at 3DGS's as well 19.75, those alone 18.54. maryrose from its own SfM points
-(masks, 3 minutes at 432 px, seeds 0-1) keeps 2e-2: 24.48 against 23.66 at 2.5e-3 (CHANGELOG.md).
+a room, SfM points, 3 minutes at 342 px, training seeds 0-2, one sitting) 19.88 dB held out against 19.25 at 2e-2,
+ahead with each seed (benchmarks/results/buddha_colour_lr_seed*_cli.json); maryrose from its own SfM points (masks,
+3 minutes at 432 px, seeds 0-1) keeps 2e-2: 24.48 against 23.66 at 2.5e-3 (CHANGELOG.md).
 
 E is the scene extent: 1.1 x the largest distance of a training camera centre from their
 mean (3DGS's "cameras_extent"), so the position step is relative to the scene's size.
