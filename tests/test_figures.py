@@ -873,7 +873,7 @@ CHECKS = [
     ("docs/splats.md", "With per-photo gains as well",
      "all around ({} px): poses {} degrees and {}% off, gains within {}, and {} dB against {}",
      [((CO("ring256_rounds_gains"), "size"), d), *[((CO("ring256_rounds_gains"), "runs", "both", *k), f) for k, f in (
-         (("refined_pose_error", "degrees"), f2), (("refined_pose_error", "radius_share"), pct2), (("gain_error",), f3),
+         (("refined_pose_error", "degrees"), f3), (("refined_pose_error", "radius_share"), pct2), (("gain_error",), f3),
          (("eval_psnr_fitted_colour",), f2))],
       ((CO("ring256_exact"), "runs", "exact", "eval_psnr_fitted_colour"), f2)]),
     ("docs/splats.md", "`--colour-transform affine` learns",
@@ -890,7 +890,7 @@ CHECKS = [
      "and the runs with corrections {}, {} and {} (`colour_ring256_rounds_gains_seed1.json`, "
      "`colour_ring256_rounds_gains_seed2.json`; poses {}, {} and {} degrees off): {} dB against {} over the three seeds",
      [*[((r, "runs", "both", "eval_psnr_fitted_colour"), f2) for r in RING_GAINS],
-      *[((r, "runs", "both", "refined_pose_error", "degrees"), f2) for r in RING_GAINS],
+      *[((r, "runs", "both", "refined_pose_error", "degrees"), f3) for r in RING_GAINS],
       (lambda: seed_mean(RING_GAINS, "both"), f2), (lambda: seed_mean(RING_EXACT, "exact"), f2)]),
     ("docs/splats.md", "With per-photo gains as well",
      "Facing one way with the same seeds: {}, {} and {} exact, {}, {} and {} with corrections "
