@@ -248,16 +248,6 @@ def buddha_gap(better: str, worse: str, extreme=min, records=BSEEDS) -> float:
     return extreme(R(r, "presets", better, "psnr") - R(r, "presets", worse, "psnr") for r in records)
 
 
-def splat_mean(preset: str, *path) -> float:
-    """buddha_mean over the splats' corrections at today's colour rate (BSPLAT; ngp's stay in BSEEDS)."""
-    return buddha_mean(preset, *path, records=BSPLAT)
-
-
-def splat_gap(better: str, worse: str, extreme=min) -> float:
-    """buddha_gap over BSPLAT."""
-    return buddha_gap(better, worse, extreme, records=BSPLAT)
-
-
 RING_EXACT = [CO("ring256_exact"), CO("ring256_exact_seed1"), CO("ring256_exact_seed2")]
 RING_GAINS = [CO("ring256_rounds_gains"), CO("ring256_rounds_gains_seed1"), CO("ring256_rounds_gains_seed2")]
 FORWARD_EXACT = [CO("forward128_exact"), CO("forward128_exact_seed1"), CO("forward128_exact_seed2")]
@@ -635,33 +625,39 @@ CHECKS = [
      "with the transforms, {} dB / SSIM {} without; ahead with every seed, by {} to {} dB, where the seed alone "
      "moves the run with them by {} dB",
      [*[((lambda r=r: _command_number(r, "seed")), d) for r in BSPLAT],
-      (lambda: splat_mean("splat", "psnr"), f2), (lambda: splat_mean("splat", "ssim"), f3),
-      ((BSPLAT[0], "presets", "splat", "views"), d), (lambda: splat_mean("splat-none", "psnr"), f2),
-      (lambda: splat_mean("splat-none", "ssim"), f3), (lambda: splat_gap("splat", "splat-none"), f2),
-      (lambda: splat_gap("splat", "splat-none", max), f2),
+      (lambda: buddha_mean("splat", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat", "ssim", records=BSPLAT), f3),
+      ((BSPLAT[0], "presets", "splat", "views"), d), (lambda: buddha_mean("splat-none", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat-none", "ssim", records=BSPLAT), f3),
+      (lambda: buddha_gap("splat", "splat-none", records=BSPLAT), f2),
+      (lambda: buddha_gap("splat", "splat-none", max, records=BSPLAT), f2),
       (lambda: max(R(r, "presets", "splat", "psnr") for r in BSPLAT) - min(R(r, "presets", "splat", "psnr")
                                                                         for r in BSPLAT), f2)]),
     ("docs/splats.md", "Photos without masks (a room, a garden) rarely",
      "(`eval --fit-poses {} --fit-colour`, the right halves scored) {} and {} dB",
      [((BSPLAT[0], "presets", "splat", "fitted_colour", "fit_poses"), d),
-      (lambda: splat_mean("splat", "fitted_colour", "psnr"), f2),
-      (lambda: splat_mean("splat-none", "fitted_colour", "psnr"), f2)]),
+      (lambda: buddha_mean("splat", "fitted_colour", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat-none", "fitted_colour", "psnr", records=BSPLAT), f2)]),
     ("docs/splats.md", "`--pose-refine on` also learns",
      "on buddha ({} minutes at {} px, three seeds; the splats' runs above, in one sitting;",
      [((BSPLAT[0], "minutes"), f0),
       ((lambda: R(BUDDHA, "process_data", "camera", "width") // R(BSPLAT[0], "downscale")), d)]),
     ("docs/splats.md", "`--pose-refine on` also learns",
-     "it cost the splats {} dB on the mean ({} dB / SSIM {} against {} / {}; level or less with every seed, by {} to {} dB) "
-     "and ngp {} dB ({} against {} dB, in {} steps instead of {}); with the held-out poses fitted (`eval "
+     "it cost the splats {} dB on the mean ({} dB / SSIM {} against {} / {}; level or less with every seed, by {} to "
+     "{} dB) and ngp {} dB ({} against {} dB, in {} steps instead of {}); with the held-out poses fitted (`eval "
      "--fit-poses`) the splats score {} with it and {} without:",
-     [(lambda: splat_mean("splat", "psnr") - splat_mean("splat-pose", "psnr"), f2),
-      (lambda: splat_mean("splat-pose", "psnr"), f2), (lambda: splat_mean("splat-pose", "ssim"), f3),
-      (lambda: splat_mean("splat", "psnr"), f2), (lambda: splat_mean("splat", "ssim"), f3),
-      (lambda: splat_gap("splat", "splat-pose"), f2), (lambda: splat_gap("splat", "splat-pose", max), f2),
+     [(lambda: buddha_mean("splat", "psnr", records=BSPLAT) - buddha_mean("splat-pose", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat-pose", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat-pose", "ssim", records=BSPLAT), f3),
+      (lambda: buddha_mean("splat", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat", "ssim", records=BSPLAT), f3),
+      (lambda: buddha_gap("splat", "splat-pose", records=BSPLAT), f2),
+      (lambda: buddha_gap("splat", "splat-pose", max, records=BSPLAT), f2),
       (lambda: buddha_mean("ngp", "psnr") - buddha_mean("ngp-pose", "psnr"), f2),
       (lambda: buddha_mean("ngp-pose", "psnr"), f2), (lambda: buddha_mean("ngp", "psnr"), f2),
       (lambda: buddha_mean("ngp-pose", "steps"), f0), (lambda: buddha_mean("ngp", "steps"), f0),
-      (lambda: splat_mean("splat-pose", "fitted", "psnr"), f2), (lambda: splat_mean("splat", "fitted", "psnr"), f2)]),
+      (lambda: buddha_mean("splat-pose", "fitted", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat", "fitted", "psnr", records=BSPLAT), f2)]),
     ("docs/splats.md", "`--pose-refine on` also learns",
      "whose {} poses were written {} degrees and {}% of the camera radius off the true ones, with gains of "
      "up to {}% per photo and channel, its {} held-out photos exact ({} px, {} steps, from points triangulated at "
@@ -719,8 +715,10 @@ CHECKS = [
       ((FITC, "runs", "pose", "eval_psnr"), f2), ((FITC, "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
     ("docs/verbs/eval.md", "`buddha_splat_seed2_cli.json`): ",
      "`buddha_splat_seed2_cli.json`): {} dB plain and {} fitted without refinement, {} and {} with it.",
-     [(lambda: splat_mean("splat", "psnr"), f2), (lambda: splat_mean("splat", "fitted", "psnr"), f2),
-      (lambda: splat_mean("splat-pose", "psnr"), f2), (lambda: splat_mean("splat-pose", "fitted", "psnr"), f2)]),
+     [(lambda: buddha_mean("splat", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat", "fitted", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat-pose", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat-pose", "fitted", "psnr", records=BSPLAT), f2)]),
     ("docs/verbs/eval.md", "the whole command took",
      "the whole command took {} s without it (a run of the seeds below, `buddha_splat_seed0_cli.json`) and {} s with "
      "`--fit-poses {}`.",
