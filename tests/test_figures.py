@@ -614,13 +614,19 @@ CHECKS = [
       (lambda: buddha_mean("splat-2e-2", "ssim", records=CLR), f3),
       (lambda: buddha_gap("splat", "splat-2e-2", records=CLR), f2),
       (lambda: buddha_gap("splat", "splat-2e-2", max, records=CLR), f2)]),
+    ("docs/measurements.md", "On buddha the splats fall", "On maryrose the splats lead the field by {} dB.",
+     [(lambda: R(MARY, "presets", "splat", "eval", "psnr") - R(MARY, "presets", "ngp", "eval", "psnr"), f1)]),
+    ("docs/measurements.md", "On buddha the splats fall",
+     "the training seed alone moves an ngp run by up to {} dB",
+     [(lambda: max(R(r, "presets", "ngp", "psnr") for r in BSEEDS) - min(R(r, "presets", "ngp", "psnr")
+                                                                      for r in BSEEDS), f1)]),
     ("docs/measurements.md", "On buddha the splats fall",
      "the splats fall {} dB under the field at full size (459 SfM points are a thin start for a room)",
      [(lambda: R(BUDDHA, "presets", "ngp", "eval", "psnr") - R(BUDDHA, "presets", "splat", "eval", "psnr"), f1)]),
     ("docs/splats.md", "On unbounded photo captures the field is ahead",
      "gave ngp {} dB against the splats' {}.",
      [((BUDDHA, "presets", "ngp", "eval", "psnr"), f1), ((BUDDHA, "presets", "splat", "eval", "psnr"), f1)]),
-    ("docs/splats.md", "Photos without masks (a room, a garden) rarely",
+    ("docs/corrections.md", "Photos without masks (a room, a garden) rarely",
      "seeds {}, {} and {} in one sitting, the mean over the seeds): **{} dB / SSIM {}** on the {} held-out photos "
      "with the transforms, {} dB / SSIM {} without; ahead with every seed, by {} to {} dB, where the seed alone "
      "moves the run with them by {} dB",
@@ -633,16 +639,16 @@ CHECKS = [
       (lambda: buddha_gap("splat", "splat-none", max, records=BSPLAT), f2),
       (lambda: max(R(r, "presets", "splat", "psnr") for r in BSPLAT) - min(R(r, "presets", "splat", "psnr")
                                                                         for r in BSPLAT), f2)]),
-    ("docs/splats.md", "Photos without masks (a room, a garden) rarely",
+    ("docs/corrections.md", "Photos without masks (a room, a garden) rarely",
      "(`eval --fit-poses {} --fit-colour`, the right halves scored) {} and {} dB",
      [((BSPLAT[0], "presets", "splat", "fitted_colour", "fit_poses"), d),
       (lambda: buddha_mean("splat", "fitted_colour", "psnr", records=BSPLAT), f2),
       (lambda: buddha_mean("splat-none", "fitted_colour", "psnr", records=BSPLAT), f2)]),
-    ("docs/splats.md", "`--pose-refine on` also learns",
+    ("docs/corrections.md", "`--pose-refine on` also learns",
      "on buddha ({} minutes at {} px, three seeds; the splats' runs above, in one sitting;",
      [((BSPLAT[0], "minutes"), f0),
       ((lambda: R(BUDDHA, "process_data", "camera", "width") // R(BSPLAT[0], "downscale")), d)]),
-    ("docs/splats.md", "`--pose-refine on` also learns",
+    ("docs/corrections.md", "`--pose-refine on` also learns",
      "it cost the splats {} dB on the mean ({} dB / SSIM {} against {} / {}; level or less with every seed, by {} to "
      "{} dB) and ngp {} dB ({} against {} dB, in {} steps instead of {}); with the held-out poses fitted (`eval "
      "--fit-poses`) the splats score {} with it and {} without:",
@@ -658,7 +664,7 @@ CHECKS = [
       (lambda: buddha_mean("ngp-pose", "steps"), f0), (lambda: buddha_mean("ngp", "steps"), f0),
       (lambda: buddha_mean("splat-pose", "fitted", "psnr", records=BSPLAT), f2),
       (lambda: buddha_mean("splat", "fitted", "psnr", records=BSPLAT), f2)]),
-    ("docs/splats.md", "`--pose-refine on` also learns",
+    ("docs/corrections.md", "On a procedural unbounded capture whose",
      "whose {} poses were written {} degrees and {}% of the camera radius off the true ones, with gains of "
      "up to {}% per photo and channel, its {} held-out photos exact ({} px, {} steps, from points triangulated at "
      "the given poses; `python benchmarks/corrections.py`, `corrections_procedural.json`): {} dB on the exact "
@@ -674,7 +680,7 @@ CHECKS = [
       ((PCORR, "runs", "pose", "eval_psnr"), f2), ((PCORR, "runs", "both", "eval_psnr"), f2),
       ((PCORR, "runs", "both", "refined_pose_error", "degrees"), f2),
       ((PCORR, "runs", "both", "refined_pose_error", "radius_share"), pct1)]),
-    ("docs/splats.md", "`--pose-refine on` also learns",
+    ("docs/corrections.md", "On a procedural unbounded capture whose",
      "(`--supersample {}`, `corrections_procedural_area.json`) the exact capture scores {} dB, and the imperfect one {} without "
      "corrections, {} with pose refinement and {} with both (poses {} degrees off)",
      [((ACORR, "supersample"), d), ((ACORR, "runs", "exact", "eval_psnr"), f2), ((ACORR, "runs", "none", "eval_psnr"), f2),
@@ -687,7 +693,7 @@ CHECKS = [
       (("corrections_procedural_ngp_area.json", "runs", "exact", "eval_psnr"), f2),
       (("corrections_procedural_ngp_area.json", "runs", "pose", "eval_psnr"), f2),
       (("corrections_procedural_ngp_area.json", "runs", "pose", "refined_pose_error", "degrees"), f2)]),
-    ("docs/splats.md", "`--pose-refine on` also learns",
+    ("docs/corrections.md", "On a procedural unbounded capture whose",
      "(every camera facing one way; `--rig forward --supersample {}`, `corrections_forward_area.json`): {} dB "
      "exact, {} imperfect, {} with the colour transforms, {} with pose refinement and {} with both (poses {} "
      "degrees off)",
@@ -695,7 +701,7 @@ CHECKS = [
       ((FCORR, "runs", "none", "eval_psnr"), f2), ((FCORR, "runs", "colour", "eval_psnr"), f2),
       ((FCORR, "runs", "pose", "eval_psnr"), f2), ((FCORR, "runs", "both", "eval_psnr"), f2),
       ((FCORR, "runs", "both", "refined_pose_error", "degrees"), f2)]),
-    ("docs/splats.md", "`corrections_ring_area_from_truth_64.json`",
+    ("docs/corrections.md", "`corrections_ring_area_from_truth_64.json`",
      "refinement leaves them {} degrees off at {} px and {} at {} px (`corrections_ring_area_from_truth_64.json`",
      [((TRUTH64, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH64, "size"), d),
       ((TRUTH128, "runs", "pose", "refined_pose_error", "degrees"), f2), ((TRUTH128, "size"), d)]),
@@ -725,12 +731,12 @@ CHECKS = [
      [((BSPLAT[0], "presets", "splat", "eval_wall_s"), f1),
       ((BSPLAT[0], "presets", "splat", "fitted", "eval_wall_s"), f1),
       ((BSPLAT[0], "presets", "splat", "fitted", "fit_poses"), d)]),
-    ("docs/splats.md", "`corrections_ring_area_128.json`",
+    ("docs/corrections.md", "`corrections_ring_area_128.json`",
      "reaches in {} steps ({} degrees at {} px, `corrections_ring_area_128.json`)",
      [(("corrections_ring_area_128.json", "steps"), d),
       (("corrections_ring_area_128.json", "runs", "pose", "refined_pose_error", "degrees"), f2),
       (("corrections_ring_area_128.json", "size"), d)]),
-    ("docs/splats.md", "More steps and larger photos",
+    ("docs/corrections.md", "More steps and larger photos",
      "the poses ended {} degrees off after {} steps at {} px, {} after {}, and {} after {}; after {} steps {} at {} px "
      "and {} at {} px. The held-out photos, fitted, came within {} dB ({} px) and {} dB ({} px) of the exact capture",
      [((GP("ring64_pose_4000"), "runs", "pose", "refined_pose_error", "degrees"), f2),
@@ -746,7 +752,7 @@ CHECKS = [
         - R(GP("ring64_pose"), "runs", "pose", "eval_psnr_fitted_poses")), f2), ((GP("ring64_exact"), "size"), d),
       ((lambda: R(GP("ring128_exact"), "runs", "exact", "eval_psnr_fitted_poses")
         - R(GP("ring128_pose"), "runs", "pose", "eval_psnr_fitted_poses")), f2), ((GP("ring128_exact"), "size"), d)]),
-    ("docs/splats.md", "more steps fit the bent scene",
+    ("docs/corrections.md", "more steps fit the bent scene",
      "at {} steps the held-out PSNR fell to {} dB from {} at {}. The exact capture too scores less after longer runs: "
      "{} dB after {} steps, {} after {} on the 2 cores, {} on the GPU",
      [((GP("ring64_pose_20000"), "runs", "pose", "steps_done"), thousands),
@@ -758,7 +764,7 @@ CHECKS = [
       (("cpu_ring64_exact_8000.json", "runs", "exact", "eval_psnr"), f2),
       (("cpu_ring64_exact_8000.json", "runs", "exact", "steps_done"), d),
       ((GP("ring64_exact"), "runs", "exact", "eval_psnr"), f2)]),
-    ("docs/splats.md", "`corrections_ring_pose_rounds5.json`) five rounds",
+    ("docs/corrections.md", "`corrections_ring_pose_rounds5.json`) five rounds",
      "five rounds of {} steps leave the poses {} degrees and {}% of the camera radius off, where one run of {} steps "
      "left {}; with each held-out photo's pose fitted they score {} dB, as the exact capture trained for {} steps "
      "does ({}). Three rounds of {} steps: {} degrees, {} dB",
@@ -773,25 +779,25 @@ CHECKS = [
       ((lambda: R(RND3, "steps") // int(R(RND3, "flags").split()[-1])), d),
       ((RND3, "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((RND3, "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
-    ("docs/splats.md", "Ten rounds level off",
+    ("docs/corrections.md", "Ten rounds level off",
      "Ten rounds level off: {} degrees and {} dB with {} steps each, {} degrees and {} dB with {} each",
      [((RND10S, "runs", "pose", "refined_pose_error", "degrees"), f2), ((RND10S, "runs", "pose", "eval_psnr_fitted_poses"), f2),
       ((lambda: R(RND10S, "steps") // 10), d), ((RND10, "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((RND10, "runs", "pose", "eval_psnr_fitted_poses"), f2), ((lambda: R(RND10, "steps") // 10), d)]),
-    ("docs/splats.md", "`buddha_pose_rounds_cli.json`",
+    ("docs/corrections.md", "`buddha_pose_rounds_cli.json`",
      "{} dB plain / {} fitted without refinement, {} / {} with it, {} / {} in {} rounds",
      [*[(("buddha_pose_rounds_cli.json", "presets", k, *f), f2) for k in ("splat", "splat-pose", "splat-rounds3")
         for f in (("psnr",), ("fitted", "psnr"))],
       ((lambda: int(R("buddha_pose_rounds_cli.json", "presets", "splat-rounds3", "args").split()[-1])), d)]),
-    ("docs/splats.md", "`pose_rounds.json`): ",
+    ("docs/corrections.md", "`pose_rounds.json`): ",
      "`pose_rounds.json`): {}, {}, {}, {} and {} degrees. Scored from their given poses moved with the rig instead of "
      "fitted, the held-out photos lose with rounds ({} dB after five, {} after one)",
      [*[(("pose_rounds.json", "rounds", i, "refined_pose_error", "degrees"), f2) for i in range(5)],
       ((RND5, "runs", "pose", "eval_psnr"), f2), (("pose_rounds.json", "rounds", 0, "eval_psnr"), f2)]),
-    ("docs/splats.md", "(`python benchmarks/pose_residual.py RUN`",
+    ("docs/corrections.md", "(`python benchmarks/pose_residual.py RUN`",
      "shift along its y axis correlate at -{} (`python benchmarks/pose_residual.py RUN`, `pose_residual_adam.json`)",
      [((lambda: -R(PR("adam"), "refined", "orbit_correlation", "pitch_with_shift_y")), f2)]),
-    ("docs/splats.md", "`corrections_ring_pose_solves16.json`) 16 solves",
+    ("docs/corrections.md", "`corrections_ring_pose_solves16.json`) 16 solves",
      "{} solves leave the poses {} degrees and {}% of the camera radius off, where Adam alone left {} and {}% "
      "(`corrections_ring_pose_adam.json`) and five rounds of 2000 steps {}; with each held-out photo's pose fitted "
      "they score {} dB, against {} after Adam alone and {} for the exact capture. The solves cost time: {} s of "
@@ -810,7 +816,7 @@ CHECKS = [
       ((SV("_128"), "size"), d), ((SV("_128"), "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((SV("_128"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
       ((SV("_128"), "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
-    ("docs/splats.md", "Most of what is left is one turn",
+    ("docs/corrections.md", "Most of what is left is one turn",
      "shares about its own x axis ({} degrees at 64 px, {} at 128; without it the median is {} and {}; "
      "`pose_residual_solves16.json`, `..._128.json`), which this ring of cameras barely sees: started at the true "
      "poses, the same run ends {} degrees off, {} of it that shared turn",
@@ -819,7 +825,7 @@ CHECKS = [
       ((PR("solves16_128"), "refined", "median_degrees_shared_turn_out"), f2),
       ((SV("_from_truth"), "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((PR("solves16_from_truth"), "refined", "turn_mean_degrees", 0), f2)]),
-    ("docs/splats.md", "`gpu_h200/gpu_solves_*.json`) 16 solves",
+    ("docs/corrections.md", "`gpu_h200/gpu_solves_*.json`) 16 solves",
      "{} solves at {} px leave {} degrees and {}% (the shared turn {}), but the held-out photos, fitted, score {} dB "
      "against the exact capture's {} there",
      [((lambda: int(R(GS("ring256_solves"), "flags").split()[-1])), d), ((GS("ring256_solves"), "size"), d),
@@ -828,7 +834,7 @@ CHECKS = [
       ((GS("ring256_solves_residual"), "refined", "turn_mean_degrees", 0), f2),
       ((GS("ring256_solves"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
       ((GS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2)]),
-    ("docs/splats.md", "Two rounds (`--pose-rounds 2 --pose-solves 16`",
+    ("docs/corrections.md", "Two rounds (`--pose-rounds 2 --pose-solves 16`",
      "Two rounds (`--pose-rounds {} --pose-solves {}`, {} steps each: the second round starts the Gaussians over at "
      "the poses the first refined) fix that: at {} px {} degrees, {}% and {} dB against {}; at {} px {} degrees, {}% "
      "and {} dB against {}. On the forward-facing capture ({} px) one round leaves {} degrees and {}%, {} dB against "
@@ -841,13 +847,13 @@ CHECKS = [
           ((GS(run + "_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2))],
       ((GS("forward128_solves"), "size"), d), *pose_run(GS("forward128_solves")),
       ((GS("forward128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2), *pose_run(GS("forward128_rounds"))]),
-    ("docs/splats.md", "on the 2 cores the same two rounds",
+    ("docs/corrections.md", "on the 2 cores the same two rounds",
      "on the 2 cores the same two rounds {} degrees, {}% and {} dB against {}, in {} s of training against {} "
      "(`cpu_solves_forward128_rounds.json`",
      [*pose_run(CS("forward128_rounds")),
       ((CS("forward128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
       ((CS("forward128_rounds"), "runs", "pose", "train_s"), f0), ((CS("forward128_exact"), "runs", "exact", "train_s"), f0)]),
-    ("docs/splats.md", "; the ring capture at 128 px",
+    ("docs/corrections.md", "; the ring capture at 128 px",
      "; the ring capture at {} px {} degrees (the shared turn {}), {}% and {} dB against {} "
      "(`cpu_solves_ring128_rounds.json`)",
      [((CS("ring128_rounds"), "size"), d), ((CS("ring128_rounds"), "runs", "pose", "refined_pose_error", "degrees"), f2),
@@ -855,42 +861,42 @@ CHECKS = [
       ((CS("ring128_rounds"), "runs", "pose", "refined_pose_error", "radius_share"), pct2),
       ((CS("ring128_rounds"), "runs", "pose", "eval_psnr_fitted_poses"), f2),
       ((CS("ring128_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2)]),
-    ("docs/splats.md", "(`cpu_solves_ring128_rounds.json`), at",
+    ("docs/corrections.md", "(`cpu_solves_ring128_rounds.json`), at",
      "(`cpu_solves_ring128_rounds.json`), at {} px {} degrees, {}% and {} dB against {} in {} s of training against {} "
      "(`cpu_solves_ring256_rounds.json`",
      [((CS("ring256_rounds"), "size"), d), *pose_run(CS("ring256_rounds")),
       ((CS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
       ((CS("ring256_rounds"), "runs", "pose", "train_s"), f0), ((CS("ring256_exact"), "runs", "exact", "train_s"), f0)]),
-    ("docs/splats.md", "With per-photo gains as well",
+    ("docs/corrections.md", "With per-photo gains as well",
      "Facing one way ({} px): poses {} degrees and {}% off, gains within {} of the truth ({} if taken as equal), and {} "
      "dB on the right halves against the exact capture's {}",
      [((CO("forward128_rounds_gains"), "size"), d), *[((CO("forward128_rounds_gains"), "runs", "both", *k), f) for k, f in (
          (("refined_pose_error", "degrees"), f2), (("refined_pose_error", "radius_share"), pct2), (("gain_error",), f3),
          (("identity_gain_error",), f3), (("eval_psnr_fitted_colour",), f2))],
       ((CO("forward128_exact"), "runs", "exact", "eval_psnr_fitted_colour"), f2)]),
-    ("docs/splats.md", "With per-photo gains as well",
+    ("docs/corrections.md", "With per-photo gains as well",
      "all around ({} px): poses {} degrees and {}% off, gains within {}, and {} dB against {}",
      [((CO("ring256_rounds_gains"), "size"), d), *[((CO("ring256_rounds_gains"), "runs", "both", *k), f) for k, f in (
          (("refined_pose_error", "degrees"), f3), (("refined_pose_error", "radius_share"), pct2), (("gain_error",), f3),
          (("eval_psnr_fitted_colour",), f2))],
       ((CO("ring256_exact"), "runs", "exact", "eval_psnr_fitted_colour"), f2)]),
-    ("docs/splats.md", "`--colour-transform affine` learns",
+    ("docs/corrections.md", "`--colour-transform affine` learns",
      "its held-out right halves score {} dB against {} with gains, which it finds within {} against {}",
      [((CO("forward128_rounds_gains_affine"), "runs", "both", "eval_psnr_fitted_colour"), f2),
       ((CO("forward128_rounds_gains"), "runs", "both", "eval_psnr_fitted_colour"), f2),
       ((CO("forward128_rounds_gains_affine"), "runs", "both", "gain_error"), f4),
       ((CO("forward128_rounds_gains"), "runs", "both", "gain_error"), f4)]),
-    ("docs/splats.md", "With per-photo gains as well",
+    ("docs/corrections.md", "With per-photo gains as well",
      "all around, the exact capture scored {}, {} and {} dB with `--seed {}`, `{}` and `{}`",
      [*[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in RING_EXACT],
       *[((lambda r=r: _command_number(r, "seed", default=0)), d) for r in RING_EXACT]]),
-    ("docs/splats.md", "With per-photo gains as well",
+    ("docs/corrections.md", "With per-photo gains as well",
      "and the runs with corrections {}, {} and {} (`colour_ring256_rounds_gains_seed1.json`, "
      "`colour_ring256_rounds_gains_seed2.json`; poses {}, {} and {} degrees off): {} dB against {} over the three seeds",
      [*[((r, "runs", "both", "eval_psnr_fitted_colour"), f2) for r in RING_GAINS],
       *[((r, "runs", "both", "refined_pose_error", "degrees"), f3) for r in RING_GAINS],
       (lambda: seed_mean(RING_GAINS, "both"), f2), (lambda: seed_mean(RING_EXACT, "exact"), f2)]),
-    ("docs/splats.md", "With per-photo gains as well",
+    ("docs/corrections.md", "With per-photo gains as well",
      "Facing one way with the same seeds: {}, {} and {} exact, {}, {} and {} with corrections "
      "(`colour_forward128_exact_seed1.json`, `colour_forward128_exact_seed2.json`, "
      "`colour_forward128_rounds_gains_seed1.json`, `colour_forward128_rounds_gains_seed2.json`; poses {}, {} and {} "
@@ -899,9 +905,37 @@ CHECKS = [
       *[((r, "runs", "both", "eval_psnr_fitted_colour"), f2) for r in FORWARD_GAINS],
       *[((r, "runs", "both", "refined_pose_error", "degrees"), f2) for r in FORWARD_GAINS],
       (lambda: seed_mean(FORWARD_GAINS, "both"), f2), (lambda: seed_mean(FORWARD_EXACT, "exact"), f2)]),
-    ("docs/splats.md", "With per-photo gains as well",
+    ("docs/corrections.md", "With per-photo gains as well",
      "The gains alone, at the exact poses without refinement (`colour_forward128_gains_exact_poses.json`): {} dB",
      [((CO("forward128_gains_exact_poses"), "runs", "colour", "eval_psnr_fitted_colour"), f2)]),
+    ("docs/corrections.md", "| procedural, facing one way",
+     "| {} dB (seed 0) | **{} dB** (`--pose-refine on --pose-rounds 2 --pose-solves 16`, colour transforms on) | {} dB | "
+     "{}-{} degrees, {}-{}% of the radius |",
+     [((CO("forward128_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
+      (lambda: seed_mean(FORWARD_GAINS, "both"), f2), (lambda: seed_mean(FORWARD_EXACT, "exact"), f2),
+      (lambda: min(R(r, "runs", "both", "refined_pose_error", "degrees") for r in FORWARD_GAINS), f3),
+      (lambda: max(R(r, "runs", "both", "refined_pose_error", "degrees") for r in FORWARD_GAINS), f3),
+      (lambda: min(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in FORWARD_GAINS), pct2),
+      (lambda: max(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in FORWARD_GAINS), pct2)]),
+    ("docs/corrections.md", "| procedural, facing one way", "written {} degrees and {}% of the camera radius off",
+     [((CO("forward128_none"), "runs", "none", "given_pose_error", "degrees"), f2),
+      ((CO("forward128_none"), "runs", "none", "given_pose_error", "radius_share"), pct1)]),
+    ("docs/corrections.md", "| procedural, all around",
+     "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
+     [((CO("ring256_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
+      (lambda: seed_mean(RING_GAINS, "both"), f2), (lambda: seed_mean(RING_EXACT, "exact"), f2),
+      (lambda: min(R(r, "runs", "both", "refined_pose_error", "degrees") for r in RING_GAINS), f3),
+      (lambda: max(R(r, "runs", "both", "refined_pose_error", "degrees") for r in RING_GAINS), f3),
+      (lambda: min(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in RING_GAINS), pct2),
+      (lambda: max(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in RING_GAINS), pct2)]),
+    ("docs/corrections.md", "three rounds did not", "({} and {} degrees with seeds 0 and 2,",
+     [((CO("ring256_rounds3_gains"), "runs", "both", "refined_pose_error", "degrees"), f3),
+      ((CO("ring256_rounds3_gains_seed2"), "runs", "both", "refined_pose_error", "degrees"), f3)]),
+    ("docs/corrections.md", "| buddha (11 photos",
+     "| {} dB (`--appearance off`) | **{} dB** with the colour transforms (the default); {} with `--pose-refine on`",
+     [(lambda: buddha_mean("splat-none", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat", "psnr", records=BSPLAT), f2),
+      (lambda: buddha_mean("splat-pose", "psnr", records=BSPLAT), f2)]),
     ("docs/methods.md", "the strongest setting is",
      "`--pose-refine on --pose-rounds {} --pose-solves {}`: Gauss-Newton solves of every photo's pose during "
      "training, and a second round whose Gaussians grow at the solved poses. On procedural captures (the "
@@ -915,7 +949,7 @@ CHECKS = [
       ((lambda: int(R(CS("forward128_rounds"), "flags").split()[-3])), d),
       ((CS("forward128_rounds"), "size"), d), ((GS("ring256_rounds"), "size"), d), ((CS("forward128_rounds"), "size"), d),
       ((CS("forward128_rounds"), "runs", "pose", "train_s"), f0), ((CS("forward128_exact"), "runs", "exact", "train_s"), f0)]),
-    ("docs/splats.md", "`corrections_masked_pose_solves16.json`) the solves",
+    ("docs/corrections.md", "`corrections_masked_pose_solves16.json`) the solves",
      "the solves moved the cameras closer ({}% of the radius off against {}%) but turned them further ({} degrees "
      "against {}), and the held-out photos, moved with the rig, scored {} dB against {} ({} and {} with their poses "
      "fitted)",
@@ -924,7 +958,7 @@ CHECKS = [
       ((MS, "runs", "pose", "refined_pose_error", "degrees"), f2), ((MA, "runs", "pose", "refined_pose_error", "degrees"), f2),
       ((MS, "runs", "pose", "eval_psnr"), f2), ((MA, "runs", "pose", "eval_psnr"), f2),
       ((MS, "runs", "pose", "eval_psnr_fitted_poses"), f2), ((MA, "runs", "pose", "eval_psnr_fitted_poses"), f2)]),
-    ("docs/splats.md", "`buddha_pose_solves_cli.json` and `.jpg`) the",
+    ("docs/corrections.md", "`buddha_pose_solves_cli.json` and `.jpg`) the",
      "the {} solves took {} steps of the {} Adam alone took, and scored {} dB plain / {} fitted on the {} held-out "
      "photos against {} / {}",
      [((lambda: int(R("buddha_pose_solves_cli.json", "presets", "splat-solves16", "args").split()[-1])), d),
