@@ -262,6 +262,13 @@ def pose_run(record: str, variant: str = "pose") -> list:
             ((record, "runs", variant, "eval_psnr_fitted_poses"), f2)]
 
 
+def pose_spread(records: list[str]) -> list:
+    """The least and most degrees off, then the least and most share of the radius, over records' refined poses."""
+    key = ("runs", "both", "refined_pose_error")
+    return [*[((lambda k=k, e=e: e(R(r, *key, k) for r in records)), fmt)
+              for k, fmt in (("degrees", f3), ("radius_share", pct2)) for e in (min, max)]]
+
+
 CHECKS = [
     # ---- README.md: the demo paragraph
     ("README.md", "**Run the demo**", "cores, **{} dB PSNR / SSIM {}**", [(("demo.json", "test_psnr"), f1), (("demo.json", "test_ssim"), f3)]),
@@ -913,10 +920,7 @@ CHECKS = [
      "{}-{} degrees, {}-{}% of the radius |",
      [((CO("forward128_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
       (lambda: seed_mean(FORWARD_GAINS, "both"), f2), (lambda: seed_mean(FORWARD_EXACT, "exact"), f2),
-      (lambda: min(R(r, "runs", "both", "refined_pose_error", "degrees") for r in FORWARD_GAINS), f3),
-      (lambda: max(R(r, "runs", "both", "refined_pose_error", "degrees") for r in FORWARD_GAINS), f3),
-      (lambda: min(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in FORWARD_GAINS), pct2),
-      (lambda: max(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in FORWARD_GAINS), pct2)]),
+      *pose_spread(FORWARD_GAINS)]),
     ("docs/corrections.md", "| procedural, facing one way", "written {} degrees and {}% of the camera radius off",
      [((CO("forward128_none"), "runs", "none", "given_pose_error", "degrees"), f2),
       ((CO("forward128_none"), "runs", "none", "given_pose_error", "radius_share"), pct1)]),
@@ -924,10 +928,7 @@ CHECKS = [
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
      [((CO("ring256_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
       (lambda: seed_mean(RING_GAINS, "both"), f2), (lambda: seed_mean(RING_EXACT, "exact"), f2),
-      (lambda: min(R(r, "runs", "both", "refined_pose_error", "degrees") for r in RING_GAINS), f3),
-      (lambda: max(R(r, "runs", "both", "refined_pose_error", "degrees") for r in RING_GAINS), f3),
-      (lambda: min(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in RING_GAINS), pct2),
-      (lambda: max(R(r, "runs", "both", "refined_pose_error", "radius_share") for r in RING_GAINS), pct2)]),
+      *pose_spread(RING_GAINS)]),
     ("docs/corrections.md", "three rounds did not", "({} and {} degrees with seeds 0 and 2,",
      [((CO("ring256_rounds3_gains"), "runs", "both", "refined_pose_error", "degrees"), f3),
       ((CO("ring256_rounds3_gains_seed2"), "runs", "both", "refined_pose_error", "degrees"), f3)]),
