@@ -944,7 +944,7 @@ CHECKS = [
      [((CS("forward128_rounds"), "runs", "pose", "train_s"), f0),
       ((CS("forward128_exact"), "runs", "exact", "train_s"), f0)]),
     ("docs/corrections.md", "Nearly all of that is",
-     "raised on its orbit about the scene's centre: {}-{} degrees of it, and {}-{} degrees a camera with it taken out",
+     "moved on its orbit about the scene's centre: {}-{} degrees of it, and {}-{} degrees a camera with it taken out",
      [(lambda: min(R(PR(f"ring256_seed{s}"), "refined", "turn_mean_degrees")[0] for s in range(3)), f3),
       (lambda: max(R(PR(f"ring256_seed{s}"), "refined", "turn_mean_degrees")[0] for s in range(3)), f3),
       (lambda: min(R(PR(f"ring256_seed{s}"), "refined", "median_degrees_shared_turn_out") for s in range(3)), f3),
