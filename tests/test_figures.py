@@ -878,6 +878,17 @@ CHECKS = [
       ((CS("ring256_rounds_residual"), "refined", "turn_mean_degrees", 0), f2), *pose_run(CS("ring256_rounds"))[1:],
       ((CS("ring256_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
       ((CS("ring256_rounds"), "runs", "pose", "train_s"), f0), ((CS("ring256_exact"), "runs", "exact", "train_s"), f0)]),
+    ("docs/corrections.md", "(`cpu_solves_ring128_rounds.json`), at",
+     "at {} px (one seed, the exact run beside it for its first {} minutes) {} degrees (the shared turn {}), {}% and {} dB "
+     "against {} in {} s of training (`cpu_solves_ring384_rounds.json`",
+     [((CS("ring384_rounds"), "size"), d), ((CS("ring384_exact"), "runs", "exact", "train_s"), lambda v: f"{v / 60:.0f}"),
+      ((CS("ring384_rounds"), "runs", "pose", "refined_pose_error", "degrees"), f3),
+      ((CS("ring384_rounds_residual"), "refined", "turn_mean_degrees", 0), f3),
+      *pose_run(CS("ring384_rounds"))[1:], ((CS("ring384_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
+      ((CS("ring384_rounds"), "runs", "pose", "train_s"), f0)]),
+    ("docs/corrections.md", "which larger photos shrink", "slowly ({}, {} and {} degrees at {}, {} and {} px)",
+     [*[((CS(f"ring{n}_rounds_residual"), "refined", "turn_mean_degrees", 0), f2) for n in (128, 256, 384)],
+      *[((CS(f"ring{n}_rounds"), "size"), d) for n in (128, 256, 384)]]),
     ("docs/corrections.md", "With per-photo gains as well",
      "Facing one way ({} px): poses {} degrees and {}% off, gains within {} of the truth ({} if taken as equal), and {} "
      "dB on the right halves against the exact capture's {}",
