@@ -267,11 +267,18 @@ def pose_run(record: str, variant: str = "pose") -> list:
             ((record, "runs", variant, "eval_psnr_fitted_poses"), f2)]
 
 
+def spread(records: list[str], path: tuple, fmt) -> list:
+    """The least and the most over records of the figure at path (keys and list indices), each formatted by fmt."""
+    return [((lambda e=e: e(R(r, *path) for r in records)), fmt) for e in (min, max)]
+
+
 def pose_spread(records: list[str]) -> list:
     """The least and most degrees off, then the least and most share of the radius, over records' refined poses."""
     key = ("runs", "both", "refined_pose_error")
-    return [((lambda k=k, e=e: e(R(r, *key, k) for r in records)), fmt)
-            for k, fmt in (("degrees", f3), ("radius_share", pct2)) for e in (min, max)]
+    return [*spread(records, (*key, "degrees"), f3), *spread(records, (*key, "radius_share"), pct2)]
+
+
+RING_RESIDUALS = [f"pose_residual_ring256_seed{s}.json" for s in range(3)]  # pose_residual.py on the RING_GAINS runs
 
 
 CHECKS = [
@@ -956,10 +963,8 @@ CHECKS = [
       ((CS("forward128_exact"), "runs", "exact", "train_s"), f0)]),
     ("docs/corrections.md", "Nearly all of that is",
      "moved on its orbit about the scene's centre: {}-{} degrees of it, and {}-{} degrees a camera with it taken out",
-     [(lambda: min(R(PR(f"ring256_seed{s}"), "refined", "turn_mean_degrees")[0] for s in range(3)), f3),
-      (lambda: max(R(PR(f"ring256_seed{s}"), "refined", "turn_mean_degrees")[0] for s in range(3)), f3),
-      (lambda: min(R(PR(f"ring256_seed{s}"), "refined", "median_degrees_shared_turn_out") for s in range(3)), f3),
-      (lambda: max(R(PR(f"ring256_seed{s}"), "refined", "median_degrees_shared_turn_out") for s in range(3)), f3)]),
+     [*spread(RING_RESIDUALS, ("refined", "turn_mean_degrees", 0), f3),
+      *spread(RING_RESIDUALS, ("refined", "median_degrees_shared_turn_out"), f3)]),
     ("docs/corrections.md", "three rounds did not", "({} and {} degrees with seeds 0 and 2,",
      [((CO("ring256_rounds3_gains"), "runs", "both", "refined_pose_error", "degrees"), f3),
       ((CO("ring256_rounds3_gains_seed2"), "runs", "both", "refined_pose_error", "degrees"), f3)]),
