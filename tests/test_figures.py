@@ -279,6 +279,15 @@ def pose_spread(records: list[str]) -> list:
 
 
 RING_RESIDUALS = [f"pose_residual_ring256_seed{s}.json" for s in range(3)]  # pose_residual.py on the RING_GAINS runs
+RING384_EXACT = [CO("ring384_exact"), CO("ring384_exact_seed1"), CO("ring384_exact_seed2")]
+RING384_GAINS = [CO("ring384_rounds_gains"), CO("ring384_rounds_gains_seed1"), CO("ring384_rounds_gains_seed2")]
+RING384_RESIDUALS = [f"pose_residual_ring384_seed{s}.json" for s in range(3)]  # on the RING384_GAINS runs
+
+
+def ring384_gaps() -> list[float]:
+    """Seed by seed (0, 1, 2), the exact capture's held-out right halves at 384 px less the corrected run's, in dB."""
+    return [R(e, "runs", "exact", "eval_psnr_fitted_colour") - R(g, "runs", "both", "eval_psnr_fitted_colour")
+            for e, g in zip(RING384_EXACT, RING384_GAINS)]
 
 
 CHECKS = [
@@ -893,9 +902,12 @@ CHECKS = [
       ((CS("ring384_rounds_residual"), "refined", "turn_mean_degrees", 0), f3),
       *pose_run(CS("ring384_rounds"))[1:], ((CS("ring384_exact"), "runs", "exact", "eval_psnr_fitted_poses"), f2),
       ((CS("ring384_rounds"), "runs", "pose", "train_s"), f0)]),
-    ("docs/corrections.md", "which larger photos shrink", "slowly ({}, {} and {} degrees at {}, {} and {} px)",
+    ("docs/corrections.md", "which larger photos shrink",
+     "({}, {} and {} degrees at {}, {} and {} px here; with gains and colour transforms at {} px, three seeds left {}-{} "
+     "of it",
      [*[((CS(f"ring{n}_rounds_residual"), "refined", "turn_mean_degrees", 0), f2) for n in (128, 256, 384)],
-      *[((CS(f"ring{n}_rounds"), "size"), d) for n in (128, 256, 384)]]),
+      *[((CS(f"ring{n}_rounds"), "size"), d) for n in (128, 256, 384)], ((RING384_GAINS[0], "size"), d),
+      *spread(RING384_RESIDUALS, ("refined", "turn_mean_degrees", 0), f3)]),
     ("docs/corrections.md", "With per-photo gains as well",
      "Facing one way ({} px): poses {} degrees and {}% off, gains within {} of the truth ({} if taken as equal), and {} "
      "dB on the right halves against the exact capture's {}",
@@ -951,8 +963,8 @@ CHECKS = [
       ((CO("forward128_none"), "runs", "none", "given_pose_error", "degrees"), f2),
       ((CO("forward128_none"), "runs", "none", "given_pose_error", "radius_share"), pct1),
       ((CO("forward128_none"), "gains"), pct0), ((lambda: R(CO("forward128_none"), "views") // 8), d)]),
-    ("docs/corrections.md", "| procedural, all around", "(the same at {} px)", [((CO("ring256_none"), "size"), d)]),
-    ("docs/corrections.md", "| procedural, all around",
+    ("docs/corrections.md", "| procedural, all around (the same at", "(the same at {} px)", [((CO("ring256_none"), "size"), d)]),
+    ("docs/corrections.md", "| procedural, all around (the same at",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
      [((CO("ring256_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
       (lambda: seed_mean(RING_GAINS, "both"), f2), (lambda: seed_mean(RING_EXACT, "exact"), f2),
@@ -965,6 +977,41 @@ CHECKS = [
      "moved on its orbit about the scene's centre: {}-{} degrees of it, and {}-{} degrees a camera with it taken out",
      [*spread(RING_RESIDUALS, ("refined", "turn_mean_degrees", 0), f3),
       *spread(RING_RESIDUALS, ("refined", "median_degrees_shared_turn_out"), f3)]),
+    ("docs/corrections.md", "| procedural, all around, larger photos", "(the same at {} px)",
+     [((RING384_GAINS[0], "size"), d)]),
+    ("docs/corrections.md", "| procedural, all around, larger photos",
+     "| not run | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
+     [(lambda: seed_mean(RING384_GAINS, "both"), f2), (lambda: seed_mean(RING384_EXACT, "exact"), f2),
+      *pose_spread(RING384_GAINS)]),
+    ("docs/corrections.md", "Larger photos do:",
+     "at {} px the same runs leave the cameras {}, {} and {} degrees off with seeds {}, {} and {}, the shared turn {}-{} "
+     "degrees of it (`pose_residual_ring384_seed0.json`, `_seed1`, `_seed2`), in {}-{} s of training each against the "
+     "exact capture's {} s",
+     [((RING384_GAINS[0], "size"), d),
+      *[((r, "runs", "both", "refined_pose_error", "degrees"), f3) for r in RING384_GAINS],
+      *[((lambda r=r: _command_number(r, "seed", default=0)), d) for r in RING384_GAINS],
+      *spread(RING384_RESIDUALS, ("refined", "turn_mean_degrees", 0), f3),
+      *spread(RING384_GAINS, ("runs", "both", "train_s"), f0),
+      ((RING384_EXACT[0], "runs", "exact", "train_s"), f0)]),
+    ("docs/corrections.md", "The same capture at 384 px brings",
+     "{}, {} and {} dB against the exact capture's {}, {} and {} (`colour_ring384_rounds_gains.json`",
+     [*[((r, "runs", "both", "eval_psnr_fitted_colour"), f2) for r in RING384_GAINS],
+      *[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in RING384_EXACT]]),
+    ("docs/corrections.md", "The same capture at 384 px brings",
+     "{} against {} over the three seeds, poses {}, {} and {} degrees and {}-{}% off, gains within {} of the truth",
+     [(lambda: seed_mean(RING384_GAINS, "both"), f2), (lambda: seed_mean(RING384_EXACT, "exact"), f2),
+      *[((r, "runs", "both", "refined_pose_error", "degrees"), f3) for r in RING384_GAINS],
+      *spread(RING384_GAINS, ("runs", "both", "refined_pose_error", "radius_share"), pct2),
+      *spread(RING384_GAINS, ("runs", "both", "gain_error"), f3)[1:]]),
+    ("docs/corrections.md", "The same capture at 384 px brings", "not with every seed (seed {}: {} dB under)",
+     [((lambda: _command_number(RING384_GAINS[1], "seed")), d), ((lambda: ring384_gaps()[1]), f2)]),
+    ("docs/corrections.md", "The same capture at 384 px brings", "({} degrees at {} px, {} dB at {} px)",
+     [spread(RING_GAINS, ("runs", "both", "refined_pose_error", "degrees"), f3)[1], ((RING_GAINS[0], "size"), d),
+      ((lambda: max(ring384_gaps())), f2), ((RING384_GAINS[0], "size"), d)]),
+    ("docs/corrections.md", "Larger photos do:",
+     "the corrected ones {} dB under the exact capture's over the three seeds ({}, {} and {} dB seed by seed)",
+     [(lambda: seed_mean(RING384_EXACT, "exact") - seed_mean(RING384_GAINS, "both"), f2),
+      *[((lambda i=i: ring384_gaps()[i]), f2) for i in range(3)]]),
     ("docs/corrections.md", "three rounds did not", "({} and {} degrees with seeds 0 and 2,",
      [((CO("ring256_rounds3_gains"), "runs", "both", "refined_pose_error", "degrees"), f3),
       ((CO("ring256_rounds3_gains_seed2"), "runs", "both", "refined_pose_error", "degrees"), f3)]),
@@ -981,13 +1028,17 @@ CHECKS = [
      "training, and a second round whose Gaussians grow at the solved poses. On procedural captures (the "
      "forward-facing one at {} px, the one all around at {} px) it brings the poses within a tenth of a degree "
      "and the held-out photos within half a dB of the exact capture's (with per-photo gains as well, within a "
-     "quarter of a dB on the mean over three training seeds each way, though all around two seeds of three then leave "
-     "the cameras turned just over a tenth of a degree), at "
+     "quarter of a dB on the mean over three training seeds each way, though all around at {} px two seeds of three "
+     "then leave the cameras turned just over a tenth of a degree; at {} px all three within {}-{} degrees, the held-out photos {} dB under on the mean), at "
      "about five times the training time of one plain round (the forward-facing capture at {} px on the 2 cores: "
      "{} s against {}",
      [((lambda: int(R(CS("forward128_rounds"), "flags").split()[-1])), d),
       ((lambda: int(R(CS("forward128_rounds"), "flags").split()[-3])), d),
-      ((CS("forward128_rounds"), "size"), d), ((GS("ring256_rounds"), "size"), d), ((CS("forward128_rounds"), "size"), d),
+      ((CS("forward128_rounds"), "size"), d), ((GS("ring256_rounds"), "size"), d),
+      ((RING_GAINS[0], "size"), d), ((RING384_GAINS[0], "size"), d),
+      *spread(RING384_GAINS, ("runs", "both", "refined_pose_error", "degrees"), f2),
+      (lambda: seed_mean(RING384_EXACT, "exact") - seed_mean(RING384_GAINS, "both"), f2),
+      ((CS("forward128_rounds"), "size"), d),
       ((CS("forward128_rounds"), "runs", "pose", "train_s"), f0), ((CS("forward128_exact"), "runs", "exact", "train_s"), f0)]),
     ("docs/corrections.md", "`corrections_masked_pose_solves16.json`) the solves",
      "the solves moved the cameras closer ({}% of the radius off against {}%) but turned them further ({} degrees "
