@@ -19,7 +19,9 @@ from nerfkit.core import rules
 from nerfkit.core.errors import ConfigError
 
 # Settings of earlier versions that no model reads: config.json files that hold them still load.
-RETIRED = frozenset({"sampler.eval_samples_per_ray"})  # the one-pass ngp renderer's budget (wavefront: its own)
+RETIRED = frozenset({
+    "sampler.eval_samples_per_ray",  # the one-pass ngp renderer's budget; the wavefront renderer has its own
+})
 
 
 @dataclass
@@ -38,7 +40,8 @@ class DataConfig:
     background: Literal["white", "black"] = "white"
     """Colour RGBA images and masked photos are composited on, and the colour rendered behind the field."""
     format: str = "auto"
-    """Capture format: auto (the data folder's files), blender, nerfstudio, llff or colmap (formats/registry.py)."""
+    """Capture format: auto (from the files in the data folder), blender, nerfstudio, llff or colmap (any
+    format in data/formats/registry.py)."""
     masks: bool = True
     """Use object masks where the capture has them (pixels outside become the background); --no-masks ignores them."""
     holdout_every: int = 8
@@ -105,7 +108,8 @@ class FieldConfig:
     """Per-image appearance embedding size (NeRF-W); absorbs exposure / white balance. Default: 16 for photo
     captures, 0 (off) for Blender scenes and masked object captures. Held-out views use the mean embedding."""
     appearance_count: int = 0
-    """Set from the data: the training images that own an appearance embedding (splats: per-photo corrections)."""
+    """Set from the data: number of training images that own an appearance embedding (or, for splats, per-photo
+    corrections: --appearance, --pose-refine)."""
 
     def resolved_bound(self) -> float:
         return 1.5 if self.bound is None else self.bound
@@ -308,9 +312,6 @@ class SplatSettings:
     pose_solves: int = 0
     """With --pose-refine on: N times over the budget (each round) every photo's pose takes a Levenberg-Marquardt step
     against the Gaussians as they stand, the last after the last step. For scenes seen all around (docs: Splats)."""
-    colour_solves: int = 0
-    """With colour transforms (--appearance on): N times over the budget (each round), the first after the first step,
-    every photo's transform is set to the one that maps the Gaussians as they stand best onto it (docs: Splats)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (exposure and white balance change from photo to photo), learned with
     the Gaussians; held-out photos use the mean of the training photos' transforms. auto: on for photo captures

@@ -83,7 +83,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        ssim_lambda=g.ssim_lambda, pixel_loss=g.pixel_loss, coarse_until=coarse_share(g.coarse, pixels),
                        seed=cfg.train.seed, init_box=cfg.field.resolved_bound(), backend=g.backend,
                        appearance=g.appearance == "on", colour_transform=g.colour_transform,
-                       pose_refine=cfg.train.pose_refine == "on", colour_solves=g.colour_solves,
+                       pose_refine=cfg.train.pose_refine == "on",
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
@@ -97,12 +97,10 @@ def progress_of(step: int, clock: float, cfg) -> float:
     return float(min(1.0, max(step / max(t.max_steps, 1), by_time)))
 
 
-def _describe_corrections(cfg) -> str:
-    g, n, k = cfg.splat, cfg.splat.pose_rounds, cfg.splat.pose_solves
-    solves, colour = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else "", g.colour_solves
-    colour = f"; a colour transform per photo ({g.colour_transform}{f', {colour} solves' if colour else ''})"
-    pose = "" if cfg.train.pose_refine != "on" else f"; pose refinement{f' in {n} rounds' if n > 1 else ''}{solves}"
-    return (colour if g.appearance == "on" else "") + pose
+def _describe_pose(cfg) -> str:
+    n, k = cfg.splat.pose_rounds, cfg.splat.pose_solves
+    solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
+    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{f' in {n} rounds' if n > 1 else ''}{solves}"
 
 
 def _describe_coarse(coarse: float | None) -> str:
@@ -140,7 +138,7 @@ class SplatModel:
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
         "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves",
-        "colour_transform", "colour_lr", "colour_solves")) | {"train.pose_refine"}
+        "colour_transform", "colour_lr")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -150,11 +148,12 @@ class SplatModel:
                 f"{f' raised every {g.sh_interval} steps' if g.sh_degree else ''}, loss {g.loss_name()}, "
                 f"{_describe_coarse(g.coarse)}"
                 f"{f'init from {Path(g.init).name}' if g.init else f'{g.init_points} init'}, one view per step"
+                f"{f'; a colour transform per photo ({g.colour_transform})' if g.appearance == 'on' else ''}"
                 f"{'; far points' if g.far_points == 'on' else ''}"
                 f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{_describe_surface(g)}"
                 f"{'' if g.screen_dilation == LOWPASS_DILATION else f'; screen dilation {g.screen_dilation:g} px^2'}"
-                f"{_describe_corrections(cfg)}"
+                f"{_describe_pose(cfg)}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
     @staticmethod
@@ -201,8 +200,9 @@ class SplatModel:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if cfg.train.pose_refine != "on":
             out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
-        if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and not getattr(capture, "photos", True)):
-            out["splat.colour_transform"] = out["splat.colour_solves"] = "no colour transforms (--appearance on)"
+        if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and capture is not None
+                                             and not capture.photos):
+            out["splat.colour_transform"] = "there are no colour transforms (--appearance on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
                 and (capture.has_masks or capture.alpha)):
             out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "
@@ -382,7 +382,7 @@ class SplatModel:
                 state, step, progress = in_round(state, step, progress, n, self.init, self.sc.corrections, optimizer)
             state, metrics = view_step(state, step, progress, images, poses, intrinsics)
             after = within_round(progress_of(at + 1, clock + time.perf_counter() - t0, cfg), n, state["aux"])
-            state = view_step.solve(state, step, progress, after, images, poses, intrinsics)
+            state = view_step.solve_poses(state, step, progress, after, images, poses, intrinsics)
             state["aux"]["clock"] = np.float32(clock + time.perf_counter() - t0)
             return state, metrics
 

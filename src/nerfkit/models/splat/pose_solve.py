@@ -42,20 +42,14 @@ def solve_due(before: float, after: float, n: int, start: float) -> bool:
     return solves_done(after, n, start) > solves_done(before, n, start)
 
 
-def visible_scene(params: dict, active) -> dict:
-    """The Gaussians of params (PARAM_NAMES, device arrays) with the slots not in active [capacity] drawn hidden."""
-    scene = {k: jnp.asarray(params[k]) for k in PARAM_NAMES}
-    scene["opacity"] = jnp.where(jnp.asarray(active), scene["opacity"], HIDDEN_OPACITY)
-    return scene
-
-
 def solve_corrections(params: dict, active, poses, images, intrinsics, extent: float, width: int, height: int,
                       background, sh_degree: int, backend: str, dilation: float) -> np.ndarray:
     """cam_pose [V, 6] after one solve (module docstring) of every training photo: poses [V, 4, 4] the photos'
     given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on the background), intrinsics
     [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color" [V, 3, 4]); active
     [capacity] the slots in use."""
-    scene = visible_scene(params, active)
+    scene = {k: jnp.asarray(params[k]) for k in PARAM_NAMES}
+    scene["opacity"] = jnp.where(jnp.asarray(active), scene["opacity"], HIDDEN_OPACITY)
     xi = np.asarray(params["cam_pose"], np.float64).copy()
     color = np.asarray(params["cam_color"]) if "cam_color" in params else None
     for k in range(len(xi)):

@@ -40,7 +40,6 @@ from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, init_random, splat_inputs
 from nerfkit.models.splat.optim import LearningRates, adam_step, colour_lr, means_lr, pose_lr, reset_rows
-from nerfkit.models.splat.colour_solve import colour_solve_due, solve_colours
 from nerfkit.models.splat.pose_solve import solve_corrections, solve_due
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
@@ -76,7 +75,6 @@ class SplatConfig:
     colour_transform: str = "gain"  # the entries of those transforms learned (correction.COLOR_FORMS)
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     pose_solves: int = 0  # Levenberg-Marquardt solves of the pose corrections per run or round (pose_solve.py)
-    colour_solves: int = 0  # closed-form solves of the colour transforms per run or round (colour_solve.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
     normal_consistency_from: float = 0.0  # progress from which the surface terms are on (before: steps without)
@@ -311,19 +309,16 @@ class ViewStep:
                    "gaussians": jnp.int32(active.sum())}
         return {"params": params, "opt_state": opt_state, "aux": aux}, metrics
 
-    def solve(self, state: dict, step: int, before: float, after: float, images, poses, intrinsics) -> dict:
-        """state with its pose corrections solved (pose_solve.py) and then its colour transforms (colour_solve.py)
-        where the step that took the progress from before to after passed one of the run's (or round's) solves;
-        else state as it is."""
-        sc, params = self.sc, state["params"]
-        args = (np.asarray(poses), images, np.asarray(intrinsics), self.extent, self.width, self.height,
-                self.background, schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation)
-        if sc.pose_refine and solve_due(before, after, sc.pose_solves, 2 * sc.lrs.pose_warmup):
-            params = {**params, "cam_pose": jnp.asarray(solve_corrections(params, state["aux"]["active"], *args))}
-        if sc.appearance and colour_solve_due(before, after, sc.colour_solves):
-            m = solve_colours(params, state["aux"]["active"], *args, sc.colour_transform)
-            params = {**params, "cam_color": jnp.asarray(m)}
-        return state if params is state["params"] else {**state, "params": params}
+    def solve_poses(self, state: dict, step: int, before: float, after: float, images, poses, intrinsics) -> dict:
+        """state with its pose corrections solved (pose_solve.py) where the step that took the progress from before
+        to after crossed one of the run's (or round's) solves; else state as it is."""
+        sc = self.sc
+        if not (sc.pose_refine and solve_due(before, after, sc.pose_solves, 2 * sc.lrs.pose_warmup)):
+            return state
+        xi = solve_corrections(state["params"], state["aux"]["active"], np.asarray(poses), images,
+                               np.asarray(intrinsics), self.extent, self.width, self.height, self.background,
+                               schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation)
+        return {**state, "params": {**state["params"], "cam_pose": jnp.asarray(xi)}}
 
 
 def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
