@@ -19,9 +19,7 @@ from nerfkit.core import rules
 from nerfkit.core.errors import ConfigError
 
 # Settings of earlier versions that no model reads: config.json files that hold them still load.
-RETIRED = frozenset({
-    "sampler.eval_samples_per_ray",  # the one-pass ngp renderer's budget; the wavefront renderer has its own
-})
+RETIRED = frozenset({"sampler.eval_samples_per_ray"})  # the one-pass ngp renderer's budget (wavefront: its own)
 
 
 @dataclass
@@ -40,8 +38,7 @@ class DataConfig:
     background: Literal["white", "black"] = "white"
     """Colour RGBA images and masked photos are composited on, and the colour rendered behind the field."""
     format: str = "auto"
-    """Capture format: auto (from the files in the data folder), blender, nerfstudio, llff or colmap (any
-    format in data/formats/registry.py)."""
+    """Capture format: auto (the data folder's files), blender, nerfstudio, llff or colmap (formats/registry.py)."""
     masks: bool = True
     """Use object masks where the capture has them (pixels outside become the background); --no-masks ignores them."""
     holdout_every: int = 8
@@ -108,8 +105,7 @@ class FieldConfig:
     """Per-image appearance embedding size (NeRF-W); absorbs exposure / white balance. Default: 16 for photo
     captures, 0 (off) for Blender scenes and masked object captures. Held-out views use the mean embedding."""
     appearance_count: int = 0
-    """Set from the data: number of training images that own an appearance embedding (or, for splats, per-photo
-    corrections: --appearance, --pose-refine)."""
+    """Set from the data: the training images that own an appearance embedding (splats: per-photo corrections)."""
 
     def resolved_bound(self) -> float:
         return 1.5 if self.bound is None else self.bound
@@ -323,6 +319,8 @@ class SplatSettings:
     colour_transform: Literal["gain", "affine"] = "gain"
     """--appearance's transform: gain (a gain per channel: 3 numbers a photo, what exposure and white balance do) or
     affine (a 3x3 matrix and an offset: 12, which also soak up the scene's errors; docs: Splats)."""
+    colour_transform_lr: float = 1e-3
+    """--appearance's transforms' learning rate (Adam), log-linearly down to a tenth by the end (docs: Splats)."""
     backend: str = "auto"
     """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host callback),
     pallas (tile kernels compiled to Triton on a GPU; on a CPU interpreted, far slower than numba) or reference (pure

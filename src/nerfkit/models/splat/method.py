@@ -87,7 +87,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
-                       pose_solves=g.pose_solves, lrs=colour_rates(LearningRates(), g.colour_lr))
+                       pose_solves=g.pose_solves, lrs=colour_rates(LearningRates(), g.colour_lr, g.colour_transform_lr))
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -138,7 +138,7 @@ class SplatModel:
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
         "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves",
-        "colour_transform", "colour_lr")) | {"train.pose_refine"}
+        "colour_transform", "colour_lr", "colour_transform_lr")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -200,9 +200,8 @@ class SplatModel:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if cfg.train.pose_refine != "on":
             out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
-        if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and capture is not None
-                                             and not capture.photos):
-            out["splat.colour_transform"] = "there are no colour transforms (--appearance on)"
+        if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and not getattr(capture, "photos", True)):
+            out["splat.colour_transform"] = out["splat.colour_transform_lr"] = "no colour transforms (--appearance on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None
                 and (capture.has_masks or capture.alpha)):
             out["splat.init_points"] = (f"the capture {capture.root} has no SfM points (sparse_pc.ply, COLMAP "

@@ -83,10 +83,11 @@ def colour_lr_for(photos: bool) -> float:
     return COLOUR_LR_PHOTOS if photos else LearningRates().sh_dc
 
 
-def colour_rates(lrs: LearningRates, colour: float | None) -> LearningRates:
-    """lrs with the colour groups' rates set from `colour` (sh_dc = colour, sh_rest = colour / 20, 3DGS's ratio);
-    None keeps lrs."""
-    return lrs if colour is None else replace(lrs, sh_dc=colour, sh_rest=colour / 20)
+def colour_rates(lrs: LearningRates, colour: float | None, transform: float | None = None) -> LearningRates:
+    """lrs with the colour groups' rates set from `colour` (sh_dc = colour, sh_rest = colour / 20, 3DGS's ratio)
+    and the colour transforms' (cam_color) from `transform`; None keeps lrs' own."""
+    lrs = lrs if colour is None else replace(lrs, sh_dc=colour, sh_rest=colour / 20)
+    return lrs if transform is None else replace(lrs, cam_color=transform)
 
 
 def means_lr(progress: float, extent: float, lrs: LearningRates = LearningRates()) -> float:
