@@ -3,6 +3,8 @@ capture whose photos were taken with per-photo gains at poses 1 degree and 2% of
 the learned colour transforms find the gains and the learned pose corrections bring the poses closer to the
 truth; the settings resolve from the data and runs written before them load with both off."""
 
+from dataclasses import replace
+
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -161,3 +163,27 @@ def test_the_colour_rate_resolves_from_the_data(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--colour-lr" in err
     assert not (tmp_path / "run").exists()
+
+
+def test_the_colour_transforms_rate_reaches_the_optimiser(tmp_path, capsys):
+    """--colour-transform-lr sets the colour transforms' rate (LearningRates.cam_color, which optim.colour_lr lowers
+    to a tenth over the run) and no other; a config written before the setting reads back with 1e-3; a rate <= 0, or
+    one given where there are no colour transforms, is refused in one line and writes nothing."""
+    from nerfkit.models.splat.method import splat_config
+    from nerfkit.models.splat.optim import LearningRates
+
+    cfg = preset("splat")
+    default = splat_config(cfg).lrs
+    assert cfg.splat.colour_transform_lr == default.cam_color == LearningRates().cam_color == 1e-3
+    cfg.splat.colour_transform_lr = 4e-3
+    lrs = splat_config(cfg).lrs
+    assert lrs.cam_color == 4e-3 and lrs == replace(default, cam_color=4e-3)
+    old = preset("splat").to_dict()
+    del old["splat"]["colour_transform_lr"]
+    assert Config.from_dict(old).splat.colour_transform_lr == 1e-3
+    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16)
+    for bad in (["--colour-transform-lr", "0"], ["--appearance", "off", "--colour-transform-lr", "4e-3"]):
+        assert main(["train", str(cap), "--out", str(tmp_path / "run"), "--preset", "splat", *bad]) == 1
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "--colour-transform-lr" in err, err
+        assert not (tmp_path / "run").exists()
