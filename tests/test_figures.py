@@ -240,6 +240,13 @@ def seed_mean(records: list[str], variant: str, key: str = "eval_psnr_fitted_col
     return sum(R(r, "runs", variant, key) for r in records) / len(records)
 
 
+def buddha_budget(record: str) -> list:
+    """A buddha capture_cli record's minutes of training and its photos' width in px (process-data's camera width
+    over the record's --downscale), as check values."""
+    return [((record, "minutes"), f0),
+            ((lambda: R(BUDDHA, "process_data", "camera", "width") // R(record, "downscale")), d)]
+
+
 def buddha_mean(preset: str, *path, records=BSEEDS) -> float:
     """The mean over buddha's three training seeds (records, one sitting) of a preset's figure at path."""
     return sum(R(r, "presets", preset, *path) for r in records) / len(records)
@@ -703,8 +710,7 @@ CHECKS = [
       (lambda: buddha_mean("splat-none", "fitted_colour", "psnr", records=BSPLAT), f2)]),
     ("docs/corrections.md", "`--pose-refine on` also learns",
      "on buddha ({} minutes at {} px, three seeds; the splats' runs above, in one sitting;",
-     [((BSPLAT[0], "minutes"), f0),
-      ((lambda: R(BUDDHA, "process_data", "camera", "width") // R(BSPLAT[0], "downscale")), d)]),
+     buddha_budget(BSPLAT[0])),
     ("docs/corrections.md", "`--pose-refine on` also learns",
      "it cost the splats {} dB on the mean ({} dB / SSIM {} against {} / {}; level or less with every seed, by {} to "
      "{} dB) and ngp {} dB ({} against {} dB, in {} steps instead of {}); with the held-out poses fitted (`eval "
@@ -1140,8 +1146,7 @@ CHECKS = [
      [(lambda: mean_gap(RING320_EXACT, RING320_GAINS), f2)]),
     ("docs/corrections.md", "A faster rate for the colour transforms",
      "On buddha ({}-minute runs at {} px, training seeds 0, 1 and 2, one sitting;",
-     [((BCTLR[0], "minutes"), f0),
-      ((lambda: R(BUDDHA, "process_data", "camera", "width") // R(BCTLR[0], "downscale")), d)]),
+     buddha_budget(BCTLR[0])),
     ("docs/corrections.md", "A faster rate for the colour transforms",
      "3e-3 scores {} dB against 1e-3's {} on the mean over the seeds ({}, {} and {} against {}, {} and {})",
      [(lambda: buddha_mean("splat-ctlr3e-3", "psnr", records=BCTLR), f2),
@@ -1157,8 +1162,7 @@ CHECKS = [
      [((CO("ring256_rounds3_gains"), "runs", "both", "refined_pose_error", "degrees"), f3),
       ((CO("ring256_rounds3_gains_seed2"), "runs", "both", "refined_pose_error", "degrees"), f3)]),
     ("docs/corrections.md", "| buddha (11 photos", "{}-minute splat runs at {} px",
-     [((BSPLAT[0], "minutes"), f0),
-      ((lambda: R(BUDDHA, "process_data", "camera", "width") // R(BSPLAT[0], "downscale")), d)]),
+     buddha_budget(BSPLAT[0])),
     ("docs/corrections.md", "| buddha (11 photos",
      "| {} dB (`--appearance off`) | **{} dB** with the colour transforms (the default); {} with `--pose-refine on`",
      [(lambda: buddha_mean("splat-none", "psnr", records=BSPLAT), f2),
