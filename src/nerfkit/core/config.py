@@ -319,7 +319,7 @@ class SplatSettings:
     colour_transform: Literal["gain", "affine"] = "gain"
     """--appearance's transform: gain (a gain per channel: 3 numbers a photo, what exposure and white balance do) or
     affine (a 3x3 matrix and an offset: 12, which also soak up the scene's errors; docs: Splats)."""
-    colour_transform_lr: float = 1e-3
+    colour_transform_lr: float = 3e-3
     """--appearance's transforms' learning rate (Adam), log-linearly down to a tenth by the end (docs: Splats)."""
     backend: str = "auto"
     """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host callback),
@@ -381,7 +381,7 @@ class Config:
 FIELD_BEFORE = {"warp": "contract"}
 SPLAT_BEFORE = {"pixel_loss": "l1", "appearance": "off", "far_points": "off", "random_background": "off",
                 "normal_consistency": 0.0, "normal_consistency_from": 0.0, "depth_distortion": 0.0,
-                "colour_transform": "affine", "colour_lr": 2e-2}
+                "colour_transform": "affine", "colour_lr": 2e-2, "colour_transform_lr": 1e-3}
 
 
 @functools.cache

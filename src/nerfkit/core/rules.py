@@ -134,7 +134,7 @@ def _check_splat_and_images(g, d) -> None:
     _need(g.normal_consistency >= 0, f"--normal-consistency must be >= 0 (got {g.normal_consistency})")
     _need(g.depth_distortion >= 0, f"--depth-distortion must be >= 0 (got {g.depth_distortion})")
     _need(g.colour_lr is None or g.colour_lr > 0, f"--colour-lr must be > 0 (got {g.colour_lr}; unset: by the capture)")
-    _need(g.colour_transform_lr > 0, f"--colour-transform-lr must be > 0 (got {g.colour_transform_lr}; default 1e-3)")
+    _need(g.colour_transform_lr > 0, f"--colour-transform-lr must be > 0 (got {g.colour_transform_lr}; default 3e-3)")
     _need(g.screen_dilation > 0, f"--screen-dilation must be > 0 px^2 (got {g.screen_dilation}; 3DGS: 0.3)")
     _need(0.0 <= g.normal_consistency_from < 1.0, f"--normal-consistency-from must be in [0, 1): the share of the "
                                                   f"budget before the term comes on (got {g.normal_consistency_from})")

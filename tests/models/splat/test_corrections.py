@@ -167,14 +167,15 @@ def test_the_colour_rate_resolves_from_the_data(tmp_path, capsys):
 
 def test_the_colour_transforms_rate_reaches_the_optimiser(tmp_path, capsys):
     """--colour-transform-lr sets the colour transforms' rate (LearningRates.cam_color, which optim.colour_lr lowers
-    to a tenth over the run) and no other; a config written before the setting reads back with 1e-3; a rate <= 0, or
-    one given where there are no colour transforms, is refused in one line and writes nothing."""
+    to a tenth over the run; 3e-3 by default) and no other; a config written before the setting reads back with 1e-3,
+    the rate those runs trained with; a rate <= 0, or one given where there are no colour transforms, is refused in
+    one line and writes nothing."""
     from nerfkit.models.splat.method import splat_config
     from nerfkit.models.splat.optim import LearningRates
 
     cfg = preset("splat")
     default = splat_config(cfg).lrs
-    assert cfg.splat.colour_transform_lr == default.cam_color == LearningRates().cam_color == 1e-3
+    assert cfg.splat.colour_transform_lr == default.cam_color == LearningRates().cam_color == 3e-3
     cfg.splat.colour_transform_lr = 4e-3
     lrs = splat_config(cfg).lrs
     assert lrs.cam_color == 4e-3 and lrs == replace(default, cam_color=4e-3)

@@ -215,7 +215,7 @@ def test_the_steps_draw_with_the_configs_screen_dilation(scene, monkeypatch):
 
 def test_each_step_sets_the_colour_transforms_rate_from_the_schedule(scene, monkeypatch):
     """The step's colour-transform rate is optim.colour_lr at the step's progress: a schedule that answers 0 keeps
-    every transform at the identity, where the optimiser's own rate (1e-3) would have moved them."""
+    every transform at the identity, where the optimiser's own rate (3e-3) would have moved them."""
     from nerfkit.models.splat import train as train_module
 
     train, _ = scene

@@ -71,7 +71,7 @@ class LearningRates:
     opacity: float = 5e-2
     log_scales: float = 1e-2
     quats: float = 1e-3
-    cam_color: float = 1e-3
+    cam_color: float = 3e-3
     cam_pose: float = 1e-4
     pose_warmup: float = 0.1  # progress before which the poses stay put (then a ramp of the same length)
 
