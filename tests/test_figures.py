@@ -295,6 +295,14 @@ def pose_spread(records: list[str]) -> list:
     return [*spread(records, (*key, "degrees"), f3), *spread(records, (*key, "radius_share"), pct2)]
 
 
+def table_row(none: str, corrected: list[str], exact: list[str]) -> list:
+    """A corrections-table row's figures as check values: the uncorrected run's held-out right halves (seed 0), the
+    corrected and the exact runs' means over their seeds, then pose_spread(corrected)."""
+    return [((none, "runs", "none", "eval_psnr_fitted_colour"), f2),
+            (lambda: seed_mean(corrected, "both"), f2), (lambda: seed_mean(exact, "exact"), f2),
+            *pose_spread(corrected)]
+
+
 RING_RESIDUALS = [f"pose_residual_ring256_seed{s}.json" for s in range(3)]  # pose_residual.py on the RING_GAINS runs
 RING384_EXACT = [CO("ring384_exact"), CO("ring384_exact_seed1"), CO("ring384_exact_seed2")]
 RING384_GAINS = [CO("ring384_rounds_gains"), CO("ring384_rounds_gains_seed1"), CO("ring384_rounds_gains_seed2")]
@@ -398,9 +406,9 @@ CHECKS = [
      [((BUDDHA, "presets", "ngp", "eval", "width"), d), ((BUDDHA, "presets", "ngp", "eval", "height"), d),
       ((BUDDHA, "presets", "ngp", "validation_share"), pct0)]),
     ("docs/troubleshooting.md", "us per pixel for the fast field", "about {} us per pixel for the fast field",
-     [(lambda: ngp_us_per_pixel(), f0)]),
+     [(ngp_us_per_pixel, f0)]),
     ("docs/methods.md", "What it costs, on 2 CPU cores (buddha", "A pixel costs about {} us (96 proposal",
-     [(lambda: ngp_us_per_pixel(), f0)]),
+     [(ngp_us_per_pixel, f0)]),
     ("docs/troubleshooting.md", "us per pixel for the fast field", "(a {}x{} photo: {} s; `--downscale 4`: {} s)",
      [((BUDDHA, "presets", "ngp", "eval", "width"), d), ((BUDDHA, "presets", "ngp", "eval", "height"), d),
       ((BUDDHA, "presets", "ngp", "eval", "seconds_per_view"), f0),
@@ -1010,14 +1018,10 @@ CHECKS = [
     ("docs/corrections.md", "| procedural, facing one way (",
      "| {} dB (seed 0) | **{} dB** (`--pose-refine on --pose-rounds 2 --pose-solves 16`, colour transforms on) | {} dB | "
      "{}-{} degrees, {}-{}% of the radius |",
-     [((CO("forward128_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
-      (lambda: seed_mean(FORWARD_FAST, "both"), f2), (lambda: seed_mean(FORWARD_EXACT, "exact"), f2),
-      *pose_spread(FORWARD_FAST)]),
+     table_row(CO("forward128_none"), FORWARD_FAST, FORWARD_EXACT)),
     ("docs/corrections.md", "| procedural, facing one way, with",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
-     [((CO("forward128_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
-      (lambda: seed_mean(FORWARD_GAINS, "both"), f2), (lambda: seed_mean(FORWARD_EXACT, "exact"), f2),
-      *pose_spread(FORWARD_GAINS)]),
+     table_row(CO("forward128_none"), FORWARD_GAINS, FORWARD_EXACT)),
     ("docs/corrections.md", "| procedural, facing one way (",
      "({} photos at {} px, {} for training written {} degrees and {}% of the camera radius off, with gains of up to {}% "
      "per photo and channel; the {} held-out photos' right halves",
@@ -1029,18 +1033,14 @@ CHECKS = [
     ("docs/corrections.md", "| procedural, all around (the same at", "(the same at {} px)", [((CO("ring256_none"), "size"), d)]),
     ("docs/corrections.md", "| procedural, all around (the same at",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
-     [((CO("ring256_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
-      (lambda: seed_mean(RING_FAST, "both"), f2), (lambda: seed_mean(RING_EXACT, "exact"), f2),
-      *pose_spread(RING_FAST)]),
+     table_row(CO("ring256_none"), RING_FAST, RING_EXACT)),
     ("docs/corrections.md", "With the colour transforms at today's 3e-3 at 320 px",
      "at {} px every seed's cameras come within a tenth ({}-{} degrees) and seed {}'s photos {} dB under",
      [((RING_FAST[0], "size"), d), *spread(RING_FAST, ("runs", "both", "refined_pose_error", "degrees"), f3),
       ((lambda: _command_number(RING_FAST[2], "seed")), d), ((lambda: seed_gaps(RING_EXACT, RING_FAST)[2]), f2)]),
     ("docs/corrections.md", "| procedural, all around, 256 px, with",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
-     [((CO("ring256_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
-      (lambda: seed_mean(RING_GAINS, "both"), f2), (lambda: seed_mean(RING_EXACT, "exact"), f2),
-      *pose_spread(RING_GAINS)]),
+     table_row(CO("ring256_none"), RING_GAINS, RING_EXACT)),
     ("docs/corrections.md", "A faster rate for the colour transforms",
      "All around at {} px (`colour_ring256_ctlr_rounds_gains_seed0.json` to `_seed2`) {}, {} and {} dB against 1e-3's "
      "{}, {} and {} and the exact capture's {}, {} and {}: {} dB under on the mean, seed 2 {} under, with every seed's "
@@ -1062,9 +1062,7 @@ CHECKS = [
      [((RING384_GAINS[0], "size"), d)]),
     ("docs/corrections.md", "| procedural, all around, larger photos",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
-     [((CO("ring384_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
-      (lambda: seed_mean(RING384_GAINS, "both"), f2), (lambda: seed_mean(RING384_EXACT, "exact"), f2),
-      *pose_spread(RING384_GAINS)]),
+     table_row(CO("ring384_none"), RING384_GAINS, RING384_EXACT)),
     ("docs/corrections.md", "Larger photos do:",
      "at {} px the same runs leave the cameras {}, {} and {} degrees off with seeds {}, {} and {}, the shared turn {}-{} "
      "degrees of it (`pose_residual_ring384_seed0.json`, `_seed1`, `_seed2`), in {}-{} s of training each against the "
@@ -1097,9 +1095,7 @@ CHECKS = [
       ((lambda: _command_number(RING320_GAINS[-1], "seed")), d)]),
     ("docs/corrections.md", "| procedural, all around, at 320 px",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% | the same with `--rig ring --size {}`",
-     [((CO("ring320_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
-      (lambda: seed_mean(RING320_FAST, "both"), f2), (lambda: seed_mean(RING320_EXACT, "exact"), f2),
-      *pose_spread(RING320_FAST), ((RING320_FAST[0], "size"), d)]),
+     [*table_row(CO("ring320_none"), RING320_FAST, RING320_EXACT), ((RING320_FAST[0], "size"), d)]),
     ("docs/corrections.md", "Larger photos do:",
      "at {} px over five training seeds ({} to {};",
      [((RING320_GAINS[0], "size"), d), ((lambda: _command_number(RING320_GAINS[0], "seed", default=0)), d),
@@ -1204,9 +1200,7 @@ CHECKS = [
       *[((r, "presets", "splat", "psnr"), f2) for r in BCTLR]]),
     ("docs/corrections.md", "| procedural, all around, 320 px, with",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
-     [((CO("ring320_none"), "runs", "none", "eval_psnr_fitted_colour"), f2),
-      (lambda: seed_mean(RING320_GAINS, "both"), f2), (lambda: seed_mean(RING320_EXACT, "exact"), f2),
-      *pose_spread(RING320_GAINS)]),
+     table_row(CO("ring320_none"), RING320_GAINS, RING320_EXACT)),
     ("docs/corrections.md", "three rounds did not", "({} and {} degrees with seeds 0 and 2,",
      [((CO("ring256_rounds3_gains"), "runs", "both", "refined_pose_error", "degrees"), f3),
       ((CO("ring256_rounds3_gains_seed2"), "runs", "both", "refined_pose_error", "degrees"), f3)]),
