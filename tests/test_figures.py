@@ -1078,8 +1078,9 @@ CHECKS = [
      "At {} px over five seeds (`colour_ring384_ctlr_rounds_gains_seed0.json` to `_seed4`, the exact capture's "
      "`colour_ring384_exact_seed3.json` and `_seed4` added to its three) the corrected runs score {}, {}, {}, {} and "
      "{} dB against the exact capture's {}, {}, {}, {} and {}: {} dB under on the mean ({} against {}; over seeds 0 to "
-     "2 alone {}, at 1e-3 {}), seed by seed {}, {}, {}, {} and {} (seed {}'s is {}): two seeds of five more than half a dB under, "
-     "where the exact capture's own seeds scatter {} dB ({} to {}). Every seed's cameras come within a tenth of a "
+     "2 alone {}, at 1e-3 {}), seed by seed {}, {}, {}, {} and {} (seed {}'s is {}): two seeds of five more than "
+     "half a dB under, where the exact capture's own seeds scatter {} dB ({} to {}). Every seed's cameras come within "
+     "a tenth of a "
      "degree ({}-{} degrees, the shared turn {}-{} of it, `pose_residual_ring384_ctlr_seed0.json` to `_seed4`), the "
      "gains within {}.",
      [((RING384_FAST[0], "size"), d),
