@@ -1080,9 +1080,8 @@ CHECKS = [
      "{} dB against the exact capture's {}, {}, {}, {} and {}: {} dB under on the mean ({} against {}; over seeds 0 to "
      "2 alone {}, at 1e-3 {}), seed by seed {}, {}, {}, {} and {} (seed {}'s is {}): two seeds of five more than "
      "half a dB under, where the exact capture's own seeds scatter {} dB ({} to {}). Every seed's cameras come within "
-     "a tenth of a "
-     "degree ({}-{} degrees, the shared turn {}-{} of it, `pose_residual_ring384_ctlr_seed0.json` to `_seed4`), the "
-     "gains within {}.",
+     "a tenth of a degree ({}-{} degrees, the shared turn {}-{} of it, `pose_residual_ring384_ctlr_seed0.json` to "
+     "`_seed4`), the gains within {}.",
      [((RING384_FAST[0], "size"), d),
       *[((r, "runs", "both", "eval_psnr_fitted_colour"), f2) for r in RING384_FAST],
       *[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in RING384_EXACT5],
