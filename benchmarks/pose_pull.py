@@ -1,0 +1,89 @@
+"""How far a splat run's scene pulls its training cameras, checkpoint by checkpoint: every training photo's pose
+solved (`--iterations` Levenberg-Marquardt iterations, models/splat/pose_fit.py, as `--pose-solves` does during
+training) against the Gaussians of each checkpoint, from the pose correction the checkpoint holds (zero for a run
+without pose refinement), and the turn the solved poses keep against the photos' true poses, after the similarity
+that best aligns the two sets (pose_residual.residual_shape: the mean turn per axis in each camera's own frame is
+the turn every camera shares).
+
+    python benchmarks/pose_pull.py RUN --checkpoints 400 800 1200 2000 --name NAME
+
+RUN: a splat run on a procedural capture (benchmarks/corrections.py; the capture's truth/poses.npy, else its written
+poses, are the truth). Writes benchmarks/results/NAME.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+from pose_residual import residual_shape
+from provenance import provenance
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def solved_corrections(loaded, data, iterations: int, step: int) -> tuple[np.ndarray, np.ndarray]:
+    """(the checkpoint's corrections [V, 6], the same after `iterations` LM iterations of each photo's pose) of a
+    loaded splat run (RunFolder.load) and its training frames `data` (training.setup.load_splits)."""
+    import jax.numpy as jnp
+
+    from nerfkit.models.splat.gaussians import PARAM_NAMES, intrinsics_of
+    from nerfkit.models.splat.pose_fit import fit_correction
+    from nerfkit.models.splat.pose_solve import HIDDEN_OPACITY
+    from nerfkit.rays.correction import camera_extent
+
+    model, poses = loaded.model, np.asarray(data.poses, np.float64)
+    sc = model.sc
+    scene = {k: jnp.asarray(loaded.params[k]) for k in PARAM_NAMES}
+    scene["opacity"] = jnp.where(jnp.asarray(loaded.aux["active"]), scene["opacity"], HIDDEN_OPACITY)
+    held = np.asarray(loaded.params["cam_pose"], np.float64) if "cam_pose" in loaded.params else np.zeros((len(poses), 6))
+    sh = min(sc.sh_degree, sc.sh_start + step // sc.sh_interval)
+    images, extent = np.asarray(data.images), camera_extent(poses)
+    solved = np.stack([fit_correction(scene, poses[k], held[k], extent, intrinsics_of(data.cameras[k]), data.width,
+                                      data.height, images[k], model.background, sh, iterations, sc.backend,
+                                      sc.screen_dilation) for k in range(len(poses))])
+    return held, solved
+
+
+def main() -> None:
+    from nerfkit.data.procedural.scene import CAMERA_RADIUS
+    from nerfkit.rays.correction import refined_poses
+    from nerfkit.run.folder import RunFolder
+    from nerfkit.training.setup import load_splits
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run", type=Path)
+    ap.add_argument("--checkpoints", type=int, nargs="+", required=True, help="steps of checkpoints the run kept")
+    ap.add_argument("--iterations", type=int, default=3)
+    ap.add_argument("--name", required=True)
+    a = ap.parse_args()
+    folder = RunFolder(a.run)
+    cap_dir = folder.data_dir(None)
+    rows = []
+    for step in a.checkpoints:
+        loaded = folder.load(a.run / "checkpoints" / f"ckpt_{step:08d}.msgpack")
+        capture, data, _, cfg = load_splits(cap_dir, loaded.cfg, False, lambda line: None)
+        loaded.model.bind_data(capture, data, log=lambda line: None)
+        idx = [int(f.image.stem.split("_")[-1]) for f in capture.frames(cfg.data.train_split)]
+        given = np.asarray(data.poses, np.float64)
+        truth = np.load(cap_dir / "truth" / "poses.npy")[idx] if (cap_dir / "truth").is_dir() else None
+        held, solved = solved_corrections(loaded, data, a.iterations, step)
+        row = {"step": step}
+        for name, xi in (("held", held), ("solved", solved)):
+            poses = refined_poses(given, xi.astype(np.float32))
+            # truth None: the capture was written at the truth, and the normalised given poses are it
+            row[name] = residual_shape(poses, given if truth is None else truth, CAMERA_RADIUS)
+        rows.append(row)
+        print(step, "shared turn held", row["held"]["turn_mean_degrees"], "solved", row["solved"]["turn_mean_degrees"],
+              flush=True)
+    result = {"what": __doc__.split("\n\n")[0], "run": str(a.run), "capture": str(cap_dir),
+              "iterations": a.iterations, "checkpoints": rows, "provenance": provenance()}
+    path = ROOT / "benchmarks" / "results" / f"{a.name}.json"
+    path.write_text(json.dumps(result, indent=2))
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
