@@ -1062,6 +1062,17 @@ CHECKS = [
      "moved on its orbit about the scene's centre: {}-{} degrees of it, and {}-{} degrees a camera with it taken out",
      [*spread(RING_RESIDUALS, ("refined", "turn_mean_degrees", 0), f3),
       *spread(RING_RESIDUALS, ("refined", "median_degrees_shared_turn_out"), f3)]),
+    ("docs/corrections.md", "The shared turn is a drift, not scatter",
+     "it has the same sign in {} of the {} runs on this page (`pose_residual_ring*.json`)",
+     [((lambda: sum(R(p.name, "refined", "turn_mean_degrees", 0) > 0 for p in RESULTS.glob("pose_residual_ring*.json"))),
+       d), ((lambda: len(list(RESULTS.glob("pose_residual_ring*.json")))), d)]),
+    ("docs/corrections.md", "The shared turn is a drift, not scatter",
+     "solved against its checkpoints at steps {}, {}, {}, {} and {} (64 px, `benchmarks/pose_pull.py`), the cameras "
+     "share {}, {}, {}, {} and {} degrees of turn (`pose_pull_ring64.json`), and on the masked capture {}, {}, {}, {} "
+     "and {} (`pose_pull_ring64_masked.json`)",
+     [*[(("pose_pull_ring64.json", "checkpoints", i, "step"), d) for i in range(5)],
+      *[((name, "checkpoints", i, "solved", "turn_mean_degrees", 0), f3)
+        for name in ("pose_pull_ring64.json", "pose_pull_ring64_masked.json") for i in range(5)]]),
     ("docs/corrections.md", "| procedural, all around, larger photos",
      "(the same at {} px; the mean over training seeds {} to {})",
      [((RING384_FAST[0], "size"), d), ((lambda: _command_number(RING384_FAST[0], "seed")), d),
