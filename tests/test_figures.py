@@ -1068,8 +1068,8 @@ CHECKS = [
        d), ((lambda: len(list(RESULTS.glob("pose_residual_ring*.json")))), d)]),
     ("docs/corrections.md", "The shared turn is a drift, not scatter",
      "solved against its checkpoints at steps {}, {}, {}, {} and {} (64 px, `benchmarks/pose_pull.py`), the cameras "
-     "share {}, {}, {}, {} and {} degrees of turn (`pose_pull_ring64.json`), and on the masked capture {}, {}, {}, {} "
-     "and {} (`pose_pull_ring64_masked.json`)",
+     "share {}, {}, {}, {} and {} degrees of turn (`pose_pull_ring64.json`), and with the objects on a backdrop "
+     "(masks) {}, {}, {}, {} and {} (`pose_pull_ring64_masked.json`)",
      [*[(("pose_pull_ring64.json", "checkpoints", i, "step"), d) for i in range(5)],
       *[((name, "checkpoints", i, "solved", "turn_mean_degrees", 0), f3)
         for name in ("pose_pull_ring64.json", "pose_pull_ring64_masked.json") for i in range(5)]]),
