@@ -1,9 +1,9 @@
 """How far a splat run's scene pulls its training cameras, checkpoint by checkpoint: every training photo's pose
-solved (`--iterations` Levenberg-Marquardt iterations, models/splat/pose_fit.py, as `--pose-solves` does during
-training) against the Gaussians of each checkpoint, from the pose correction the checkpoint holds (zero for a run
-without pose refinement), and the turn the solved poses keep against the photos' true poses, after the similarity
-that best aligns the two sets (pose_residual.residual_shape: the mean turn per axis in each camera's own frame is
-the turn every camera shares).
+solved (`--iterations` Levenberg-Marquardt iterations, models/splat/pose_solve.solve_corrections, as `--pose-solves`
+does during training) against the Gaussians of each checkpoint, from the pose correction the checkpoint holds (zero
+for a run without pose refinement), and the turn the solved poses keep against the photos' true poses, after the
+similarity that best aligns the two sets (pose_residual.residual_shape: the mean turn per axis in each camera's own
+frame is the turn every camera shares).
 
     python benchmarks/pose_pull.py RUN --checkpoints 400 800 1200 2000 --name NAME
 
@@ -26,24 +26,19 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def solved_corrections(loaded, data, iterations: int, step: int) -> tuple[np.ndarray, np.ndarray]:
     """(the checkpoint's corrections [V, 6], the same after `iterations` LM iterations of each photo's pose) of a
-    loaded splat run (RunFolder.load) and its training frames `data` (training.setup.load_splits)."""
-    import jax.numpy as jnp
-
-    from nerfkit.models.splat.gaussians import PARAM_NAMES, intrinsics_of
-    from nerfkit.models.splat.pose_fit import fit_correction
-    from nerfkit.models.splat.pose_solve import HIDDEN_OPACITY
+    loaded splat run (RunFolder.load, its model bound to `data`) and its training frames `data`
+    (training.setup.load_splits)."""
+    from nerfkit.models.splat.gaussians import intrinsics_of
+    from nerfkit.models.splat.pose_solve import solve_corrections
+    from nerfkit.models.splat.train import schedule_at
     from nerfkit.rays.correction import camera_extent
 
-    model, poses = loaded.model, np.asarray(data.poses, np.float64)
-    sc = model.sc
-    scene = {k: jnp.asarray(loaded.params[k]) for k in PARAM_NAMES}
-    scene["opacity"] = jnp.where(jnp.asarray(loaded.aux["active"]), scene["opacity"], HIDDEN_OPACITY)
-    held = np.asarray(loaded.params["cam_pose"], np.float64) if "cam_pose" in loaded.params else np.zeros((len(poses), 6))
-    sh = min(sc.sh_degree, sc.sh_start + step // sc.sh_interval)
-    images, extent = np.asarray(data.images), camera_extent(poses)
-    solved = np.stack([fit_correction(scene, poses[k], held[k], extent, intrinsics_of(data.cameras[k]), data.width,
-                                      data.height, images[k], model.background, sh, iterations, sc.backend,
-                                      sc.screen_dilation) for k in range(len(poses))])
+    sc, poses = loaded.model.sc, np.asarray(data.poses, np.float64)
+    held = np.asarray(loaded.params.get("cam_pose", np.zeros((len(poses), 6))), np.float32)
+    solved = solve_corrections({**loaded.params, "cam_pose": held}, loaded.aux["active"], poses,
+                               np.asarray(data.images), np.asarray([intrinsics_of(c) for c in data.cameras]),
+                               camera_extent(poses), data.width, data.height, loaded.model.background,
+                               schedule_at(step, 0.0, sc)["sh_degree"], sc.backend, sc.screen_dilation, iterations)
     return held, solved
 
 
@@ -61,23 +56,20 @@ def main() -> None:
     a = ap.parse_args()
     folder = RunFolder(a.run)
     cap_dir = folder.data_dir(None)
+    capture, data, _, cfg = load_splits(cap_dir, folder.config(), False, lambda line: None)
+    idx = [int(f.image.stem.split("_")[-1]) for f in capture.frames(cfg.data.train_split)]
+    given = np.asarray(data.poses, np.float64)
+    # no truth/: the capture was written at the truth, and the normalised given poses are it
+    truth = np.load(cap_dir / "truth" / "poses.npy")[idx] if (cap_dir / "truth").is_dir() else given
     rows = []
     for step in a.checkpoints:
         loaded = folder.load(a.run / "checkpoints" / f"ckpt_{step:08d}.msgpack")
-        capture, data, _, cfg = load_splits(cap_dir, loaded.cfg, False, lambda line: None)
         loaded.model.bind_data(capture, data, log=lambda line: None)
-        idx = [int(f.image.stem.split("_")[-1]) for f in capture.frames(cfg.data.train_split)]
-        given = np.asarray(data.poses, np.float64)
-        truth = np.load(cap_dir / "truth" / "poses.npy")[idx] if (cap_dir / "truth").is_dir() else None
         held, solved = solved_corrections(loaded, data, a.iterations, step)
-        row = {"step": step}
-        for name, xi in (("held", held), ("solved", solved)):
-            poses = refined_poses(given, xi.astype(np.float32))
-            # truth None: the capture was written at the truth, and the normalised given poses are it
-            row[name] = residual_shape(poses, given if truth is None else truth, CAMERA_RADIUS)
-        rows.append(row)
-        print(step, "shared turn held", row["held"]["turn_mean_degrees"], "solved", row["solved"]["turn_mean_degrees"],
-              flush=True)
+        rows.append({"step": step, **{name: residual_shape(refined_poses(given, xi), truth, CAMERA_RADIUS)
+                                      for name, xi in (("held", held), ("solved", solved))}})
+        print(step, "shared turn held", rows[-1]["held"]["turn_mean_degrees"], "solved",
+              rows[-1]["solved"]["turn_mean_degrees"], flush=True)
     result = {"what": __doc__.split("\n\n")[0], "run": str(a.run), "capture": str(cap_dir),
               "iterations": a.iterations, "checkpoints": rows, "provenance": provenance()}
     path = ROOT / "benchmarks" / "results" / f"{a.name}.json"

@@ -72,6 +72,19 @@ def test_one_solve_brings_every_photo_near_its_pose_with_the_inactive_slots_unse
     assert np.all(lost > 0.5 * before), lost
 
 
+def test_a_solve_of_more_iterations_takes_every_photo_nearer(blob):
+    params, active, truth, photos = blob
+    given = np.asarray(corrected_pose(jnp.asarray(truth), jnp.asarray(_off(3, 1)), 1.0), np.float32)
+    run = {**params, "cam_pose": jnp.zeros((3, 6), jnp.float32)}
+    args = (run, active, given, photos, np.tile(INTR, (3, 1)), 1.0, SIZE, SIZE, BG, 0, "auto", 0.3)
+    solved = {n: solve_corrections(*args, iterations=n) for n in (1, 3)}
+    np.testing.assert_array_equal(solve_corrections(*args), solved[1])  # a solve during training: one iteration
+    errors = {n: pose_error(np.asarray(corrected_pose(jnp.asarray(given), jnp.asarray(xi), 1.0)), truth)[0]
+              for n, xi in solved.items()}
+    # measured: 0.26, 0.14 and 0.24 degrees of 1 after one iteration, 0.04, 0.12 and 0.09 after three
+    assert np.all(errors[3] < errors[1]) and errors[3].mean() < 0.6 * errors[1].mean(), errors
+
+
 def test_a_solve_compares_the_render_after_the_photos_colour_transform(blob):
     params, active, truth, photos = blob
     m = np.zeros((3, 3, 4), np.float32)

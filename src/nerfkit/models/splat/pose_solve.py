@@ -43,16 +43,17 @@ def solve_due(before: float, after: float, n: int, start: float) -> bool:
 
 
 def solve_corrections(params: dict, active, poses, images, intrinsics, extent: float, width: int, height: int,
-                      background, sh_degree: int, backend: str, dilation: float) -> np.ndarray:
-    """cam_pose [V, 6] after one solve (module docstring) of every training photo: poses [V, 4, 4] the photos'
-    given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on the background), intrinsics
-    [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color" [V, 3, 4]); active
-    [capacity] the slots in use."""
+                      background, sh_degree: int, backend: str, dilation: float,
+                      iterations: int = ITERATIONS) -> np.ndarray:
+    """cam_pose [V, 6] after one solve (module docstring; `iterations` LM iterations) of every training photo: poses
+    [V, 4, 4] the photos' given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on the
+    background), intrinsics [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color"
+    [V, 3, 4]); active [capacity] the slots in use."""
     scene = {k: jnp.asarray(params[k]) for k in PARAM_NAMES}
     scene["opacity"] = jnp.where(jnp.asarray(active), scene["opacity"], HIDDEN_OPACITY)
     xi = np.asarray(params["cam_pose"], np.float64).copy()
     color = np.asarray(params["cam_color"]) if "cam_color" in params else None
     for k in range(len(xi)):
         xi[k] = fit_correction(scene, poses[k], xi[k], extent, intrinsics[k], width, height, images[k], background,
-                               sh_degree, ITERATIONS, backend, dilation, None if color is None else color[k])
+                               sh_degree, iterations, backend, dilation, None if color is None else color[k])
     return xi.astype(np.float32)
