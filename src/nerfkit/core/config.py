@@ -1,9 +1,8 @@
 """Typed configuration and presets.
 
-A run is described by one `Config`: data, field, sampler and training settings, each a
-small dataclass. Presets are complete `Config`s; the CLI starts from a preset and
-overrides single knobs (`--preset seed --max-steps 5000`). The resolved config is saved
-as JSON in the run folder so `eval`, `render` and `--resume` rebuild the same model.
+A run is described by one `Config`: data, field, sampler and training settings, each a small dataclass. Presets
+are complete `Config`s; the CLI starts from a preset and overrides single knobs (`--preset seed --max-steps 5000`).
+The resolved config is saved as JSON in the run folder so `eval`, `render` and `--resume` rebuild the same model.
 """
 
 from __future__ import annotations
@@ -308,6 +307,8 @@ class SplatSettings:
     pose_solves: int = 0
     """With --pose-refine on: N times over the budget (each round) every photo's pose takes a Levenberg-Marquardt step
     against the Gaussians as they stand, the last after the last step. For scenes seen all around (docs: Splats)."""
+    pose_solve_share: float = 1.0
+    """With --pose-solves: the share of each solve's step the poses take (1: all of it; docs: Corrections)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (exposure and white balance change from photo to photo), learned with
     the Gaussians; held-out photos use the mean of the training photos' transforms. auto: on for photo captures

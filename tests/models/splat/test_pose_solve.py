@@ -1,6 +1,7 @@
 """Pose solves during training (--pose-solves N; models/splat/pose_solve.py): where the solves fall, one solve of
-every photo's correction against the Gaussians (inactive slots unseen, the photo's colour transform applied), and a
-run through the CLI whose last solve, after its last step, moves only the poses and lowers their error."""
+every photo's correction against the Gaussians (inactive slots unseen, the photo's colour transform applied, a share
+of the step taken), and a run through the CLI whose last solve, after its last step, moves only the poses and lowers
+their error."""
 
 from pathlib import Path
 
@@ -85,6 +86,18 @@ def test_a_solve_of_more_iterations_takes_every_photo_nearer(blob):
     assert np.all(errors[3] < errors[1]) and errors[3].mean() < 0.6 * errors[1].mean(), errors
 
 
+def test_a_solve_of_a_share_takes_that_share_of_the_step(blob):
+    params, active, truth, photos = blob
+    given = np.asarray(corrected_pose(jnp.asarray(truth), jnp.asarray(_off(3, 1)), 1.0), np.float32)
+    start = 0.3 * _off(3, 4)  # corrections already under way
+    run = {**params, "cam_pose": jnp.asarray(start)}
+    args = (run, active, given, photos, np.tile(INTR, (3, 1)), 1.0, SIZE, SIZE, BG, 0, "auto", 0.3)
+    whole, half = solve_corrections(*args), solve_corrections(*args, share=0.5)
+    assert np.abs(whole - start).max() > 1e-3  # the step is not nothing ...
+    np.testing.assert_allclose(half - start, 0.5 * (whole - start), atol=1e-6)  # ... and a share takes half of it
+    np.testing.assert_array_equal(solve_corrections(*args, share=1.0), whole)
+
+
 def test_a_solve_compares_the_render_after_the_photos_colour_transform(blob):
     params, active, truth, photos = blob
     m = np.zeros((3, 3, 4), np.float32)
@@ -132,7 +145,10 @@ def test_a_runs_last_solve_moves_only_its_poses_and_lowers_their_error(tmp_path,
     # measured: 0.60 against 0.73 degrees (after 60 steps instead of 400 the young scene led the solve astray: 1.11
     # against 0.82, which is why the solves wait for the pose warm-up and Adam goes on between them)
     assert err[1] < 0.9 * err[0], err
-    for bad in (["--pose-solves", "-1"], ["--pose-refine", "off", "--pose-solves", "4"]):  # refused in one line
+    for bad in (["--pose-solves", "-1"], ["--pose-refine", "off", "--pose-solves", "4"],  # refused in one line
+                ["--pose-solves", "4", "--pose-solve-share", "0"], ["--pose-solves", "4", "--pose-solve-share", "1.5"],
+                ["--pose-solve-share", "0.5"]):  # (no solves to share)
         assert main([*args, "--out", str(tmp_path / "bad"), *bad]) == 1
         err = capsys.readouterr().err
-        assert "--pose-solves" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+        assert bad[-2] in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+        assert not (tmp_path / "bad").exists()

@@ -34,6 +34,7 @@ from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, init_random, intrinsics_of
 from nerfkit.models.splat.optim import LearningRates, colour_lr_for, colour_rates, init_state, make_optimizers, means_lr
+from nerfkit.models.splat.pose_solve import check_settings
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
 from nerfkit.models.splat.rounds import in_round, round_aux, within_round
@@ -87,7 +88,8 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
-                       pose_solves=g.pose_solves, lrs=colour_rates(LearningRates(), g.colour_lr, g.colour_transform_lr))
+                       pose_solves=g.pose_solves, pose_solve_share=g.pose_solve_share,
+                       lrs=colour_rates(LearningRates(), g.colour_lr, g.colour_transform_lr))
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -138,7 +140,7 @@ class SplatModel:
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
         "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves",
-        "colour_transform", "colour_lr", "colour_transform_lr")) | {"train.pose_refine"}
+        "pose_solve_share", "colour_transform", "colour_lr", "colour_transform_lr")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -176,19 +178,16 @@ class SplatModel:
 
     @staticmethod
     def check(cfg) -> None:
-        """ConfigError for a --backend that is not in the table (backends.py), --pose-rounds under 1, --pose-solves
-        under 0."""
+        """ConfigError for a --backend that is not in the table (backends.py) or pose solve settings out of range
+        (pose_solve.check_settings)."""
         backend(cfg.splat.backend)
-        if cfg.splat.pose_rounds < 1:
-            raise ConfigError(f"--pose-rounds must be at least 1 (got {cfg.splat.pose_rounds}); 1: one round")
-        if cfg.splat.pose_solves < 0:
-            raise ConfigError(f"--pose-solves must be at least 0 (got {cfg.splat.pose_solves}); 0: Adam alone")
+        check_settings(cfg.splat.pose_rounds, cfg.splat.pose_solves, cfg.splat.pose_solve_share)
 
     @staticmethod
     def unused(cfg, capture=None) -> dict[str, str]:
         """Settings left unread at these values: field.kind (splats are no field), normal_consistency_from without
         a surface term, sh_interval at SH degree 0, init_points auto on a capture without SfM points, colour_transform
-        without colour transforms."""
+        without colour transforms, the pose settings without pose refinement (pose_solve_share: without solves)."""
         out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
         if cfg.splat.init:
             out["splat.init_points"] = f"the Gaussians start from --init {cfg.splat.init}"
@@ -200,6 +199,8 @@ class SplatModel:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
         if cfg.train.pose_refine != "on":
             out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
+        if cfg.train.pose_refine != "on" or cfg.splat.pose_solves == 0:
+            out["splat.pose_solve_share"] = "the run makes no pose solves (--pose-refine on --pose-solves N)"
         if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and not getattr(capture, "photos", True)):
             out["splat.colour_transform"] = out["splat.colour_transform_lr"] = "no colour transforms (--appearance on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None

@@ -3,7 +3,9 @@ photo's pose correction xi_k (rays/correction.py: c2w_k T(xi_k), translations in
 one Levenberg-Marquardt iteration (pose_fit.py) against the Gaussians as they stand, with its colour transform
 applied where the run learns one:
 
-    xi_k <- argmin over one LM iteration from xi_k of  |R(c2w_k T(xi)) - I_k|^2
+    xi_k <- xi_k + a (x_k - xi_k),   x_k = one LM iteration from xi_k on  |R(c2w_k T(x)) - I_k|^2
+
+with a the share of the step taken (--pose-solve-share, 1: all of it).
 
 Adam alone crawls along each pose's orbit about the scene's centre (a turn and the shift that keeps the centre in
 view change a photo little, so the two are nearly one direction of its 6 parameters, which a per-parameter step
@@ -15,6 +17,11 @@ The solves fall where the progress within the run (within the round, --pose-roun
     t_j = s + (1 - s) j / N,   j = 1 .. N,   s = the end of the pose warm-up (optim.pose_lr: 2 pose_warmup)
 
 so the last comes after the last step. Each costs 13 or more renders per training photo (docs: Splats).
+
+A scene that is still forming draws the cameras' orbit positions off a little, all one way (docs: Corrections),
+and grows around where the solve put them, so the next solve starts from there: the pull adds up over a run's
+solves. A share a < 1 takes that much of each pull (and of each correction), so that the photos, which hold the
+orbit weakly, keep more of their say between solves.
 """
 
 from __future__ import annotations
@@ -22,12 +29,23 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from nerfkit.core.errors import ConfigError
 from nerfkit.models.splat.gaussians import PARAM_NAMES
 from nerfkit.models.splat.pose_fit import fit_correction
 
 # per solve (probes on the ring capture at 64 px: 13 solves of one iteration left 0.21 degrees, 4 of three 0.24)
 ITERATIONS = 1
 HIDDEN_OPACITY = -30.0  # the logit an inactive slot is drawn with (sigmoid: 1e-13, under the rasteriser's cut)
+
+
+def check_settings(rounds: int, solves: int, share: float) -> None:
+    """ConfigError for --pose-rounds under 1, --pose-solves under 0 or --pose-solve-share outside (0, 1]."""
+    if rounds < 1:
+        raise ConfigError(f"--pose-rounds must be at least 1 (got {rounds}); 1: one round")
+    if solves < 0:
+        raise ConfigError(f"--pose-solves must be at least 0 (got {solves}); 0: Adam alone")
+    if not 0.0 < share <= 1.0:
+        raise ConfigError(f"--pose-solve-share must be in (0, 1] (got {share:g}); 1: each solve's whole step")
 
 
 def solves_done(progress: float, n: int, start: float) -> int:
@@ -44,16 +62,18 @@ def solve_due(before: float, after: float, n: int, start: float) -> bool:
 
 def solve_corrections(params: dict, active, poses, images, intrinsics, extent: float, width: int, height: int,
                       background, sh_degree: int, backend: str, dilation: float,
-                      iterations: int = ITERATIONS) -> np.ndarray:
-    """cam_pose [V, 6] after one solve (module docstring; `iterations` LM iterations) of every training photo: poses
-    [V, 4, 4] the photos' given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on the
-    background), intrinsics [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color"
+                      iterations: int = ITERATIONS, share: float = 1.0) -> np.ndarray:
+    """cam_pose [V, 6] after one solve (module docstring; `iterations` LM iterations, a = share) of every training
+    photo: poses [V, 4, 4] the photos' given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on
+    the background), intrinsics [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color"
     [V, 3, 4]); active [capacity] the slots in use."""
     scene = {k: jnp.asarray(params[k]) for k in PARAM_NAMES}
     scene["opacity"] = jnp.where(jnp.asarray(active), scene["opacity"], HIDDEN_OPACITY)
-    xi = np.asarray(params["cam_pose"], np.float64).copy()
+    start = np.asarray(params["cam_pose"], np.float64)
     color = np.asarray(params["cam_color"]) if "cam_color" in params else None
-    for k in range(len(xi)):
-        xi[k] = fit_correction(scene, poses[k], xi[k], extent, intrinsics[k], width, height, images[k], background,
-                               sh_degree, iterations, backend, dilation, None if color is None else color[k])
+    xi = np.stack([fit_correction(scene, poses[k], start[k], extent, intrinsics[k], width, height, images[k],
+                                  background, sh_degree, iterations, backend, dilation,
+                                  None if color is None else color[k]) for k in range(len(start))])
+    if share != 1.0:
+        xi = start + share * (xi - start)
     return xi.astype(np.float32)

@@ -75,6 +75,7 @@ class SplatConfig:
     colour_transform: str = "gain"  # the entries of those transforms learned (correction.COLOR_FORMS)
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     pose_solves: int = 0  # Levenberg-Marquardt solves of the pose corrections per run or round (pose_solve.py)
+    pose_solve_share: float = 1.0  # the share of each solve's step the corrections take (pose_solve.py: a)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
     normal_consistency_from: float = 0.0  # progress from which the surface terms are on (before: steps without)
@@ -317,7 +318,8 @@ class ViewStep:
             return state
         xi = solve_corrections(state["params"], state["aux"]["active"], np.asarray(poses), images,
                                np.asarray(intrinsics), self.extent, self.width, self.height, self.background,
-                               schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation)
+                               schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation,
+                               share=sc.pose_solve_share)
         return {**state, "params": {**state["params"], "cam_pose": jnp.asarray(xi)}}
 
 
