@@ -1106,7 +1106,7 @@ CHECKS = [
      [(lambda: seed_mean(RING320_SHARE, "both"), f2), (lambda: mean_gap(RING320_EXACT, RING320_SHARE), f2),
       *[((lambda i=i: seed_gaps(RING320_EXACT, RING320_SHARE)[i]), f2) for i in RING320_SEEDS],
       (lambda: mean_gap(RING320_EXACT, RING320_FAST), f2), *spread(RING320_SHARE, ("runs", "both", "train_s"), f0)]),
-    ("docs/corrections.md", "What the corrected runs lose is refinement's own",
+    ("docs/corrections.md", "what the corrected runs lose is refinement's own",
      "refinement leaves the cameras {}, {} and {} degrees off with seeds {}, {} and {} (the shared turn {}-{} of it, "
      "{}-{} degrees a camera without it), where from a degree off they end {}, {} and {} degrees off, and the held-out "
      "photos score {}, {} and {} dB: {} dB under the exact capture's on the mean, where the runs from a degree off "
@@ -1119,7 +1119,7 @@ CHECKS = [
       *[((r, "runs", "pose", "eval_psnr_fitted_colour"), f2) for r in TRUTH320],
       (lambda: mean_gap(RING320_EXACT[:3], TRUTH320, "pose"), f2),
       (lambda: mean_gap(RING320_EXACT[:3], RING320_FAST[:3]), f2)]),
-    ("docs/corrections.md", "What the corrected runs lose is refinement's own",
+    ("docs/corrections.md", "what the corrected runs lose is refinement's own",
      "poses each turned {} or {} degrees about a random axis (`--degrees {}` or `{} --shift 0 --gains 0 --variants "
      "none`, seed {}; `corrections_ring320_fixed_off004_seed1.json`, `corrections_ring320_fixed_off007_seed1.json`) "
      "scores {} and {} dB against {} at the exact poses",
