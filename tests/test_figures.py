@@ -337,7 +337,7 @@ TRUTH320_RESIDUALS = ["pose_residual_ring320_from_truth_seed0.json",
                       "probe_pose_residual_ring320_refine_from_truth_seed1.json",
                       "pose_residual_ring320_from_truth_seed2.json"]  # pose_residual.py on the TRUTH320 runs
 FIXED320 = [f"corrections_ring320_fixed_off00{k}_seed1.json" for k in (4, 7)]  # poses off, no refinement
-CAP50 = {k: f"corrections_ring320_{k}cap50k_seed1.json" for k in ("exact_", "from_truth_", "")}  # --capacity 50000
+CAP50 = "corrections_ring320_{}cap50k_seed{}.json".format  # --capacity 50000: ("exact_", "from_truth_" or "", seed)
 RING384_SEEDS = range(5)  # the ring at 384 px at today's colour-transform rate, and the exact capture at each seed
 RING384_FAST = [CO(f"ring384_ctlr_rounds_gains_seed{s}") for s in RING384_SEEDS]
 RING384_EXACT5 = [*RING384_EXACT, *[CO(f"ring384_exact_seed{s}") for s in RING384_SEEDS[3:]]]
@@ -1130,25 +1130,23 @@ CHECKS = [
     ("docs/corrections.md", "The procedural runs in the table hold 20,000 Gaussians",
      "the exact capture scores {} dB, trained in {} s, and refinement started at the exact poses {} dB with the "
      "cameras {} degrees off; started a degree off with the gains, {} dB with the cameras {} degrees off",
-     [((CAP50["exact_"], "runs", "exact", "eval_psnr_fitted_colour"), f2),
-      ((CAP50["exact_"], "runs", "exact", "train_s"), f0),
-      ((CAP50["from_truth_"], "runs", "pose", "eval_psnr_fitted_colour"), f2),
-      ((CAP50["from_truth_"], "runs", "pose", "refined_pose_error", "degrees"), f3),
-      ((CAP50[""], "runs", "both", "eval_psnr_fitted_colour"), f2),
-      ((CAP50[""], "runs", "both", "refined_pose_error", "degrees"), f3)]),
+     [((CAP50("exact_", 1), "runs", "exact", "eval_psnr_fitted_colour"), f2),
+      ((CAP50("exact_", 1), "runs", "exact", "train_s"), f0),
+      ((CAP50("from_truth_", 1), "runs", "pose", "eval_psnr_fitted_colour"), f2),
+      ((CAP50("from_truth_", 1), "runs", "pose", "refined_pose_error", "degrees"), f3),
+      ((CAP50("", 1), "runs", "both", "eval_psnr_fitted_colour"), f2),
+      ((CAP50("", 1), "runs", "both", "refined_pose_error", "degrees"), f3)]),
     ("docs/corrections.md", "The procedural runs in the table hold 20,000 Gaussians",
      "this capture's corrected run comes {} dB under the exact one",
-     [(lambda: R(CAP50["exact_"], "runs", "exact", "eval_psnr_fitted_colour")
-       - R(CAP50[""], "runs", "both", "eval_psnr_fitted_colour"), f2)]),
+     [(lambda: mean_gap([CAP50("exact_", 1)], [CAP50("", 1)]), f2)]),
     ("docs/corrections.md", "The procedural runs in the table hold 20,000 Gaussians",
      "With seed {} (`corrections_ring320_exact_cap50k_seed0.json`, `corrections_ring320_cap50k_seed0.json`) the exact "
      "capture scores {} dB and the corrected run {}, {} dB under, with the cameras {} degrees off",
-     [((lambda: _command_number("corrections_ring320_cap50k_seed0.json", "seed")), d),
-      (("corrections_ring320_exact_cap50k_seed0.json", "runs", "exact", "eval_psnr_fitted_colour"), f2),
-      (("corrections_ring320_cap50k_seed0.json", "runs", "both", "eval_psnr_fitted_colour"), f2),
-      (lambda: R("corrections_ring320_exact_cap50k_seed0.json", "runs", "exact", "eval_psnr_fitted_colour")
-       - R("corrections_ring320_cap50k_seed0.json", "runs", "both", "eval_psnr_fitted_colour"), f2),
-      (("corrections_ring320_cap50k_seed0.json", "runs", "both", "refined_pose_error", "degrees"), f3)]),
+     [((lambda: _command_number(CAP50("", 0), "seed")), d),
+      ((CAP50("exact_", 0), "runs", "exact", "eval_psnr_fitted_colour"), f2),
+      ((CAP50("", 0), "runs", "both", "eval_psnr_fitted_colour"), f2),
+      (lambda: mean_gap([CAP50("exact_", 0)], [CAP50("", 0)]), f2),
+      ((CAP50("", 0), "runs", "both", "refined_pose_error", "degrees"), f3)]),
     ("docs/corrections.md", "| procedural, all around, larger photos",
      "(the same at {} px; the mean over training seeds {} to {})",
      [((RING384_FAST[0], "size"), d), ((lambda: _command_number(RING384_FAST[0], "seed")), d),
