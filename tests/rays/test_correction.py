@@ -19,6 +19,7 @@ from nerfkit.rays.correction import (
     mean_color,
     perturb_poses,
     pose_error,
+    rotation_angle,
     refinement_similarity,
     similarity_fit,
     so3_exp,
@@ -182,3 +183,16 @@ def test_similarity_fit_undoes_a_similarity_and_not_noise():
     assert abs(s - 1) < 0.01 and _angle(r) < 0.5 and np.linalg.norm(t) < 0.01 * camera_extent(many)
     s, r, t = similarity_fit(many, apply_similarity(noisy, s0, r0, t0))
     assert abs(s - s0) < 0.02 and _angle(r.T @ r0) < 0.5
+
+
+def test_pose_error_keeps_small_angles_between_float32_rotations():
+    # arccos of the trace loses angles under a few hundredths of a degree to float32's 1e-7 (rotation_angle)
+    rng = np.random.default_rng(5)
+    base = Rotation.random(8, random_state=6).as_matrix()
+    for deg in (0.0, 0.004, 0.01, 0.07, 1.0, 120.0, 179.9):
+        axes = rng.normal(size=(8, 3))
+        turn = Rotation.from_rotvec(np.radians(deg) * axes / np.linalg.norm(axes, axis=1, keepdims=True)).as_matrix()
+        a, b = np.stack([np.eye(4)] * 8), np.stack([np.eye(4)] * 8)
+        a[:, :3, :3], b[:, :3, :3] = base.astype(np.float32), (base @ turn).astype(np.float32)
+        assert np.allclose(pose_error(a, b)[0], deg, atol=2e-4), deg
+        assert np.allclose(rotation_angle(np.einsum("nji,njk->nik", base, base @ turn)), deg, atol=1e-9)

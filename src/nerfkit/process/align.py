@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from nerfkit.rays.correction import rotation_angle
+
 
 def umeyama(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """(s, R [3, 3], t [3]) minimising |dst - (s R src + t)|^2 for points [N, 3]."""
@@ -34,7 +36,6 @@ def pose_errors(pred: np.ndarray, ref: np.ndarray) -> dict:
     radius = float(np.median(np.linalg.norm(ref[:, :3, 3] - ref[:, :3, 3].mean(0), axis=1)))
     c_err = np.linalg.norm(centres - ref[:, :3, 3], axis=1) / radius
     rel = np.einsum("ij,njk,nlk->nil", rot, pred[:, :3, :3], ref[:, :3, :3])  # R R_a R_b^T
-    cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)
-    r_err = np.degrees(np.arccos(cos))
+    r_err = rotation_angle(rel)
     return {"n": len(pred), "centre_median": float(np.median(c_err)), "centre_max": float(c_err.max()),
             "rotation_median_deg": float(np.median(r_err)), "rotation_max_deg": float(r_err.max()), "scale": s}
