@@ -129,8 +129,8 @@ def test_perturbed_poses_are_off_by_exactly_the_amounts_asked():
 
 
 def _angle(r):
-    """Rotation angle of R [3, 3] in degrees."""
-    return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
+    """Rotation angle of R [3, 3] in degrees (rotation_angle)."""
+    return float(rotation_angle(np.asarray(r)[None])[0])
 
 
 def _rig(n=7, seed=5):
