@@ -245,15 +245,13 @@ class SplatSettings:
     sh_interval: int = 500
     """Steps per SH degree: the degree rises by one every N steps up to --sh-degree (3DGS: 1000 of 30k)."""
     ssim_lambda: float = 0.0
-    """Loss = (1 - lambda) D + lambda (1 - SSIM), D the --pixel-loss; 3DGS: 0.2 (with L1). 0 by measurement on the
-    PSNR of held-out views (10 min through the CLI, 2 cores, probes, with L1): maryrose 23.86 dB at 0, 23.46 at 0.05,
-    23.15 at 0.2 (ngp 23.39-23.57); lego 34.01 dB at 0, 34.61 at 0.2 (ngp 33.09). D-SSIM trades PSNR for SSIM
-    (maryrose 0.850 at 0, 0.882 at 0.2)."""
+    """Loss = (1 - lambda) D + lambda (1 - SSIM), D the --pixel-loss; 3DGS: 0.2 (with L1). 0 by held-out PSNR (10 min,
+    2 cores, with L1): maryrose 23.86 dB at 0, 23.46 at 0.05, 23.15 at 0.2 (ngp 23.39-23.57); lego 34.01 dB at 0, 34.61
+    at 0.2 (ngp 33.09). D-SSIM trades PSNR for SSIM (maryrose 0.850 at 0, 0.882 at 0.2)."""
     pixel_loss: Literal["l1", "rmse"] = "rmse"
-    """The loss's pixel term: rmse (the root of the mean squared error: where views disagree on a colour it fits
-    their mean, which is what PSNR scores, L1 their median; its gradients have L1's size, so the density-control
-    threshold holds) or l1 (3DGS). Probes, 10 min through the CLI, 2 cores: maryrose 24.39 dB with rmse against 23.86
-    with l1; lego 34.41 against 34.01 (ngp 23.39-23.57 and 33.10)."""
+    """The loss's pixel term: rmse (the root of the mean squared error: where views disagree on a colour it fits their
+    mean, which PSNR scores, L1 their median; its gradients have L1's size, so the density-control threshold holds)
+    or l1 (3DGS). 10 min, 2 cores: maryrose 24.39 dB with rmse, 23.86 l1; lego 34.41/34.01 (ngp 23.4-23.6, 33.1)."""
     coarse: float | None = None
     """Coarse to fine: the first COARSE of the budget trains on the photos at half resolution (2x2 pixels averaged: a
     quarter of the rasteriser's work per step, so more steps), the rest at full resolution; 0: full resolution
@@ -309,6 +307,9 @@ class SplatSettings:
     against the Gaussians as they stand, the last after the last step. For scenes seen all around (docs: Splats)."""
     pose_solve_share: float = 1.0
     """With --pose-solves: the share of each solve's step the poses take (1: all of it; docs: Corrections)."""
+    pose_warmup: float = 0.1
+    """With --pose-refine on: the share of the budget (of each round) before the poses move; their rate then ramps up
+    over as long again, and the --pose-solves start after the ramp (docs: Corrections)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (exposure and white balance change from photo to photo), learned with
     the Gaussians; held-out photos use the mean of the training photos' transforms. auto: on for photo captures

@@ -3,6 +3,7 @@ every photo's correction against the Gaussians (inactive slots unseen, the photo
 of the step taken), and a run through the CLI whose last solve, after its last step, moves only the poses and lowers
 their error."""
 
+from dataclasses import replace
 from pathlib import Path
 
 import jax.numpy as jnp
@@ -10,9 +11,11 @@ import numpy as np
 import pytest
 
 from nerfkit.cli.main import main
+from nerfkit.core.presets import preset
 from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.data.procedural.captures import make_capture
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, render_arrays
+from nerfkit.models.splat.method import SplatModel, splat_config
 from nerfkit.models.splat.pose_solve import solve_corrections, solve_due, solves_done
 from nerfkit.rays.cameras import look_at
 from nerfkit.rays.correction import aligned_pose_error, corrected_composite, corrected_pose, pose_error, refined_poses
@@ -28,6 +31,26 @@ def test_the_solves_fall_evenly_after_the_warm_up_and_the_last_at_the_end():
     assert solves_done(1.0, 0, 0.2) == 0 and not solve_due(0.1, 1.0, 0, 0.2)
     assert solve_due(0.999, 1.0, 4, 0.2) and not solve_due(0.5, 0.55, 4, 0.2) and solve_due(0.55, 0.61, 4, 0.2)
     assert sum(solve_due(k / 100, (k + 1) / 100, 16, 0.2) for k in range(100)) == 16
+
+
+def test_the_pose_warm_up_reaches_training_and_is_refused_out_of_range(tmp_path, capsys):
+    """--pose-warmup W sets the pose rate's warm-up (optim.pose_lr; the solves start at 2 W, train.solve_poses) and
+    nothing else, the run's one-line description says so where W is not the default, and a W outside [0, 0.5), or
+    one given without pose refinement, is refused in one line that names the flag, writing nothing."""
+    cfg = preset("splat")
+    cfg.train.pose_refine, cfg.field.appearance_count = "on", 8  # (resolve_settings: the training photos')
+    default = splat_config(cfg).lrs
+    assert default.pose_warmup == cfg.splat.pose_warmup == 0.1 and "poses held" not in SplatModel.describe(cfg)
+    cfg.splat.pose_warmup, cfg.splat.pose_rounds = 0.25, 2
+    assert splat_config(cfg).lrs == replace(default, pose_warmup=0.25)
+    assert "poses held for the first 25% of each round" in SplatModel.describe(cfg)
+    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16)
+    for bad in (["--pose-warmup", "0.5"], ["--pose-warmup", "-0.1"], ["--pose-refine", "off", "--pose-warmup", "0.2"]):
+        refine = [] if "--pose-refine" in bad else ["--pose-refine", "on"]
+        assert main(["train", str(cap), "--out", str(tmp_path / "run"), "--preset", "splat", *refine, *bad]) == 1
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "--pose-warmup" in err and "Traceback" not in err, err
+        assert not (tmp_path / "run").exists()
 
 
 @pytest.fixture(scope="module")

@@ -34,7 +34,7 @@ from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, init_random, intrinsics_of
 from nerfkit.models.splat.optim import LearningRates, colour_lr_for, colour_rates, init_state, make_optimizers, means_lr
-from nerfkit.models.splat.pose_solve import check_settings
+from nerfkit.models.splat.pose_solve import check_settings, unused_settings
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
 from nerfkit.models.splat.rounds import in_round, round_aux, within_round
@@ -89,7 +89,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
                        pose_solves=g.pose_solves, pose_solve_share=g.pose_solve_share,
-                       lrs=colour_rates(LearningRates(), g.colour_lr, g.colour_transform_lr))
+                       lrs=colour_rates(LearningRates(pose_warmup=g.pose_warmup), g.colour_lr, g.colour_transform_lr))
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -100,9 +100,11 @@ def progress_of(step: int, clock: float, cfg) -> float:
 
 
 def _describe_pose(cfg) -> str:
-    n, k = cfg.splat.pose_rounds, cfg.splat.pose_solves
+    n, k, w = cfg.splat.pose_rounds, cfg.splat.pose_solves, cfg.splat.pose_warmup
     solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
-    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{f' in {n} rounds' if n > 1 else ''}{solves}"
+    warm = f", poses held for the first {w:.0%}{' of each round' * (n > 1)}" if w != LearningRates.pose_warmup else ""
+    rounds = f" in {n} rounds" if n > 1 else ""
+    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{rounds}{solves}{warm}"
 
 
 def _describe_coarse(coarse: float | None) -> str:
@@ -139,8 +141,8 @@ class SplatModel:
     reads = frozenset(f"splat.{n}" for n in (
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
-        "normal_consistency_from", "depth_distortion", "screen_dilation", "pose_rounds", "pose_solves",
-        "pose_solve_share", "colour_transform", "colour_lr", "colour_transform_lr")) | {"train.pose_refine"}
+        "normal_consistency_from", "depth_distortion", "screen_dilation", "colour_transform", "colour_lr",
+        "colour_transform_lr", "pose_rounds", "pose_solves", "pose_solve_share", "pose_warmup")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -181,13 +183,13 @@ class SplatModel:
         """ConfigError for a --backend that is not in the table (backends.py) or pose solve settings out of range
         (pose_solve.check_settings)."""
         backend(cfg.splat.backend)
-        check_settings(cfg.splat.pose_rounds, cfg.splat.pose_solves, cfg.splat.pose_solve_share)
+        check_settings(cfg.splat)
 
     @staticmethod
     def unused(cfg, capture=None) -> dict[str, str]:
         """Settings left unread at these values: field.kind (splats are no field), normal_consistency_from without
         a surface term, sh_interval at SH degree 0, init_points auto on a capture without SfM points, colour_transform
-        without colour transforms, the pose settings without pose refinement (pose_solve_share: without solves)."""
+        without colour transforms, the pose settings without pose refinement (pose_solve.unused_settings)."""
         out = {"field.kind": "Gaussian splats are their own method, not a field; pick a NeRF preset (--preset ngp)"}
         if cfg.splat.init:
             out["splat.init_points"] = f"the Gaussians start from --init {cfg.splat.init}"
@@ -197,10 +199,7 @@ class SplatModel:
                                                     "(--normal-consistency 0.15)")
         if cfg.splat.sh_degree == 0:
             out["splat.sh_interval"] = "the colour has no view dependence to raise (--sh-degree 0)"
-        if cfg.train.pose_refine != "on":
-            out["splat.pose_rounds"] = out["splat.pose_solves"] = "pose refinement is off (--pose-refine on)"
-        if cfg.train.pose_refine != "on" or cfg.splat.pose_solves == 0:
-            out["splat.pose_solve_share"] = "the run makes no pose solves (--pose-refine on --pose-solves N)"
+        out.update(unused_settings(cfg.train.pose_refine == "on", cfg.splat.pose_solves))
         if cfg.splat.appearance == "off" or (cfg.splat.appearance == "auto" and not getattr(capture, "photos", True)):
             out["splat.colour_transform"] = out["splat.colour_transform_lr"] = "no colour transforms (--appearance on)"
         if (capture is not None and cfg.splat.init_points == "auto" and capture.points is None

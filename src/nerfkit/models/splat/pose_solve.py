@@ -38,14 +38,29 @@ ITERATIONS = 1
 HIDDEN_OPACITY = -30.0  # the logit an inactive slot is drawn with (sigmoid: 1e-13, under the rasteriser's cut)
 
 
-def check_settings(rounds: int, solves: int, share: float) -> None:
-    """ConfigError for --pose-rounds under 1, --pose-solves under 0 or --pose-solve-share outside (0, 1]."""
-    if rounds < 1:
-        raise ConfigError(f"--pose-rounds must be at least 1 (got {rounds}); 1: one round")
-    if solves < 0:
-        raise ConfigError(f"--pose-solves must be at least 0 (got {solves}); 0: Adam alone")
-    if not 0.0 < share <= 1.0:
-        raise ConfigError(f"--pose-solve-share must be in (0, 1] (got {share:g}); 1: each solve's whole step")
+def check_settings(g) -> None:
+    """ConfigError for the splat settings g (config.SplatSettings) where --pose-rounds is under 1, --pose-solves
+    under 0, --pose-solve-share outside (0, 1] or --pose-warmup outside [0, 0.5) (the solves start at twice it)."""
+    if g.pose_rounds < 1:
+        raise ConfigError(f"--pose-rounds must be at least 1 (got {g.pose_rounds}); 1: one round")
+    if g.pose_solves < 0:
+        raise ConfigError(f"--pose-solves must be at least 0 (got {g.pose_solves}); 0: Adam alone")
+    if not 0.0 < g.pose_solve_share <= 1.0:
+        raise ConfigError(f"--pose-solve-share must be in (0, 1] (got {g.pose_solve_share:g}); 1: each solve's "
+                          f"whole step")
+    if not 0.0 <= g.pose_warmup < 0.5:
+        raise ConfigError(f"--pose-warmup must be in [0, 0.5) (got {g.pose_warmup:g}): the poses' rate ramps up "
+                          f"until twice it and the solves come after; 0.1: the default")
+
+
+def unused_settings(refine: bool, solves: int) -> dict[str, str]:
+    """{setting: why} of the pose settings a run leaves unread: all of them without pose refinement (refine False),
+    --pose-solve-share without solves."""
+    off = "pose refinement is off (--pose-refine on)"
+    out = dict.fromkeys(("splat.pose_rounds", "splat.pose_solves", "splat.pose_warmup"), off) if not refine else {}
+    if not refine or solves == 0:
+        out["splat.pose_solve_share"] = "the run makes no pose solves (--pose-refine on --pose-solves N)"
+    return out
 
 
 def solves_done(progress: float, n: int, start: float) -> int:
