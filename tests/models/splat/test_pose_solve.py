@@ -5,6 +5,7 @@ their error."""
 
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import jax.numpy as jnp
 import numpy as np
@@ -15,8 +16,10 @@ from nerfkit.core.presets import preset
 from nerfkit.data.loader import read_capture, scene_cameras
 from nerfkit.data.procedural.captures import make_capture
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, render_arrays
+from nerfkit.models.splat import train
 from nerfkit.models.splat.method import SplatModel, splat_config
-from nerfkit.models.splat.pose_solve import solve_corrections, solve_due, solves_done
+from nerfkit.models.splat.optim import LearningRates
+from nerfkit.models.splat.pose_solve import check_settings, solve_corrections, solve_due, solves_done
 from nerfkit.rays.cameras import look_at
 from nerfkit.rays.correction import aligned_pose_error, corrected_composite, corrected_pose, pose_error, refined_poses
 from nerfkit.run.folder import RunFolder
@@ -40,10 +43,14 @@ def test_the_pose_warm_up_reaches_training_and_is_refused_out_of_range(tmp_path,
     cfg = preset("splat")
     cfg.train.pose_refine, cfg.field.appearance_count = "on", 8  # (resolve_settings: the training photos')
     default = splat_config(cfg).lrs
-    assert default.pose_warmup == cfg.splat.pose_warmup == 0.1 and "poses held" not in SplatModel.describe(cfg)
+    assert LearningRates().pose_warmup == cfg.splat.pose_warmup == default.pose_warmup == 0.1  # one default
+    assert "poses held" not in SplatModel.describe(cfg)
     cfg.splat.pose_warmup, cfg.splat.pose_rounds = 0.25, 2
     assert splat_config(cfg).lrs == replace(default, pose_warmup=0.25)
     assert "poses held for the first 25% of each round" in SplatModel.describe(cfg)
+    cfg.splat.pose_warmup = 0.0
+    check_settings(cfg.splat)  # no warm-up is allowed
+    assert "poses free from the start" in SplatModel.describe(cfg)
     cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16)
     for bad in (["--pose-warmup", "0.5"], ["--pose-warmup", "-0.1"], ["--pose-refine", "off", "--pose-warmup", "0.2"]):
         refine = [] if "--pose-refine" in bad else ["--pose-refine", "on"]
@@ -51,6 +58,21 @@ def test_the_pose_warm_up_reaches_training_and_is_refused_out_of_range(tmp_path,
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and "--pose-warmup" in err and "Traceback" not in err, err
         assert not (tmp_path / "run").exists()
+
+
+def test_the_solves_start_after_the_warm_up_the_run_sets(monkeypatch):
+    """ViewStep.solve_poses solves where a step crosses t_j = s + (1 - s) j / N with s = 2 --pose-warmup: 4 solves
+    from 0.2 at the default 0.1, from 0.5 at 0.25 (the solve itself stubbed: only when it is called is asked)."""
+    called = []
+    monkeypatch.setattr(train, "solve_corrections", lambda *a, **k: called.append(1) or np.zeros((2, 6), np.float32))
+    for warmup, due in ((0.1, [0.39, 0.59, 0.79, 0.99]), (0.25, [0.62, 0.74, 0.87, 0.99])):
+        sc = train.SplatConfig(pose_refine=True, n_views=2, pose_solves=4, lrs=LearningRates(pose_warmup=warmup))
+        me = SimpleNamespace(sc=sc, extent=1.0, width=SIZE, height=SIZE, background=BG)
+        state = {"params": {"cam_pose": jnp.zeros((2, 6))}, "aux": {"active": np.ones(4, bool)}}
+        steps = [k / 100 for k in range(100)
+                 if train.ViewStep.solve_poses(me, state, k, k / 100, (k + 1) / 100, None, None, None) is not state]
+        assert steps == due and len(called) == 4, (warmup, steps)
+        called.clear()
 
 
 @pytest.fixture(scope="module")

@@ -102,7 +102,8 @@ def progress_of(step: int, clock: float, cfg) -> float:
 def _describe_pose(cfg) -> str:
     n, k, w = cfg.splat.pose_rounds, cfg.splat.pose_solves, cfg.splat.pose_warmup
     solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
-    warm = f", poses held for the first {w:.0%}{' of each round' * (n > 1)}" if w != LearningRates.pose_warmup else ""
+    held = f", poses held for the first {100 * w:g}%{' of each round' * (n > 1)}" if w else ", poses free from the start"
+    warm = held if w != LearningRates.pose_warmup else ""
     rounds = f" in {n} rounds" if n > 1 else ""
     return "" if cfg.train.pose_refine != "on" else f"; pose refinement{rounds}{solves}{warm}"
 
@@ -180,8 +181,8 @@ class SplatModel:
 
     @staticmethod
     def check(cfg) -> None:
-        """ConfigError for a --backend that is not in the table (backends.py) or pose solve settings out of range
-        (pose_solve.check_settings)."""
+        """ConfigError for a --backend that is not in the table (backends.py) or pose settings out of range
+        (pose_solve.check_settings: rounds, solves, their share, the warm-up)."""
         backend(cfg.splat.backend)
         check_settings(cfg.splat)
 

@@ -36,8 +36,8 @@ Per-photo corrections (rays/correction.py; --appearance, --pose-refine), groups 
                 within 0.004 and scores 33.54 dB against the exact capture's 33.49, where 1e-3 leaves 0.008 and
                 32.89, 1e-2 33.01; facing forward at 128 px 3e-3 is ahead of 1e-3 with each of three seeds, and
                 on buddha's held-out photos by 0.22 dB on the mean of three (docs: Per-photo corrections).
-    cam_pose    lr(t) = 1e-4 ramp(t), ramp 0 until t = 0.1 (the first views are too blurred to pull a pose
-                the right way), rising linearly to 1 at t = 0.2, then falling log-linearly to 0.1 at t = 1.
+    cam_pose    lr(t) = 1e-4 ramp(t), ramp 0 until t = W (--pose-warmup, 0.1: the first views are too blurred to
+                pull a pose the right way), rising linearly to 1 at t = 2W, then log-linearly to 0.1 at t = 1.
                 Procedural unbounded captures, 35 photos at 64 px integrating their pixels, poses 0.96 degrees
                 off, 2000 steps (one run each; training's validation on the 5 exact held-out photos): all around
                 the objects 5e-4 left 0.44-0.47 degrees and 24.6-25.1 dB (three runs), 1e-4 0.52 degrees and

@@ -31,6 +31,7 @@ import numpy as np
 
 from nerfkit.core.errors import ConfigError
 from nerfkit.models.splat.gaussians import PARAM_NAMES
+from nerfkit.models.splat.optim import LearningRates
 from nerfkit.models.splat.pose_fit import fit_correction
 
 # per solve (probes on the ring capture at 64 px: 13 solves of one iteration left 0.21 degrees, 4 of three 0.24)
@@ -50,7 +51,7 @@ def check_settings(g) -> None:
                           f"whole step")
     if not 0.0 <= g.pose_warmup < 0.5:
         raise ConfigError(f"--pose-warmup must be in [0, 0.5) (got {g.pose_warmup:g}): the poses' rate ramps up "
-                          f"until twice it and the solves come after; 0.1: the default")
+                          f"until twice it and the solves come after; {LearningRates.pose_warmup:g}: the default")
 
 
 def unused_settings(refine: bool, solves: int) -> dict[str, str]:
