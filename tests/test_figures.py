@@ -305,6 +305,14 @@ def table_row(none: str, corrected: list[str], exact: list[str]) -> list:
             *pose_spread(corrected)]
 
 
+def flag_row(anchor: str, none: str, corrected: list[str], exact: list[str], flag: str, fmt) -> tuple:
+    """The check of a corrections-table row whose runs add one flag to the table's command (the row that starts with
+    `anchor` and names `--flag`): table_row's figures, then the flag's value as the runs' command gave it (fmt)."""
+    return ("docs/corrections.md", f"{anchor} `--{flag}",
+            "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% | the same with `--" + flag + " {}` added",
+            [*table_row(none, corrected, exact), ((lambda: _command_number(corrected[0], flag)), fmt)])
+
+
 RING_RESIDUALS = [f"pose_residual_ring256_seed{s}.json" for s in range(3)]  # pose_residual.py on the RING_GAINS runs
 RING384_EXACT = [CO("ring384_exact"), CO("ring384_exact_seed1"), CO("ring384_exact_seed2")]
 RING384_GAINS = [CO("ring384_rounds_gains"), CO("ring384_rounds_gains_seed1"), CO("ring384_rounds_gains_seed2")]
@@ -1048,10 +1056,8 @@ CHECKS = [
     ("docs/corrections.md", "| procedural, facing one way, with `--colour-transform-lr",
      "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
      table_row(CO("forward128_none"), FORWARD_GAINS, FORWARD_EXACT)),
-    ("docs/corrections.md", "| procedural, facing one way, with `--pose-warmup",
-     "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% | the same with `--pose-warmup {}` added",
-     [*table_row(CO("forward128_none"), FORWARD_WARM, FORWARD_EXACT),
-      ((lambda: _command_number(FORWARD_WARM[0], "pose-warmup")), f2)]),
+    flag_row("| procedural, facing one way, with", CO("forward128_none"), FORWARD_WARM, FORWARD_EXACT, "pose-warmup",
+             f2),
     ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
      "Facing one way at {} px (seeds 0 to 2, the table's row) 0.25 scores {} dB on the mean against {} at 0.1, the "
      "cameras {}-{} degrees off against {}-{}.",
@@ -1106,14 +1112,10 @@ CHECKS = [
      [*[(("pose_pull_ring64.json", "checkpoints", i, "step"), d) for i in range(5)],
       *[((name, "checkpoints", i, "solved", "turn_mean_degrees", 0), f3)
         for name in ("pose_pull_ring64.json", "pose_pull_ring64_masked.json") for i in range(5)]]),
-    ("docs/corrections.md", "| procedural, all around, 320 px, with `--pose-solve-share",
-     "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% | the same with `--pose-solve-share {}` added",
-     [*table_row(CO("ring320_none"), RING320_SHARE, RING320_EXACT),
-      ((lambda: _command_number(RING320_SHARE[0], "pose-solve-share")), f1)]),
-    ("docs/corrections.md", "| procedural, all around, 320 px, with `--pose-warmup",
-     "| {} dB (seed 0) | **{} dB** | {} dB | {}-{} degrees, {}-{}% | the same with `--pose-warmup {}` added",
-     [*table_row(CO("ring320_none"), RING320_WARM, RING320_EXACT),
-      ((lambda: _command_number(RING320_WARM[0], "pose-warmup")), f2)]),
+    flag_row("| procedural, all around, 320 px, with", CO("ring320_none"), RING320_SHARE, RING320_EXACT,
+             "pose-solve-share", f1),
+    flag_row("| procedural, all around, 320 px, with", CO("ring320_none"), RING320_WARM, RING320_EXACT, "pose-warmup",
+             f2),
     ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
      "the cameras end {}, {} and {} degrees off against {}, {} and {} at 0.1, and the held-out photos score {}, {} and "
      "{} dB against {}, {} and {}: {} dB under the exact capture on the mean ({}, {} and {} dB), against {} at 0.1.",
