@@ -95,6 +95,7 @@ BSEEDS = [f"buddha_seed{s}_cli.json" for s in range(3)]  # buddha's corrections,
 CLR = [f"buddha_colour_lr_seed{s}_cli.json" for s in range(3)]  # buddha's colour rate, three training seeds
 BSPLAT = [f"buddha_splat_seed{s}_cli.json" for s in range(3)]  # the splats' corrections again at today's colour rate
 BCTLR = [f"buddha_splat_ctlr_seed{s}_cli.json" for s in range(3)]  # splat at --colour-transform-lr 3e-3 and 1e-3
+BWARM = [f"buddha_warmup025_seed{s}_cli.json" for s in range(3)]  # splat, pose refinement at --pose-warmup 0.1 and 0.25
 ACORR = "corrections_procedural_area.json"  # the same on photos whose pixels integrate their area
 FCORR = "corrections_forward_area.json"  # and on a forward-facing capture
 FAR, PFAR = "buddha_far_cli.json", "procedural_unbounded_far_cli.json"  # splats' far points
@@ -257,6 +258,16 @@ def buddha_budget(record: str) -> list:
 def buddha_mean(preset: str, *path, records=BSEEDS) -> float:
     """The mean over buddha's three training seeds (records, one sitting) of a preset's figure at path."""
     return sum(R(r, "presets", preset, *path) for r in records) / len(records)
+
+
+def buddha_steps(records: list[str]) -> float:
+    """The mean over records (buddha capture_cli runs of one sitting) of every preset's training steps."""
+    steps = [v["steps"] for r in records for v in R(r, "presets").values()]
+    return sum(steps) / len(steps)
+
+
+def tens(v):  # to the nearest ten, thousands separated
+    return f"{round(v, -1):,.0f}"
 
 
 def buddha_spread(preset: str, records=BSEEDS) -> float:
@@ -1139,6 +1150,27 @@ CHECKS = [
     ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
      "at 20,000 it costs the held-out photos {} dB on the mean and leaves two seeds over half a dB under",
      [(lambda: seed_mean(RING320_FAST, "both") - seed_mean(RING320_WARM, "both"), f2)]),
+    ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
+     "On buddha, the real capture ({}-minute runs at {} px, training seeds {} to {}, one sitting on a slower host than "
+     "the table's buddha runs, about {} steps each against {};",
+     [*buddha_budget(BWARM[0]), ((lambda: _command_number(BWARM[0], "seed")), d),
+      ((lambda: _command_number(BWARM[-1], "seed")), d), (lambda: buddha_steps(BWARM), tens),
+      (lambda: buddha_steps(BSPLAT), tens)]),
+    ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
+     "0.25 scores {} dB / SSIM {} on the mean against {} / {} at 0.1 and {} / {} without pose refinement; with the "
+     "held-out poses fitted {}, {} and {}.",
+     [*[(lambda k=k, key=key: buddha_mean(k, key, records=BWARM), fmt)
+        for k in ("splat-pose-w025", "splat-pose", "splat") for key, fmt in (("psnr", f2), ("ssim", f3))],
+      *[(lambda k=k: buddha_mean(k, "fitted", "psnr", records=BWARM), f2)
+        for k in ("splat-pose-w025", "splat-pose", "splat")]]),
+    ("docs/corrections.md", "`--pose-refine on` also learns",
+     "In a second sitting (the warm-up's buddha runs above) it gained the splats {} dB ({} against {}) and again cost "
+     "SSIM ({} against {})",
+     [(lambda: buddha_mean("splat-pose", "psnr", records=BWARM) - buddha_mean("splat", "psnr", records=BWARM), f2),
+      (lambda: buddha_mean("splat-pose", "psnr", records=BWARM), f2),
+      (lambda: buddha_mean("splat", "psnr", records=BWARM), f2),
+      (lambda: buddha_mean("splat-pose", "ssim", records=BWARM), f3),
+      (lambda: buddha_mean("splat", "ssim", records=BWARM), f3)]),
     ("docs/corrections.md", "Taking part of each solve's step",
      "At {} px over training seeds {} to {} (`--pose-refine on --pose-rounds 2 --pose-solves 16 --pose-solve-share {}`",
      [((RING320_SHARE[0], "size"), d), ((lambda: _command_number(RING320_SHARE[0], "seed")), d),
