@@ -362,6 +362,8 @@ FIXED320 = [f"corrections_ring320_fixed_off00{k}_seed1.json" for k in (4, 7)]  #
 CAP50 = "corrections_ring320_{}cap50k_seed{}.json".format  # --capacity 50000: (kind: "exact_", "colour_", ..., seed)
 CAP50_EXACT, CAP50_RUNS = [CAP50("exact_", s) for s in range(3)], [CAP50("", s) for s in range(3)]  # seeds 0-2
 WARM50 = [*[f"probe_ring320_warmup025_cap50k_seed{s}.json" for s in (0, 1)], CAP50("warmup025_", 2)]  # --pose-warmup 0.25
+GAINS50 = ["probe_ring320_colour_cap50k_seed0.json", CAP50("colour_", 1), "probe_ring320_colour_cap50k_seed2.json"]  # exact poses, gains
+SH0_50 = "probe_ring320_gains_sh0_cap50k_seed1"  # the same at SH degree 0, both sides (+ "_eval_exact.json", ...)
 RING384_SEEDS = range(5)  # the ring at 384 px at today's colour-transform rate, and the exact capture at each seed
 RING384_FAST = [CO(f"ring384_ctlr_rounds_gains_seed{s}") for s in RING384_SEEDS]
 RING384_EXACT5 = [*RING384_EXACT, *[CO(f"ring384_exact_seed{s}") for s in RING384_SEEDS[3:]]]
@@ -1150,6 +1152,31 @@ CHECKS = [
     ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
      "at 20,000 it costs the held-out photos {} dB on the mean and leaves two seeds over half a dB under",
      [(lambda: seed_mean(RING320_FAST, "both") - seed_mean(RING320_WARM, "both"), f2)]),
+    ("docs/corrections.md", "Without pose refinement the gains cost more at 50,000",
+     "the held-out photos score {}, {} and {} dB against the exact capture's {}, {} and {}: {} dB under on the mean, "
+     "with the gains learned to within {}-{}.",
+     [*[((r, "runs", "colour", "eval_psnr_fitted_colour"), f2) for r in GAINS50],
+      *[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in CAP50_EXACT],
+      (lambda: mean_gap(CAP50_EXACT, GAINS50, "colour"), f2),
+      *spread(GAINS50, ("runs", "colour", "gain_error"), f4)]),
+    ("docs/corrections.md", "Without pose refinement the gains cost more at 50,000",
+     "(`--gains 0`, seed {}; `probe_ring320_transforms_no_gains_cap50k_seed0.json`), they score {} dB. Nor is it their "
+     "rate (seed {} at 1e-2 {} dB, at 6e-3 {};",
+     [((lambda: _command_number("probe_ring320_transforms_no_gains_cap50k_seed0.json", "seed")), d),
+      (("probe_ring320_transforms_no_gains_cap50k_seed0.json", "runs", "colour", "eval_psnr_fitted_colour"), f2),
+      ((lambda: _command_number("probe_ring320_colour_cap50k_ctlr1e-2_seed1.json", "seed")), d),
+      *[((f"probe_ring320_colour_cap50k_ctlr{r}_seed1.json", "runs", "colour", "eval_psnr_fitted_colour"), f2)
+        for r in ("1e-2", "6e-3")]]),
+    ("docs/corrections.md", "Without pose refinement the gains cost more at 50,000",
+     "(SH degree 0 on both sides, seed 1: {} dB exact, {} with the gains;",
+     [((SH0_50 + ".json", "runs", k, "eval_psnr_fitted_colour"), f2) for k in ("exact", "colour")]),
+    ("docs/corrections.md", "Without pose refinement the gains cost more at 50,000",
+     "(frame_0024 of the SH 0 pair, {} dB with the gains against {})",
+     [((SH0_50 + f"_eval_{k}.json", "per_view", 3, "psnr"), f2) for k in ("colour", "exact")]),
+    ("docs/corrections.md", "Without pose refinement the gains cost more at 50,000",
+     "refinement from the exact poses scores {} dB with the gains and {} without",
+     [(("corrections_ring320_gains_from_truth_cap50k_seed1.json", "runs", "both", "eval_psnr_fitted_colour"), f2),
+      ((CAP50("from_truth_", 1), "runs", "pose", "eval_psnr_fitted_colour"), f2)]),
     ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
      "On buddha, the real capture ({}-minute runs at {} px, training seeds {} to {}, one sitting on a slower host than "
      "the table's buddha runs, about {} steps each against {};",
