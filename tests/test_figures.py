@@ -1194,10 +1194,8 @@ CHECKS = [
      "In a second sitting (the warm-up's buddha runs above) it gained the splats {} dB ({} against {}) and again cost "
      "SSIM ({} against {})",
      [(lambda: buddha_mean("splat-pose", "psnr", records=BWARM) - buddha_mean("splat", "psnr", records=BWARM), f2),
-      (lambda: buddha_mean("splat-pose", "psnr", records=BWARM), f2),
-      (lambda: buddha_mean("splat", "psnr", records=BWARM), f2),
-      (lambda: buddha_mean("splat-pose", "ssim", records=BWARM), f3),
-      (lambda: buddha_mean("splat", "ssim", records=BWARM), f3)]),
+      *[(lambda k=k, key=key: buddha_mean(k, key, records=BWARM), fmt)
+        for key, fmt in (("psnr", f2), ("ssim", f3)) for k in ("splat-pose", "splat")]]),
     ("docs/corrections.md", "Taking part of each solve's step",
      "At {} px over training seeds {} to {} (`--pose-refine on --pose-rounds 2 --pose-solves 16 --pose-solve-share {}`",
      [((RING320_SHARE[0], "size"), d), ((lambda: _command_number(RING320_SHARE[0], "seed")), d),
