@@ -363,6 +363,7 @@ CAP50 = "corrections_ring320_{}cap50k_seed{}.json".format  # --capacity 50000: (
 CAP50_EXACT, CAP50_RUNS = [CAP50("exact_", s) for s in range(3)], [CAP50("", s) for s in range(3)]  # seeds 0-2
 WARM50 = [*[f"probe_ring320_warmup025_cap50k_seed{s}.json" for s in (0, 1)], CAP50("warmup025_", 2)]  # --pose-warmup 0.25
 GAINS50 = ["probe_ring320_colour_cap50k_seed0.json", CAP50("colour_", 1), "probe_ring320_colour_cap50k_seed2.json"]  # exact poses, gains
+LONG50 = "probe_ring320_gains_4000steps_cap50k_seed0.json"  # the same pair at 4000 steps, seed 0
 SH0_50 = "probe_ring320_gains_sh0_cap50k_seed1"  # the same at SH degree 0, both sides (+ "_eval_exact.json", ...)
 RING384_SEEDS = range(5)  # the ring at 384 px at today's colour-transform rate, and the exact capture at each seed
 RING384_FAST = [CO(f"ring384_ctlr_rounds_gains_seed{s}") for s in RING384_SEEDS]
@@ -1177,6 +1178,12 @@ CHECKS = [
      "refinement from the exact poses scores {} dB with the gains and {} without",
      [(("corrections_ring320_gains_from_truth_cap50k_seed1.json", "runs", "both", "eval_psnr_fitted_colour"), f2),
       ((CAP50("from_truth_", 1), "runs", "pose", "eval_psnr_fitted_colour"), f2)]),
+    ("docs/corrections.md", "Without pose refinement the gains cost more at 50,000",
+     "with {} steps instead of 2000 (seed {}, exact and gains; `probe_ring320_gains_4000steps_cap50k_seed0.json`) the "
+     "run with the gains scores {} dB against the exact capture's {}, the gains within {}.",
+     [((lambda: _command_number(LONG50, "steps")), d), ((lambda: _command_number(LONG50, "seed")), d),
+      *[((LONG50, "runs", k, "eval_psnr_fitted_colour"), f2) for k in ("colour", "exact")],
+      ((LONG50, "runs", "colour", "gain_error"), f4)]),
     ("docs/corrections.md", "`--pose-warmup W` sets when the poses start to move",
      "On buddha, the real capture ({}-minute runs at {} px, training seeds {} to {}, one sitting on a slower host than "
      "the table's buddha runs, about {} steps each against {};",
