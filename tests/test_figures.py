@@ -1202,16 +1202,15 @@ CHECKS = [
      "came {} under theirs. The cameras end {}, {} and {} degrees off against {}, {} and {}: the turn they share falls "
      "to {}-{} degrees from {}-{}, and each camera's own error does not fall ({}-{} degrees with the shared turn "
      "taken out, against {}-{};",
-     [((lambda: _command_number(LONG50_RUNS[0], "steps") // 2), d),
+     [((lambda: _command_number(LONG50_RUNS[0], "steps") // _command_number(LONG50_RUNS[0], "pose-rounds")), d),
       *[((lambda f=f, r=r: _command_number(r, f)), d) for f, r in
         (("steps", LONG50_RUNS[0]), ("seed", LONG50_RUNS[0]), ("seed", LONG50_RUNS[-1]))],
       *[((r, "runs", "both", "eval_psnr_fitted_colour"), f2) for r in LONG50_RUNS],
       *[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in LONG50],
       (lambda: mean_gap(LONG50, LONG50_RUNS), f2), (lambda: mean_gap(CAP50_EXACT, CAP50_RUNS), f2),
       *[((r, "runs", "both", "refined_pose_error", "degrees"), f3) for r in LONG50_RUNS + CAP50_RUNS],
-      *[x for rs in (LONG50_RESIDUALS, CAP50_RESIDUALS) for x in spread(rs, ("refined", "turn_mean_degrees", 0), f3)],
-      *[x for rs in (LONG50_RESIDUALS, CAP50_RESIDUALS)
-        for x in spread(rs, ("refined", "median_degrees_shared_turn_out"), f3)]]),
+      *[x for key in (("turn_mean_degrees", 0), ("median_degrees_shared_turn_out",))
+        for rs in (LONG50_RESIDUALS, CAP50_RESIDUALS) for x in spread(rs, ("refined", *key), f3)]]),
     ("docs/corrections.md", "Longer rounds bring the cameras at 50,000 within a tenth of a degree",
      "Each run trained {}-{} s, {} times the exact capture's {}-{} s at 4000 steps.",
      [*spread(LONG50_RUNS, ("runs", "both", "train_s"), f0),
