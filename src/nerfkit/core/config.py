@@ -148,13 +148,11 @@ class SamplerConfig:
     """ngp: ray-marching steps across the box diagonal (step = 2 sqrt(3) bound / N); unbounded scenes: steps
     evenly spaced in s = g(t) over [near, far] (g: linear inside the inner ball, disparity beyond)."""
     max_samples: int = 65536
-    """ngp with occupancy sampling: samples per training step; rays per step adapt to fill it (at most
-    --batch-rays)."""
+    """ngp with occupancy sampling: samples per training step; rays per step adapt to fill it (at most --batch-rays)."""
     sampling: Literal["auto", "occupancy", "proposal"] = "auto"
-    """ngp: where samples go along a ray. occupancy: march the occupancy grid (instant-ngp; every occupied
-    cell a ray crosses, also behind the first surface); proposal: two small proposal density fields place
-    --field-samples samples where the ray's weight is (nerfacto). auto: occupancy for bounded scenes,
-    proposal for unbounded ones."""
+    """ngp: where samples go along a ray. occupancy: march the occupancy grid (instant-ngp; every occupied cell a ray
+    crosses, also behind the first surface); proposal: two small proposal density fields place --field-samples samples
+    where the ray's weight is (nerfacto). auto: occupancy for bounded scenes, proposal for unbounded ones."""
     proposal_samples: int = 64
     """ngp with proposal sampling: the first proposal round's samples per ray (the second takes half)."""
     field_samples: int = 32
@@ -310,6 +308,8 @@ class SplatSettings:
     pose_warmup: float = 0.1
     """With --pose-refine on: the share of the budget (of each round) before the poses move; their rate then ramps up
     over as long again, and the --pose-solves start after the ramp (docs: Corrections)."""
+    pose_lr: float = 1e-4
+    """With --pose-refine on: the poses' Adam rate after the warm-up's ramp, a tenth by the end (0: solves alone)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (exposure and white balance change from photo to photo), learned with
     the Gaussians; held-out photos use the mean of the training photos' transforms. auto: on for photo captures

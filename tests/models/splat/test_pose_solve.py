@@ -18,7 +18,7 @@ from nerfkit.data.procedural.captures import make_capture
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, render_arrays
 from nerfkit.models.splat import train
 from nerfkit.models.splat.method import SplatModel, splat_config
-from nerfkit.models.splat.optim import LearningRates
+from nerfkit.models.splat.optim import LearningRates, pose_lr
 from nerfkit.models.splat.pose_solve import check_settings, solve_corrections, solve_due, solves_done
 from nerfkit.rays.cameras import look_at
 from nerfkit.rays.correction import aligned_pose_error, corrected_composite, corrected_pose, pose_error, refined_poses
@@ -34,6 +34,31 @@ def test_the_solves_fall_evenly_after_the_warm_up_and_the_last_at_the_end():
     assert solves_done(1.0, 0, 0.2) == 0 and not solve_due(0.1, 1.0, 0, 0.2)
     assert solve_due(0.999, 1.0, 4, 0.2) and not solve_due(0.5, 0.55, 4, 0.2) and solve_due(0.55, 0.61, 4, 0.2)
     assert sum(solve_due(k / 100, (k + 1) / 100, 16, 0.2) for k in range(100)) == 16
+
+
+def test_the_pose_rate_reaches_training_and_is_refused_out_of_range(tmp_path, capsys):
+    """--pose-lr R sets the pose corrections' Adam rate (LearningRates.cam_pose, which optim.pose_lr ramps and
+    lowers) and nothing else, the run's description says so where R is not the default, and a negative R, 0 without
+    solves (nothing would move the poses) or R without pose refinement is refused in one line naming the flag."""
+    cfg = preset("splat")
+    cfg.train.pose_refine, cfg.field.appearance_count = "on", 8
+    default = splat_config(cfg).lrs
+    assert LearningRates().cam_pose == cfg.splat.pose_lr == default.cam_pose == 1e-4  # one default
+    assert "pose rate" not in SplatModel.describe(cfg)
+    cfg.splat.pose_lr = 2e-5
+    assert splat_config(cfg).lrs == replace(default, cam_pose=2e-5)
+    assert pose_lr(0.5, splat_config(cfg).lrs) == pytest.approx(pose_lr(0.5, default) / 5)
+    assert "pose rate 2e-05" in SplatModel.describe(cfg)
+    cfg.splat.pose_lr, cfg.splat.pose_solves = 0.0, 16
+    check_settings(cfg.splat)  # the solves alone
+    assert pose_lr(0.5, splat_config(cfg).lrs) == 0.0 and "poses moved by the solves alone" in SplatModel.describe(cfg)
+    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16)
+    for bad in (["--pose-lr", "-1e-4"], ["--pose-lr", "0"], ["--pose-refine", "off", "--pose-lr", "1e-5"]):
+        refine = [] if "--pose-refine" in bad else ["--pose-refine", "on"]
+        assert main(["train", str(cap), "--out", str(tmp_path / "run"), "--preset", "splat", *refine, *bad]) == 1
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "--pose-lr" in err and "Traceback" not in err, err
+        assert not (tmp_path / "run").exists()
 
 
 def test_the_pose_warm_up_reaches_training_and_is_refused_out_of_range(tmp_path, capsys):

@@ -34,7 +34,7 @@ from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.backends import backend
 from nerfkit.models.splat.gaussians import PARAM_NAMES, init_from_points, init_random, intrinsics_of
 from nerfkit.models.splat.optim import LearningRates, colour_lr_for, colour_rates, init_state, make_optimizers, means_lr
-from nerfkit.models.splat.pose_solve import check_settings, unused_settings
+from nerfkit.models.splat.pose_solve import check_settings, describe_pose, unused_settings
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
 from nerfkit.models.splat.rounds import in_round, round_aux, within_round
@@ -89,7 +89,8 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
                        pose_solves=g.pose_solves, pose_solve_share=g.pose_solve_share,
-                       lrs=colour_rates(LearningRates(pose_warmup=g.pose_warmup), g.colour_lr, g.colour_transform_lr))
+                       lrs=colour_rates(LearningRates(pose_warmup=g.pose_warmup, cam_pose=g.pose_lr), g.colour_lr,
+                                        g.colour_transform_lr))
 
 
 def progress_of(step: int, clock: float, cfg) -> float:
@@ -97,15 +98,6 @@ def progress_of(step: int, clock: float, cfg) -> float:
     t = cfg.train
     by_time = clock / (60.0 * t.max_minutes) if t.max_minutes else 0.0
     return float(min(1.0, max(step / max(t.max_steps, 1), by_time)))
-
-
-def _describe_pose(cfg) -> str:
-    n, k, w = cfg.splat.pose_rounds, cfg.splat.pose_solves, cfg.splat.pose_warmup
-    solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
-    held = f", poses held for the first {100 * w:g}%{' of each round' * (n > 1)}" if w else ", poses free from the start"
-    warm = held if w != LearningRates.pose_warmup else ""
-    rounds = f" in {n} rounds" if n > 1 else ""
-    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{rounds}{solves}{warm}"
 
 
 def _describe_coarse(coarse: float | None) -> str:
@@ -143,7 +135,8 @@ class SplatModel:
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
         "normal_consistency_from", "depth_distortion", "screen_dilation", "colour_transform", "colour_lr",
-        "colour_transform_lr", "pose_rounds", "pose_solves", "pose_solve_share", "pose_warmup")) | {"train.pose_refine"}
+        "colour_transform_lr", "pose_rounds", "pose_solves", "pose_solve_share", "pose_warmup",
+        "pose_lr")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -158,7 +151,7 @@ class SplatModel:
                 f"{'; random background' if g.random_background == 'on' else ''}"
                 f"{_describe_surface(g)}"
                 f"{'' if g.screen_dilation == LOWPASS_DILATION else f'; screen dilation {g.screen_dilation:g} px^2'}"
-                f"{_describe_pose(cfg)}"
+                f"{describe_pose(cfg)}"
                 f"{'' if g.backend == 'auto' else f'; {g.backend} rasteriser'}")
 
     @staticmethod

@@ -41,7 +41,8 @@ HIDDEN_OPACITY = -30.0  # the logit an inactive slot is drawn with (sigmoid: 1e-
 
 def check_settings(g) -> None:
     """ConfigError for the splat settings g (config.SplatSettings) where --pose-rounds is under 1, --pose-solves
-    under 0, --pose-solve-share outside (0, 1] or --pose-warmup outside [0, 0.5) (the solves start at twice it)."""
+    under 0, --pose-solve-share outside (0, 1], --pose-warmup outside [0, 0.5) (the solves start at twice it), or
+    --pose-lr under 0, or 0 without solves (nothing would move the poses)."""
     if g.pose_rounds < 1:
         raise ConfigError(f"--pose-rounds must be at least 1 (got {g.pose_rounds}); 1: one round")
     if g.pose_solves < 0:
@@ -52,16 +53,35 @@ def check_settings(g) -> None:
     if not 0.0 <= g.pose_warmup < 0.5:
         raise ConfigError(f"--pose-warmup must be in [0, 0.5) (got {g.pose_warmup:g}): the poses' rate ramps up "
                           f"until twice it and the solves come after; {LearningRates.pose_warmup:g}: the default")
+    if not (g.pose_lr >= 0.0 and np.isfinite(g.pose_lr)):
+        raise ConfigError(f"--pose-lr must be at least 0 (got {g.pose_lr:g}); {LearningRates.cam_pose:g}: the default")
+    if g.pose_lr == 0.0 and g.pose_solves == 0:
+        raise ConfigError("--pose-lr 0 leaves only the solves to move the poses, and there are none; add "
+                          "--pose-solves N (16: docs: Corrections) or give --pose-lr a rate")
 
 
 def unused_settings(refine: bool, solves: int) -> dict[str, str]:
     """{setting: why} of the pose settings a run leaves unread: all of them without pose refinement (refine False),
     --pose-solve-share without solves."""
     off = "pose refinement is off (--pose-refine on)"
-    out = dict.fromkeys(("splat.pose_rounds", "splat.pose_solves", "splat.pose_warmup"), off) if not refine else {}
+    out = dict.fromkeys(("splat.pose_rounds", "splat.pose_solves", "splat.pose_warmup", "splat.pose_lr"),
+                        off) if not refine else {}
     if not refine or solves == 0:
         out["splat.pose_solve_share"] = "the run makes no pose solves (--pose-refine on --pose-solves N)"
     return out
+
+
+def describe_pose(cfg) -> str:
+    """The pose settings' part of the run's one-line description (SplatModel.describe): empty without pose refinement,
+    else the rounds, the solves, and the warm-up and rate where they are not the defaults."""
+    n, k, w = cfg.splat.pose_rounds, cfg.splat.pose_solves, cfg.splat.pose_warmup
+    solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
+    held = f", poses held for the first {100 * w:g}%{' of each round' * (n > 1)}" if w else ", poses free from the start"
+    warm = held if w != LearningRates.pose_warmup else ""
+    rounds = f" in {n} rounds" if n > 1 else ""
+    lr = cfg.splat.pose_lr
+    rate = "" if lr == LearningRates.cam_pose else f", pose rate {lr:g}" if lr else ", poses moved by the solves alone"
+    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{rounds}{solves}{warm}{rate}"
 
 
 def solves_done(progress: float, n: int, start: float) -> int:
