@@ -36,6 +36,18 @@ def test_the_solves_fall_evenly_after_the_warm_up_and_the_last_at_the_end():
     assert sum(solve_due(k / 100, (k + 1) / 100, 16, 0.2) for k in range(100)) == 16
 
 
+def assert_refused(tmp_path: Path, capsys, flag: str, cases) -> None:
+    """Each of `cases` (train arguments; --pose-refine on added where a case does not set it) is refused by
+    `nerfkit train --preset splat` in one line that names `flag`, exit 1, without a run folder."""
+    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16)
+    for bad in cases:
+        refine = [] if "--pose-refine" in bad else ["--pose-refine", "on"]
+        assert main(["train", str(cap), "--out", str(tmp_path / "run"), "--preset", "splat", *refine, *bad]) == 1
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and flag in err and "Traceback" not in err, err
+        assert not (tmp_path / "run").exists()
+
+
 def test_the_pose_rate_reaches_training_and_is_refused_out_of_range(tmp_path, capsys):
     """--pose-lr R sets the pose corrections' Adam rate (LearningRates.cam_pose, which optim.pose_lr ramps and
     lowers) and nothing else, the run's description says so where R is not the default, and a negative R, 0 without
@@ -52,13 +64,8 @@ def test_the_pose_rate_reaches_training_and_is_refused_out_of_range(tmp_path, ca
     cfg.splat.pose_lr, cfg.splat.pose_solves = 0.0, 16
     check_settings(cfg.splat)  # the solves alone
     assert pose_lr(0.5, splat_config(cfg).lrs) == 0.0 and "poses moved by the solves alone" in SplatModel.describe(cfg)
-    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16)
-    for bad in (["--pose-lr", "-1e-4"], ["--pose-lr", "0"], ["--pose-refine", "off", "--pose-lr", "1e-5"]):
-        refine = [] if "--pose-refine" in bad else ["--pose-refine", "on"]
-        assert main(["train", str(cap), "--out", str(tmp_path / "run"), "--preset", "splat", *refine, *bad]) == 1
-        err = capsys.readouterr().err.strip()
-        assert err.count("\n") == 0 and "--pose-lr" in err and "Traceback" not in err, err
-        assert not (tmp_path / "run").exists()
+    assert_refused(tmp_path, capsys, "--pose-lr", (["--pose-lr", "-1e-4"], ["--pose-lr", "0"],
+                                                   ["--pose-refine", "off", "--pose-lr", "1e-5"]))
 
 
 def test_the_pose_warm_up_reaches_training_and_is_refused_out_of_range(tmp_path, capsys):
@@ -76,13 +83,8 @@ def test_the_pose_warm_up_reaches_training_and_is_refused_out_of_range(tmp_path,
     cfg.splat.pose_warmup = 0.0
     check_settings(cfg.splat)  # no warm-up is allowed
     assert "poses free from the start" in SplatModel.describe(cfg)
-    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=8, size=16)
-    for bad in (["--pose-warmup", "0.5"], ["--pose-warmup", "-0.1"], ["--pose-refine", "off", "--pose-warmup", "0.2"]):
-        refine = [] if "--pose-refine" in bad else ["--pose-refine", "on"]
-        assert main(["train", str(cap), "--out", str(tmp_path / "run"), "--preset", "splat", *refine, *bad]) == 1
-        err = capsys.readouterr().err.strip()
-        assert err.count("\n") == 0 and "--pose-warmup" in err and "Traceback" not in err, err
-        assert not (tmp_path / "run").exists()
+    assert_refused(tmp_path, capsys, "--pose-warmup", (["--pose-warmup", "0.5"], ["--pose-warmup", "-0.1"],
+                                                       ["--pose-refine", "off", "--pose-warmup", "0.2"]))
 
 
 def test_the_solves_start_after_the_warm_up_the_run_sets(monkeypatch):
