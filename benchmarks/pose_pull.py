@@ -100,7 +100,8 @@ def main() -> None:
         print(step, "shared turn held", rows[-1]["held"]["turn_mean_degrees"], "solved",
               rows[-1]["solved"]["turn_mean_degrees"], flush=True)
     result = {"what": __doc__.split("\n\n")[0], "run": str(a.run), "capture": str(cap_dir),
-              "iterations": a.iterations, "held_out_iterations": a.held_out, "checkpoints": rows, "provenance": provenance()}
+              "iterations": a.iterations, "held_out_iterations": a.held_out, "checkpoints": rows,
+              "provenance": provenance()}
     path = ROOT / "benchmarks" / "results" / f"{a.name}.json"
     path.write_text(json.dumps(result, indent=2))
     print(f"wrote {path}")
