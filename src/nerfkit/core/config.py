@@ -269,11 +269,12 @@ class SplatSettings:
     """The SH degree of the --init file, filled in when the run starts (never from the command line): --resume
     takes the Gaussians from the run's checkpoint and this degree from its config, so the file may be gone."""
     far_points: Literal["auto", "on", "off"] = "auto"
-    """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre as the
-    farthest camera, or behind 95% of the SfM points where they reach further (a forward-facing capture's far wall),
-    each coloured by a training photo that sees it (on a forward-facing capture, where the rays of pixels drawn over the
-    photos meet that sphere), so that what lies far away (walls, sky) has Gaussians of its own instead of being smeared
-    over the near ones. auto: on for photos without masks, off for masked objects and Blender scenes."""
+    """A background to start from: a tenth of --capacity Gaussians on a sphere 3x as far from the scene's centre as
+    the farthest camera, or behind 95% of the SfM points where they reach further (a forward-facing capture's far
+    wall), each coloured by a training photo that sees it (on a forward-facing capture, where the rays of pixels
+    drawn over the photos meet that sphere), so that what lies far away (walls, sky) has Gaussians of its own instead
+    of being smeared over the near ones. auto: on for photos without masks (unbounded scenes), off for masked objects
+    and Blender scenes."""
     random_background: Literal["auto", "on", "off"] = "off"
     """Train on a random background colour per step where the photos have masks or an alpha channel (the photo is
     composited onto it by its alpha): a surface can then not be left see-through where its colour matches the
@@ -309,8 +310,6 @@ class SplatSettings:
     over as long again, and the --pose-solves start after the ramp (docs: Corrections)."""
     pose_lr: float = 1e-4
     """With --pose-refine on: the poses' Adam rate after the warm-up's ramp, a tenth by the end (0: solves alone)."""
-    pose_cross_fit: Literal["on", "off"] = "off"
-    """With --pose-rounds 4+: the last 3 rounds fit each half's poses to a scene of the other half (docs: Corrections)."""
     appearance: Literal["auto", "on", "off"] = "auto"
     """A colour transform per training photo (exposure and white balance change from photo to photo), learned with
     the Gaussians; held-out photos use the mean of the training photos' transforms. auto: on for photo captures
@@ -379,7 +378,8 @@ class Config:
         return validate(cfg)
 
 
-# What configs written before a setting existed trained with, where today's default differs (--warp: contract).
+# What a field or splat config written before a setting existed trained with, where that differs from today's
+# default: before --warp an unbounded field was contracted (--resume, eval and checkpoints must not move it into NDC).
 FIELD_BEFORE = {"warp": "contract"}
 SPLAT_BEFORE = {"pixel_loss": "l1", "appearance": "off", "far_points": "off", "random_background": "off",
                 "normal_consistency": 0.0, "normal_consistency_from": 0.0, "depth_distortion": 0.0,

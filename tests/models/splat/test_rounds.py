@@ -1,7 +1,6 @@
 """Pose refinement in rounds (--pose-rounds; models/splat/rounds.py): the round and the progress within it, the
 state started over at a round's first step with the per-photo corrections kept, and a run through the CLI whose
-Gaussians start over at the round's step while its poses go on; the flag refused where it would not be read; and
-cross-fitting (--pose-cross-fit): each half's poses fitted to a scene trained on the other half, then all held."""
+Gaussians start over at the round's step while its poses go on; the flag refused where it would not be read."""
 
 import json
 
@@ -10,10 +9,8 @@ import pytest
 
 from nerfkit.cli.main import main
 from nerfkit.data.procedural.captures import make_capture
-from nerfkit.models.splat.rounds import in_round, round_aux, round_of, round_plan
+from nerfkit.models.splat.rounds import in_round, round_aux, round_of
 from nerfkit.run.folder import RunFolder
-from nerfkit.training.checkpoint import list_checkpoints
-from pose_settings import assert_refused
 
 
 def test_round_of_splits_the_progress_into_equal_rounds():
@@ -76,44 +73,3 @@ def test_a_run_in_two_rounds_starts_its_gaussians_over_and_keeps_refining_its_po
         assert main([*args, "--overwrite", *bad]) == 1
         err = capsys.readouterr().err
         assert word in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
-
-
-def test_cross_fitting_fits_each_half_to_the_other_halfs_scene_then_holds_every_pose(tmp_path, capsys):
-    everything = {"views": None, "pose_rate": True, "solve": None, "cross": False}
-    assert all(round_plan(r, 5, 9, False) == everything for r in range(5))
-    first, second, even, odd, last = (round_plan(r, 5, 9, True) for r in range(5))
-    assert first == second == everything  # the rounds before the last three refine every pose
-    assert list(even["views"]) == [0, 2, 4, 6, 8] and list(even["solve"]) == [1, 3, 5, 7]
-    assert list(odd["views"]) == [1, 3, 5, 7] and list(odd["solve"]) == [0, 2, 4, 6, 8]
-    assert even["cross"] and odd["cross"] and not (even["pose_rate"] or odd["pose_rate"])  # the trained poses held
-    assert last["views"] is None and len(last["solve"]) == 0 and not (last["pose_rate"] or last["cross"])
-    assert_refused(tmp_path, capsys, "--pose-cross-fit", (["--pose-cross-fit", "on", "--pose-rounds", "3"],
-                                                          ["--pose-refine", "off", "--pose-cross-fit", "on"]))
-
-
-@pytest.mark.slow
-def test_a_cross_fitted_run_trains_one_half_and_fits_the_other_then_holds_the_poses(tmp_path, capsys):
-    """Four rounds of 20 steps with the last three cross-fitted: the checkpoints at each round's end show round 1
-    training only the even photos (their colour transforms move, the odd ones' stay) with their poses held while its
-    last solve moves the odd photos' poses, round 2 the other way round, and round 3 no pose at all."""
-    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=10, size=32, environment=True, pose_noise=(1.0, 0.02),
-                       points=3000, seed=3)
-    run = tmp_path / "run"
-    assert main(["train", str(cap), "--out", str(run), "--preset", "splat", "--pose-refine", "on", "--max-steps",
-                 "80", "--val-every", "80", "--ckpt-every", "20", "--keep-ckpts", "4", "--capacity", "4000",
-                 "--pose-rounds", "4", "--pose-solves", "2", "--pose-cross-fit", "on", "--appearance", "on"]) == 0
-    assert "pose refinement in 4 rounds, the last 3 cross-fitted (2 pose solves a round)" in capsys.readouterr().out
-    ckpts = list_checkpoints(run / "checkpoints")
-    assert [int(p.name.split("_")[-1].split(".")[0]) for p in ckpts] == [20, 40, 60, 80], ckpts
-    runs = [RunFolder(run).load(p, scene=False).params for p in ckpts]
-    pose, colour = ([np.asarray(r[k]) for r in runs] for k in ("cam_pose", "cam_color"))
-    even, odd = slice(0, None, 2), slice(1, None, 2)
-
-    def moved(a, b, half):
-        return float(np.abs(a[half] - b[half]).max())
-
-    assert moved(pose[0], pose[1], even) == 0 and moved(pose[0], pose[1], odd) > 1e-4
-    assert moved(colour[0], colour[1], odd) == 0 and moved(colour[0], colour[1], even) > 1e-4
-    assert moved(pose[1], pose[2], odd) == 0 and moved(pose[1], pose[2], even) > 1e-4
-    assert moved(colour[1], colour[2], even) == 0 and moved(colour[1], colour[2], odd) > 1e-4
-    assert moved(pose[2], pose[3], slice(None)) == 0 and moved(colour[2], colour[3], slice(None)) > 1e-4

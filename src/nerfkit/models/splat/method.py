@@ -37,7 +37,7 @@ from nerfkit.models.splat.optim import LearningRates, colour_lr_for, colour_rate
 from nerfkit.models.splat.pose_solve import check_settings, describe_pose, unused_settings
 from nerfkit.models.splat.project import LOWPASS_DILATION
 from nerfkit.models.splat.renderer import SplatRenderer
-from nerfkit.models.splat.rounds import in_round, round_aux, rounds_of, within_round
+from nerfkit.models.splat.rounds import in_round, round_aux, within_round
 from nerfkit.models.splat.train import SplatConfig, ViewStep, initial_params
 from nerfkit.models.splat.transform import transform_gaussians
 from nerfkit.rays.correction import camera_extent
@@ -88,8 +88,7 @@ def splat_config(cfg, pixels: int | None = None) -> SplatConfig:
                        n_views=cfg.field.appearance_count, random_background=g.random_background == "on",
                        normal_consistency=g.normal_consistency, normal_consistency_from=g.normal_consistency_from,
                        depth_distortion=g.depth_distortion, screen_dilation=g.screen_dilation,
-                       pose_solves=g.pose_solves, pose_solve_share=g.pose_solve_share, pose_rounds=rounds_of(cfg),
-                       pose_cross_fit=g.pose_cross_fit == "on" and cfg.train.pose_refine == "on",
+                       pose_solves=g.pose_solves, pose_solve_share=g.pose_solve_share,
                        lrs=colour_rates(LearningRates(pose_warmup=g.pose_warmup, cam_pose=g.pose_lr), g.colour_lr,
                                         g.colour_transform_lr))
 
@@ -137,7 +136,7 @@ class SplatModel:
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
         "normal_consistency_from", "depth_distortion", "screen_dilation", "colour_transform", "colour_lr",
         "colour_transform_lr", "pose_rounds", "pose_solves", "pose_solve_share", "pose_warmup",
-        "pose_lr", "pose_cross_fit")) | {"train.pose_refine"}
+        "pose_lr")) | {"train.pose_refine"}
 
     @staticmethod
     def describe(cfg) -> str:
@@ -349,7 +348,7 @@ class SplatModel:
 
     def _rounds(self) -> int:
         """--pose-rounds where pose refinement is on, else 1."""
-        return rounds_of(self.cfg)
+        return self.cfg.splat.pose_rounds if self.cfg.train.pose_refine == "on" else 1
 
     def make_optimizer(self, cfg):
         """(SplatOptimizer, schedule): schedule(step) is the means' rate per unit extent by step count alone

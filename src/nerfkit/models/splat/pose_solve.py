@@ -36,9 +36,6 @@ from nerfkit.models.splat.pose_fit import fit_correction
 
 # per solve (probes on the ring capture at 64 px: 13 solves of one iteration left 0.21 degrees, 4 of three 0.24)
 ITERATIONS = 1
-# a cross-fitted round's one solve, against its finished half-scene (rounds.round_plan; pose_pull.py fits held-out
-# photos with 10)
-CROSS_ITERATIONS = 10
 HIDDEN_OPACITY = -30.0  # the logit an inactive slot is drawn with (sigmoid: 1e-13, under the rasteriser's cut)
 
 
@@ -58,9 +55,6 @@ def check_settings(g) -> None:
                           f"until twice it and the solves come after; {LearningRates.pose_warmup:g}: the default")
     if not (g.pose_lr >= 0.0 and np.isfinite(g.pose_lr)):
         raise ConfigError(f"--pose-lr must be at least 0 (got {g.pose_lr:g}); {LearningRates.cam_pose:g}: the default")
-    if g.pose_cross_fit == "on" and g.pose_rounds < 4:
-        raise ConfigError(f"--pose-cross-fit on takes the last three rounds after at least one that refines the poses "
-                          f"of all photos; give --pose-rounds 4 or more (got {g.pose_rounds})")
     if g.pose_lr == 0.0 and g.pose_solves == 0:
         raise ConfigError("--pose-lr 0 leaves only the solves to move the poses, and there are none; add "
                           "--pose-solves N (16: docs: Corrections) or give --pose-lr a rate")
@@ -70,8 +64,8 @@ def unused_settings(refine: bool, solves: int) -> dict[str, str]:
     """{setting: why} of the pose settings a run leaves unread: all of them without pose refinement (refine False),
     --pose-solve-share without solves."""
     off = "pose refinement is off (--pose-refine on)"
-    out = dict.fromkeys(("splat.pose_rounds", "splat.pose_solves", "splat.pose_warmup", "splat.pose_lr",
-                         "splat.pose_cross_fit"), off) if not refine else {}
+    out = dict.fromkeys(("splat.pose_rounds", "splat.pose_solves", "splat.pose_warmup", "splat.pose_lr"),
+                        off) if not refine else {}
     if not refine or solves == 0:
         out["splat.pose_solve_share"] = "the run makes no pose solves (--pose-refine on --pose-solves N)"
     return out
@@ -87,8 +81,7 @@ def describe_pose(cfg) -> str:
     rounds = f" in {n} rounds" if n > 1 else ""
     lr = cfg.splat.pose_lr
     rate = "" if lr == LearningRates.cam_pose else f", pose rate {lr:g}" if lr else ", poses moved by the solves alone"
-    cross = ", the last 3 cross-fitted" if cfg.splat.pose_cross_fit == "on" else ""
-    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{rounds}{cross}{solves}{warm}{rate}"
+    return "" if cfg.train.pose_refine != "on" else f"; pose refinement{rounds}{solves}{warm}{rate}"
 
 
 def solves_done(progress: float, n: int, start: float) -> int:
@@ -105,17 +98,18 @@ def solve_due(before: float, after: float, n: int, start: float) -> bool:
 
 def solve_corrections(params: dict, active, poses, images, intrinsics, extent: float, width: int, height: int,
                       background, sh_degree: int, backend: str, dilation: float,
-                      iterations: int = ITERATIONS, share: float = 1.0, only=None) -> np.ndarray:
+                      iterations: int = ITERATIONS, share: float = 1.0) -> np.ndarray:
     """cam_pose [V, 6] after one solve (module docstring; `iterations` LM iterations, a = share) of every training
-    photo, or of the photos `only` (indices; the others' corrections kept): poses [V, 4, 4] the photos' given poses,
-    images [V, H, W, 3 or 4] (RGBA views: their colour is already on the background), intrinsics [V, 4]; params the
-    run's (with "cam_pose" [V, 6] and, where learned, "cam_color" [V, 3, 4]); active [capacity] the slots in use."""
+    photo: poses [V, 4, 4] the photos' given poses, images [V, H, W, 3 or 4] (RGBA views: their colour is already on
+    the background), intrinsics [V, 4]; params the run's (with "cam_pose" [V, 6] and, where learned, "cam_color"
+    [V, 3, 4]); active [capacity] the slots in use."""
     scene = {k: jnp.asarray(params[k]) for k in PARAM_NAMES}
     scene["opacity"] = jnp.where(jnp.asarray(active), scene["opacity"], HIDDEN_OPACITY)
     start = np.asarray(params["cam_pose"], np.float64)
     color = np.asarray(params["cam_color"]) if "cam_color" in params else None
-    xi = start.copy()
-    for k in range(len(start)) if only is None else only:
-        xi[k] = fit_correction(scene, poses[k], start[k], extent, intrinsics[k], width, height, images[k], background,
-                               sh_degree, iterations, backend, dilation, None if color is None else color[k])
-    return (start + share * (xi - start)).astype(np.float32)
+    xi = np.stack([fit_correction(scene, poses[k], start[k], extent, intrinsics[k], width, height, images[k],
+                                  background, sh_degree, iterations, backend, dilation,
+                                  None if color is None else color[k]) for k in range(len(start))])
+    if share != 1.0:
+        xi = start + share * (xi - start)
+    return xi.astype(np.float32)

@@ -29,11 +29,6 @@ def within_round(progress: float, rounds: int, aux: dict) -> float:
     return 1.0 if r > int(aux.get("round", 0)) else u
 
 
-def rounds_of(cfg) -> int:
-    """A nerfkit Config's rounds: --pose-rounds where pose refinement is on, else 1."""
-    return cfg.splat.pose_rounds if cfg.train.pose_refine == "on" else 1
-
-
 def round_aux(rounds: int) -> dict:
     """The state's extra aux entries for rounds > 1: {"round", "round_start"} int32 scalars at 0; none for 1."""
     return {"round": np.zeros((), np.int32), "round_start": np.zeros((), np.int32)} if rounds > 1 else {}
@@ -52,32 +47,3 @@ def in_round(state: dict, step: int, progress: float, rounds: int, init, correct
         aux.update(clock=state["aux"]["clock"], round=np.int32(r), round_start=np.int32(step))
         state = {"params": params, "opt_state": optimizer.init(params), "aux": aux}
     return state, step - int(state["aux"]["round_start"]), within
-
-
-CROSS_ROUNDS = 3  # the rounds cross-fitting takes at the end of a run: a half, the other half, all photos
-
-
-def round_plan(r: int, rounds: int, n_views: int, cross_fit: bool) -> dict:
-    """What round r of `rounds` does with the poses (--pose-cross-fit): {"views": the training photos it trains on
-    (int array, or None: all), "pose_rate": whether Adam moves the poses, "solve": the photos whose poses its solves
-    fit (int array, or None: the trained ones, as without cross-fitting), "cross": whether its one solve comes after
-    its last step against the finished half-scene}.
-
-    Without cross-fitting every round trains on all photos and moves their poses. With it (rounds >= 4) the last
-    three rounds are, with E the even photos and O the odd ones (interleaved halves of the capture's order):
-
-        N-3: train on E with their poses held, then fit O's poses to that scene
-        N-2: train on O with their poses held (as just fitted), then fit E's poses to that scene
-        N-1: train on all with every pose held
-
-    so that no photo's pose is fitted to a scene that learned from that photo (a scene bends to hold each pose it
-    trained with, and a solve against it finds the pose it trained with; docs: Corrections)."""
-    everything = {"views": None, "pose_rate": True, "solve": None, "cross": False}
-    last = rounds - r  # 1 for the last round
-    if not cross_fit or last > CROSS_ROUNDS:
-        return everything
-    if last == 1:
-        return {"views": None, "pose_rate": False, "solve": np.zeros(0, int), "cross": False}
-    even, odd = np.arange(0, n_views, 2), np.arange(1, n_views, 2)
-    trained, solved = (even, odd) if last == CROSS_ROUNDS else (odd, even)
-    return {"views": trained, "pose_rate": False, "solve": solved, "cross": True}

@@ -40,8 +40,7 @@ from nerfkit.models.splat import densify as classic
 from nerfkit.models.splat.losses import PIXEL_LOSSES, on_random_background, photometric_loss
 from nerfkit.models.splat.gaussians import PARAM_NAMES, all_sh, band_mask, init_random, splat_inputs
 from nerfkit.models.splat.optim import LearningRates, adam_step, colour_lr, means_lr, pose_lr, reset_rows
-from nerfkit.models.splat.pose_solve import CROSS_ITERATIONS, ITERATIONS, solve_corrections, solve_due
-from nerfkit.models.splat.rounds import round_plan
+from nerfkit.models.splat.pose_solve import solve_corrections, solve_due
 from nerfkit.models.splat.rasterize import rasterize
 from nerfkit.models.splat.strategy import strategy_named
 from nerfkit.models.splat.surface import depth_distortion, normal_consistency, with_surface_channels
@@ -77,8 +76,6 @@ class SplatConfig:
     pose_refine: bool = False  # a pose correction per training photo (rays/correction.py)
     pose_solves: int = 0  # Levenberg-Marquardt solves of the pose corrections per run or round (pose_solve.py)
     pose_solve_share: float = 1.0  # the share of each solve's step the corrections take (pose_solve.py: a)
-    pose_rounds: int = 1  # rounds of the budget, the Gaussians started over at each (rounds.py)
-    pose_cross_fit: bool = False  # the last three rounds fit each half's poses to the other half's scene (rounds.py)
     random_background: bool = False  # RGBA views train on a random background colour per step (_loss_fn)
     normal_consistency: float = 0.0  # weight of surface.normal_consistency in the loss (0: off)
     normal_consistency_from: float = 0.0  # progress from which the surface terms are on (before: steps without)
@@ -301,12 +298,10 @@ class ViewStep:
         stats = {k: jnp.asarray(aux[k]) for k in ("grad_sum", "count", "max_radius")}
         params = {k: jnp.asarray(v) for k, v in state["params"].items()}
         fn, views, view_intr, w_now = self._at_resolution(plan, images, intrinsics)
-        rounds = plan_of(state, sc)
-        trained = np.arange(len(poses)) if rounds["views"] is None else rounds["views"]
         params, opt_state, stats, photo, mse, finite = fn(
             params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, self.background,
-            int(trained[view_of(sc.seed, len(trained), step)]), jax.random.fold_in(self.base_key, step), lr,
-            plan["sh_degree"], pose_lr(progress, sc.lrs) * rounds["pose_rate"], colour_lr(progress, sc.lrs))
+            view_of(sc.seed, len(poses), step), jax.random.fold_in(self.base_key, step), lr, plan["sh_degree"],
+            pose_lr(progress, sc.lrs), colour_lr(progress, sc.lrs))
         rng = np.random.default_rng([sc.seed, step + 1])
         params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats, active,
                                                            rng, self.extent, w_now)
@@ -317,26 +312,15 @@ class ViewStep:
 
     def solve_poses(self, state: dict, step: int, before: float, after: float, images, poses, intrinsics) -> dict:
         """state with its pose corrections solved (pose_solve.py) where the step that took the progress from before
-        to after crossed one of the run's (or round's) solves; else state as it is. A cross-fitted round
-        (rounds.round_plan) solves the photos it did not train on, once, after its last step, with CROSS_ITERATIONS
-        LM iterations and the whole step; the last round of a cross-fitted run solves none."""
+        to after crossed one of the run's (or round's) solves; else state as it is."""
         sc = self.sc
-        plan = plan_of(state, sc)
-        n, start = (1, 0.0) if plan["cross"] else (sc.pose_solves, 2 * sc.lrs.pose_warmup)
-        held = plan["solve"] is not None and len(plan["solve"]) == 0  # a round that solves no photo
-        if held or not (sc.pose_refine and solve_due(before, after, n, start)):
+        if not (sc.pose_refine and solve_due(before, after, sc.pose_solves, 2 * sc.lrs.pose_warmup)):
             return state
         xi = solve_corrections(state["params"], state["aux"]["active"], np.asarray(poses), images,
                                np.asarray(intrinsics), self.extent, self.width, self.height, self.background,
                                schedule_at(step, before, sc)["sh_degree"], sc.backend, sc.screen_dilation,
-                               iterations=CROSS_ITERATIONS if plan["cross"] else ITERATIONS,
-                               share=1.0 if plan["cross"] else sc.pose_solve_share, only=plan["solve"])
+                               share=sc.pose_solve_share)
         return {**state, "params": {**state["params"], "cam_pose": jnp.asarray(xi)}}
-
-
-def plan_of(state: dict, sc: SplatConfig) -> dict:
-    """rounds.round_plan of the round the state is in (its aux "round"; 0 without rounds) for sc's n_views photos."""
-    return round_plan(int(state["aux"].get("round", 0)), sc.pose_rounds, sc.n_views, sc.pose_cross_fit)
 
 
 def schedule_at(step: int, progress: float, sc: SplatConfig) -> dict:
