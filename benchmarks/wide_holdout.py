@@ -10,7 +10,8 @@ one photo's poorly seen corner moves by a dB; this one is over the ring's 40 gap
     python benchmarks/wide_holdout.py RUN [RUN ...] --name NAME
 
 The photos are rendered once (cached under --cache) and shared by every RUN, which must all be trained on captures
-of the same size. Writes benchmarks/results/NAME.json: per run its mean PSNR and the per-photo PSNRs.
+of the same size. Writes benchmarks/results/NAME.json: per run its mean PSNR and the per-photo PSNRs, and the same for
+the capture's own held-out photos (as `nerfkit eval` scores them: corrections.py's eval_psnr_fitted_colour).
 """
 
 from __future__ import annotations
@@ -76,10 +77,14 @@ def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses
     given = apply_transform(sel.transform, sel.scale, poses).astype(np.float32)
     data = dataclasses.replace(held, images=images, poses=trained.seen_from(d.val_split, given),
                                cameras=[cam] * n, names=[f"wide_{k:03d}" for k in range(n)])
-    res = score_views(make_renderer(trained.model, cfg.train.chunk), trained.params, trained.aux, data, 1, False,
-                      None, background_rgb(d.background), fit_poses, True)
+    renderer, bg = make_renderer(trained.model, cfg.train.chunk), background_rgb(d.background)
+    res = score_views(renderer, trained.params, trained.aux, data, 1, False, None, bg, fit_poses, True)
     per_view = [round(v["psnr"], 3) for v in res["per_view"]]
-    return {"psnr": round(res["psnr"], 3), "per_view": per_view, "median": round(float(np.median(per_view)), 3)}
+    own = score_views(renderer, trained.params, trained.aux, dataclasses.replace(
+        held, poses=trained.seen_from(d.val_split, held.poses)), 1, False, None, bg, fit_poses, True)
+    return {"psnr": round(res["psnr"], 3), "per_view": per_view, "median": round(float(np.median(per_view)), 3),
+            "capture_held_out": {"names": held.names, "psnr": round(own["psnr"], 3),
+                                 "per_view": [round(v["psnr"], 3) for v in own["per_view"]]}}
 
 
 def main() -> None:
