@@ -31,12 +31,12 @@ def midway_poses(n: int, seed: int) -> np.ndarray:
     """[n, 4, 4]: a camera midway between cameras k and k + 1 (mod n) of ring_poses(n, seed), k = 0 .. n - 1: the
     mean of their azimuths (the last gap's across 2 pi) and of their elevations, at the ring's radius."""
     from nerfkit.data.procedural import scene as proc
+    from nerfkit.data.procedural.captures import ring_poses
 
-    rng = np.random.default_rng(seed)  # ring_poses' draws, in its order
-    az = 2 * np.pi * (np.arange(n) + rng.uniform(0, 0.5, n)) / n
-    el = np.radians(rng.uniform(10, 50, n))
-    mid_az = 0.5 * (az + np.append(az[1:], az[0] + 2 * np.pi))
-    mid_el = 0.5 * (el + np.roll(el, -1))
+    x, y, z = ring_poses(n, seed)[:, :3, 3].T
+    az = np.unwrap(np.append(np.arctan2(y, x), np.arctan2(y[0], x[0])))  # the ring's azimuths, rising, the first again
+    el = np.arcsin(z / np.sqrt(x * x + y * y + z * z))
+    mid_az, mid_el = 0.5 * (az[:-1] + az[1:]), 0.5 * (el + np.roll(el, -1))
     return np.stack([proc.orbit_pose(a, e, proc.CAMERA_RADIUS) for a, e in zip(mid_az, mid_el)])
 
 
@@ -56,7 +56,7 @@ def photos(cam, n: int, seed: int, supersample: int, cache: Path) -> tuple[np.nd
 def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses: int) -> dict:
     """The run's scores on the n new photos of a capture of n photos on ring_poses(n, seed) (module docstring)."""
     from nerfkit.core.viz import background_rgb
-    from nerfkit.data.loader import load_frames, read_capture, scene_cameras
+    from nerfkit.data.loader import load_frames, read_capture
     from nerfkit.data.normalize import apply_transform
     from nerfkit.evaluation.evaluate import score_views
     from nerfkit.render.images import make_renderer
@@ -70,11 +70,10 @@ def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses
     cam = cap.frames(d.val_split)[0].camera
     if cam.params or held.width != cam.width:
         raise SystemExit(f"{run}: wide_holdout.py scores full-size pinhole captures (corrections.py's)")
-    sel = scene_cameras(cap, d.val_split)
     if len(cap.all_frames) != n:
         raise SystemExit(f"{run}: its capture has {len(cap.all_frames)} photos, not --views {n}")
     poses, images = photos(cam, n, seed, supersample, cache)
-    given = apply_transform(sel.transform, sel.scale, poses).astype(np.float32)
+    given = apply_transform(held.transform, held.scale, poses).astype(np.float32)
     data = dataclasses.replace(held, images=images, poses=trained.seen_from(d.val_split, given),
                                cameras=[cam] * n, names=[f"wide_{k:03d}" for k in range(n)])
     renderer, bg = make_renderer(trained.model, cfg.train.chunk), background_rgb(d.background)
