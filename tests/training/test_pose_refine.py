@@ -97,3 +97,21 @@ def test_a_refined_run_is_seen_from_its_refined_poses(tmp_path):
     moved = apply_similarity(views, *refinement_similarity(train, xi))
     assert np.allclose(loaded.seen_from(val, views), moved, atol=1e-5) and not np.allclose(moved, views, atol=1e-7)
     assert evaluate_run(run, None, val, progress=False, write=False)["poses"] == POSE_NOTE
+    # `export cameras` writes the poses the run renders from (in the capture's coordinates); --poses given the
+    # capture's own. Read back and normalised as the run normalised them, they are seen_from's.
+    from nerfkit.data.formats.nerfstudio import read_nerfstudio
+    from nerfkit.data.normalize import apply_transform
+    from nerfkit.export.cameras import export_cameras
+
+    m, s = loaded.transform, float(loaded.scene["scale"])
+    for poses in ("refined", "given"):
+        out = tmp_path / poses / "transforms.json"
+        assert export_cameras(run, out, poses=poses, log=lambda _: None)["poses"] == poses
+        back = read_nerfstudio(out.parent)
+        got = {split: apply_transform(m, s, np.stack([f.c2w for f in back.frames(split)]))
+               for split in ("train", "val")}
+        want = {"train": loaded.seen_from("train", train), "val": moved} if poses == "refined" else \
+            {"train": train, "val": views}
+        for split in ("train", "val"):
+            np.testing.assert_allclose(got[split], want[split], atol=2e-5)
+    assert not np.allclose(loaded.seen_from("train", train), train, atol=1e-4)  # the two files differ

@@ -92,6 +92,12 @@ def apply_transform(m: np.ndarray, scale: float, c2w: np.ndarray) -> np.ndarray:
     return out
 
 
+def undo_transform(m: np.ndarray, scale: float, c2w: np.ndarray) -> np.ndarray:
+    """Camera-to-world poses [..., 4, 4] (float64) in the capture's own coordinates of normalised ones c2w:
+    M^-1 c2w diag(s, s, s, 1), the inverse of apply_transform(m, scale, .)."""
+    return np.linalg.inv(np.asarray(m, np.float64)) @ np.asarray(c2w, np.float64) @ np.diag([scale] * 3 + [1.0])
+
+
 def masked_bound(poses: np.ndarray, cameras: list[Camera], alphas: np.ndarray, resolution: int = 64,
                  margin: float = 1.1) -> float | None:
     """Half-size B of the box [-B, B]^3 that holds a masked object: its visual hull.

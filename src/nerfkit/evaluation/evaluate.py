@@ -24,6 +24,7 @@ from nerfkit.core.viz import (
 )
 from nerfkit.data.formats.multiscale import level_specs
 from nerfkit.data.loader import load_frames, read_capture, scene_cameras
+from nerfkit.data.normalize import undo_transform
 from nerfkit.evaluation.colour import COLOUR_NOTE, colour_fitted
 from nerfkit.models.baked.format import load_baked
 from nerfkit.models import registry
@@ -387,5 +388,4 @@ def write_frames(out: Path, renders: list[dict], scale: float, bg, fps: int) -> 
 
 def capture_poses(sel, poses) -> list:
     """Camera-to-world of every frame in the capture's own coordinates (undoing the normalisation of sel)."""
-    inv = np.linalg.inv(sel.transform)
-    return [(inv @ p.astype(np.float64) @ np.diag([sel.scale] * 3 + [1.0])).tolist() for p in poses]
+    return undo_transform(sel.transform, sel.scale, np.asarray(poses)).tolist()
