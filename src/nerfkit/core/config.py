@@ -294,12 +294,13 @@ class SplatSettings:
     the blended squared differences of their depths along each ray, relative to the depth), for runs meant for
     `export mesh`; 0: off. On from --normal-consistency-from, as that term is (docs: Export)."""
     screen_dilation: float = 0.3
-    """px^2 added to each Gaussian's footprint on the screen (3DGS's low-pass floor: 0.3). 0.1 keeps thin parts and the
-    surfaces where the photos put them (lego, 10 minutes with the surface terms: 30.5 dB, mesh IoU 0.984; 29.5, 0.973 at
-    0.3; docs: Export). Other viewers draw with 0.3 (`export splat` says how smeared): keep 0.3 to share."""
+    """px^2 added to each Gaussian's footprint on the screen (3DGS's 0.3). 0.1 keeps thin parts and surfaces (docs:
+    Export), but other viewers draw with 0.3 (`export splat` says how smeared): keep 0.3 to share."""
     pose_rounds: int = 1
     """With --pose-refine on: the budget in N equal rounds, each after the first starting the Gaussians over from the
     initial points while every photo's pose and colour corrections are kept (docs: Splats). 1: one round."""
+    pose_hold_last: Literal["on", "off"] = "off"
+    """With --pose-rounds 2 or more: on: the last round holds the poses the rounds before refined (docs: Corrections)."""
     pose_solves: int = 0
     """With --pose-refine on: N times over the budget (each round) every photo's pose takes a Levenberg-Marquardt step
     against the Gaussians as they stand, the last after the last step. For scenes seen all around (docs: Splats)."""
@@ -324,9 +325,8 @@ class SplatSettings:
     colour_transform_lr: float = 3e-3
     """--appearance's transforms' learning rate (Adam), log-linearly down to a tenth by the end (docs: Splats)."""
     backend: str = "auto"
-    """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host callback),
-    pallas (tile kernels compiled to Triton on a GPU; on a CPU interpreted, far slower than numba) or reference (pure
-    JAX, every pixel against every Gaussian: slow, what the tests hold the others to); models/splat/backends.py."""
+    """The rasteriser: auto (pallas on a GPU, numba elsewhere), numba (CPU tile kernels through a host callback), pallas
+    (Triton tile kernels on a GPU; interpreted on a CPU, far slower) or reference (pure JAX; models/splat/backends.py)."""
 
     def loss_name(self) -> str:
         """The photometric loss in words: "L1", "RMSE" or "0.8 L1 + 0.2 D-SSIM"."""

@@ -73,3 +73,28 @@ def test_a_run_in_two_rounds_starts_its_gaussians_over_and_keeps_refining_its_po
         assert main([*args, "--overwrite", *bad]) == 1
         err = capsys.readouterr().err
         assert word in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_the_last_round_holds_the_poses_with_pose_hold_last(tmp_path, capsys):
+    """--pose-hold-last on: the rounds before the last refine the poses; the last grows its Gaussians afresh and
+    leaves every pose correction where the round before left it (no pose step, no solve)."""
+    cap = make_capture(tmp_path / "cap", "nerfstudio", n_views=10, size=32, environment=True, pose_noise=(1.0, 0.02),
+                       points=3000, seed=3)
+    run = tmp_path / "run"
+    args = ["train", str(cap), "--out", str(run), "--preset", "splat", "--pose-refine", "on", "--max-steps", "80",
+            "--val-every", "80", "--ckpt-every", "40", "--capacity", "4000", "--pose-rounds", "2", "--pose-solves", "2"]
+    assert main([*args, "--pose-hold-last", "on"]) == 0
+    assert "pose refinement in 2 rounds, the last holding the poses (2 pose solves a round)" in \
+        "".join(capsys.readouterr())
+    ckpts = sorted((run / "checkpoints").glob("ckpt_*"))
+    assert [int(p.stem.split("_")[-1].split(".")[0]) for p in ckpts] == [40, 80]
+    held, end = (np.asarray(RunFolder(run).load(p).params["cam_pose"]) for p in ckpts)
+    assert np.abs(held).max() > 1e-4 and np.array_equal(held, end)  # refined in the first round, then held
+    assert main([*args, "--overwrite"]) == 0  # without: the last round goes on refining them
+    ckpts = sorted((run / "checkpoints").glob("ckpt_*"))
+    before, after = (np.asarray(RunFolder(run).load(p).params["cam_pose"]) for p in ckpts)
+    assert np.abs(after - before).max() > 1e-5
+    capsys.readouterr()
+    assert main([*args[:-4], "--overwrite", "--pose-hold-last", "on"]) == 1  # one round: nothing to hold
+    err = capsys.readouterr().err
+    assert "--pose-hold-last on needs --pose-rounds 2" in err and len(err.strip().splitlines()) == 1, err

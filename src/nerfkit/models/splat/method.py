@@ -135,7 +135,7 @@ class SplatModel:
         "capacity", "strategy", "sh_degree", "sh_interval", "ssim_lambda", "pixel_loss", "coarse", "init_points",
         "init", "init_sh_degree", "backend", "appearance", "far_points", "random_background", "normal_consistency",
         "normal_consistency_from", "depth_distortion", "screen_dilation", "colour_transform", "colour_lr",
-        "colour_transform_lr", "pose_rounds", "pose_solves", "pose_solve_share", "pose_warmup",
+        "colour_transform_lr", "pose_rounds", "pose_hold_last", "pose_solves", "pose_solve_share", "pose_warmup",
         "pose_lr")) | {"train.pose_refine"}
 
     @staticmethod
@@ -362,6 +362,7 @@ class SplatModel:
         view_step = ViewStep(self.sc, optimizer.opts, data.width, data.height, self.background, self.extent)
         intrinsics = jnp.asarray([intrinsics_of(c) for c in data.cameras], jnp.float32)
         kept: dict = {}
+        hold_last = self._rounds() > 1 and self.cfg.splat.pose_hold_last == "on"
 
         def step_fn(state, step, images, poses):
             t0 = time.perf_counter()
@@ -373,9 +374,10 @@ class SplatModel:
             step, progress = at, progress_of(at, clock, cfg)
             if n > 1:
                 state, step, progress = in_round(state, step, progress, n, self.init, self.sc.corrections, optimizer)
-            state, metrics = view_step(state, step, progress, images, poses, intrinsics)
+            hold = hold_last and int(state["aux"].get("round", 0)) == n - 1  # --pose-hold-last's round
+            state, metrics = view_step(state, step, progress, images, poses, intrinsics, hold)
             after = within_round(progress_of(at + 1, clock + time.perf_counter() - t0, cfg), n, state["aux"])
-            state = view_step.solve_poses(state, step, progress, after, images, poses, intrinsics)
+            state = view_step.solve_poses(state, step, progress, after, images, poses, intrinsics, hold)
             state["aux"]["clock"] = np.float32(clock + time.perf_counter() - t0)
             return state, metrics
 

@@ -40,11 +40,15 @@ HIDDEN_OPACITY = -30.0  # the logit an inactive slot is drawn with (sigmoid: 1e-
 
 
 def check_settings(g) -> None:
-    """ConfigError for the splat settings g (config.SplatSettings) where --pose-rounds is under 1, --pose-solves
+    """ConfigError for the splat settings g (config.SplatSettings) where --pose-rounds is under 1 (under 2 with
+    --pose-hold-last on), --pose-solves
     under 0, --pose-solve-share outside (0, 1], --pose-warmup outside [0, 0.5) (the solves start at twice it), or
     --pose-lr under 0, or 0 without solves (nothing would move the poses)."""
     if g.pose_rounds < 1:
         raise ConfigError(f"--pose-rounds must be at least 1 (got {g.pose_rounds}); 1: one round")
+    if g.pose_hold_last == "on" and g.pose_rounds < 2:
+        raise ConfigError(f"--pose-hold-last on needs --pose-rounds 2 or more (got {g.pose_rounds}): the rounds before "
+                          f"the last refine the poses it holds")
     if g.pose_solves < 0:
         raise ConfigError(f"--pose-solves must be at least 0 (got {g.pose_solves}); 0: Adam alone")
     if not 0.0 < g.pose_solve_share <= 1.0:
@@ -64,7 +68,8 @@ def unused_settings(refine: bool, solves: int) -> dict[str, str]:
     """{setting: why} of the pose settings a run leaves unread: all of them without pose refinement (refine False),
     --pose-solve-share without solves."""
     off = "pose refinement is off (--pose-refine on)"
-    out = dict.fromkeys(("splat.pose_rounds", "splat.pose_solves", "splat.pose_warmup", "splat.pose_lr"),
+    out = dict.fromkeys(("splat.pose_rounds", "splat.pose_hold_last", "splat.pose_solves", "splat.pose_warmup",
+                         "splat.pose_lr"),
                         off) if not refine else {}
     if not refine or solves == 0:
         out["splat.pose_solve_share"] = "the run makes no pose solves (--pose-refine on --pose-solves N)"
@@ -78,7 +83,7 @@ def describe_pose(cfg) -> str:
     solves = f" ({k} pose solve{'s' * (k > 1)}{' a round' * (n > 1)})" if k else ""
     held = f", poses held for the first {100 * w:g}%{' of each round' * (n > 1)}" if w else ", poses free from the start"
     warm = held if w != LearningRates.pose_warmup else ""
-    rounds = f" in {n} rounds" if n > 1 else ""
+    rounds = f" in {n} rounds{', the last holding the poses' * (cfg.splat.pose_hold_last == 'on')}" if n > 1 else ""
     lr = cfg.splat.pose_lr
     rate = "" if lr == LearningRates.cam_pose else f", pose rate {lr:g}" if lr else ", poses moved by the solves alone"
     return "" if cfg.train.pose_refine != "on" else f"; pose refinement{rounds}{solves}{warm}{rate}"

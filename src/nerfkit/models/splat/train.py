@@ -257,7 +257,8 @@ class ViewStep:
         state, metrics = view_step(state, step, progress, images, poses, intrinsics)
 
     state: {"params", "opt_state", "aux": {"active" [capacity] bool, "grad_sum", "count", "max_radius"}};
-    step: steps done before this one; progress t in [0, 1] (the budget used). It trains view
+    step: steps done before this one; progress t in [0, 1] (the budget used); hold_poses: the pose corrections
+    take no step (--pose-hold-last's round). It trains view
     view_of(seed, V, step) at the SH degree and resolution the schedule gives for (step, t)
     (schedule_at: coarse to fine at half resolution), then runs the host's density control.
     metrics: loss (photometric), mse, finite, lr (the means' rate), gaussians (active after control)."""
@@ -290,7 +291,8 @@ class ViewStep:
             half.update({"of": images, "images": small, "intr": small_intr})
         return fn, half["images"], half["intr"], self.width // 2
 
-    def __call__(self, state: dict, step: int, progress: float, images, poses, intrinsics) -> tuple[dict, dict]:
+    def __call__(self, state: dict, step: int, progress: float, images, poses, intrinsics,
+                 hold_poses: bool = False) -> tuple[dict, dict]:
         sc, aux = self.sc, dict(state["aux"])
         active = np.asarray(aux["active"], bool)
         plan = schedule_at(step, progress, sc)
@@ -301,7 +303,7 @@ class ViewStep:
         params, opt_state, stats, photo, mse, finite = fn(
             params, state["opt_state"], stats, jnp.asarray(active), views, poses, view_intr, self.background,
             view_of(sc.seed, len(poses), step), jax.random.fold_in(self.base_key, step), lr, plan["sh_degree"],
-            pose_lr(progress, sc.lrs), colour_lr(progress, sc.lrs))
+            0.0 if hold_poses else pose_lr(progress, sc.lrs), colour_lr(progress, sc.lrs))
         rng = np.random.default_rng([sc.seed, step + 1])
         params, opt_state, stats, active, _ = host_control(sc, step + 1, progress, params, opt_state, stats, active,
                                                            rng, self.extent, w_now)
@@ -310,11 +312,12 @@ class ViewStep:
                    "gaussians": jnp.int32(active.sum())}
         return {"params": params, "opt_state": opt_state, "aux": aux}, metrics
 
-    def solve_poses(self, state: dict, step: int, before: float, after: float, images, poses, intrinsics) -> dict:
+    def solve_poses(self, state: dict, step: int, before: float, after: float, images, poses, intrinsics,
+                    hold_poses: bool = False) -> dict:
         """state with its pose corrections solved (pose_solve.py) where the step that took the progress from before
-        to after crossed one of the run's (or round's) solves; else state as it is."""
+        to after crossed one of the run's (or round's) solves; else (or with hold_poses) state as it is."""
         sc = self.sc
-        if not (sc.pose_refine and solve_due(before, after, sc.pose_solves, 2 * sc.lrs.pose_warmup)):
+        if hold_poses or not (sc.pose_refine and solve_due(before, after, sc.pose_solves, 2 * sc.lrs.pose_warmup)):
             return state
         xi = solve_corrections(state["params"], state["aux"]["active"], np.asarray(poses), images,
                                np.asarray(intrinsics), self.extent, self.width, self.height, self.background,
