@@ -392,6 +392,7 @@ LR50_SEED1_RESIDUAL = "pose_residual_ring320_poselr1e5_cap50k_8000steps_seed1.js
 PULL50 = ["pose_pull_ring320_cap50k_8000steps_seed1.json", "pose_pull_ring320_exact_4000steps_cap50k_seed1.json"]
 # wide_holdout.py on LONG50's exact runs (seeds 0-2), LONG50_RUNS (0-2) and LONG50's colour runs (1, 2), in that order
 WIDE50 = "wide_holdout_ring320_cap50k.json"
+HELD50 = [f"wide_holdout_ring320_cap50k_heldposes_seed{s}.json" for s in range(3)]  # LONG50_RUNS' poses, held, 4000 steps
 WIDE50_RUNS = [*[(r, "exact") for r in LONG50], *[(r, "both") for r in LONG50_RUNS], *[(r, "colour") for r in LONG50[1:]]]
 CROSS50 = "probe_ring320_crossfit_cap50k_16000steps_seed2.json"  # cross-fitted solves (1bc33de), LONG50_RUNS[2]'s seed
 CROSS50_RESIDUAL, CROSS50_WIDE = (f"{k}_ring320_crossfit_cap50k{t}_seed2.json" for k, t in (
@@ -415,6 +416,19 @@ def wide_gap(k: int, under: int | None = None) -> float:
     """Seed k's exact run less run `under` of WIDE50 (default: seed k's corrected run, 3 + k) on its forty midway
     photos (dB)."""
     return wide(WIDE50, k)["psnr"] - wide(WIDE50, 3 + k if under is None else under)["psnr"]
+
+
+def held(k: int) -> dict:
+    """The run of HELD50[k]: a fresh scene at seed k's corrected run's refined poses (its only run)."""
+    return wide(HELD50[k], 0)
+
+
+def frame_range(view: int) -> list:
+    """(lowest, highest) score of the capture's held-out photo `view` over WIDE50's exact and corrected runs and the
+    HELD50 runs."""
+    runs = [wide(WIDE50, k) for k in range(6)] + [held(k) for k in range(3)]
+    scores = [r["capture_held_out"]["per_view"][view] for r in runs]
+    return [min(scores), max(scores)]
 
 
 def warmup_probe(warmup: str, seed: int) -> list:
@@ -1308,6 +1322,26 @@ CHECKS = [
       ((lambda: mean_gap(LONG50, LONG50_RUNS)), f2), *[((lambda k=k: wide_gap(k)), f2) for k in range(3)],
       *[((lambda k=k: wide(WIDE50, k)["psnr"]), f2) for k in (6, 7)],
       ((lambda: (wide_gap(1, 6) + wide_gap(2, 7)) / 2), f2)]),  # the colour runs (seeds 1, 2)
+    ("docs/corrections.md", "A scene grown afresh at the refined poses, with them held",
+     "training seeds 0 to 2), score {}, {} and {} dB on the forty midway photos against the exact capture's {}, {} and {} "
+     "(`wide_holdout_ring320_cap50k_heldposes_seed0.json` to `_seed2`): {} dB under on the mean, where the corrected "
+     "runs themselves came {} under. Their cameras are the corrected runs' ({}, {} and {} degrees off)",
+     [*[((lambda k=k: held(k)["psnr"]), f2) for k in range(3)], *[((lambda k=k: wide(WIDE50, k)["psnr"]), f2)
+                                                                    for k in range(3)],
+      ((lambda: sum(wide(WIDE50, k)["psnr"] - held(k)["psnr"] for k in range(3)) / 3), f2),
+      ((lambda: sum(map(wide_gap, range(3))) / 3), f2),
+      *[((r, "runs", "both", "refined_pose_error", "degrees"), f3) for r in LONG50_RUNS]]),
+    ("docs/corrections.md", "A scene grown afresh at the refined poses, with them held",
+     "On the capture's five held-out photos the same runs score {}, {} and {} dB against {}, {} and {}, {} under on the "
+     "mean (the corrected runs {}): over these nine runs (exact, corrected and held) frame {} scores from {} to {} dB "
+     "and frame {} from {} to {}",
+     [*[((lambda k=k: held(k)["capture_held_out"]["psnr"]), f2) for k in range(3)],
+      *[((lambda k=k: wide(WIDE50, k)["capture_held_out"]["psnr"]), f2) for k in range(3)],
+      ((lambda: sum(wide(WIDE50, k)["capture_held_out"]["psnr"] - held(k)["capture_held_out"]["psnr"]
+                    for k in range(3)) / 3), f2), ((lambda: mean_gap(LONG50, LONG50_RUNS)), f2),
+      *[x for v in (1, 3) for x in (((lambda v=v: int(held(0)["capture_held_out"]["names"][v].split("_")[-1]
+                                                         .split(".")[0])), d),
+                                    ((lambda v=v: frame_range(v)[0]), f2), ((lambda v=v: frame_range(v)[1]), f2))]]),
     ("docs/corrections.md", "Solving each photo's pose against a scene that never saw it",
      "(four rounds of {} steps, training seed {}; tried at 1bc33de and removed; "
      "`probe_ring320_crossfit_cap50k_16000steps_seed2.json`) ended with the cameras {} degrees off against {} without "

@@ -300,7 +300,7 @@ class SplatSettings:
     """With --pose-refine on: the budget in N equal rounds, each after the first starting the Gaussians over from the
     initial points while every photo's pose and colour corrections are kept (docs: Splats). 1: one round."""
     pose_hold_last: Literal["on", "off"] = "off"
-    """With --pose-rounds 2 or more: on: the last round holds the poses the rounds before refined (docs: Corrections)."""
+    """With --pose-rounds 2 or more: on: the final round holds the poses the rounds before refined (docs: Corrections)."""
     pose_solves: int = 0
     """With --pose-refine on: N times over the budget (each round) every photo's pose takes a Levenberg-Marquardt step
     against the Gaussians as they stand, the last after the last step. For scenes seen all around (docs: Splats)."""
