@@ -92,6 +92,7 @@ PROOFS = {
     "ExportCamerasArgs": {
         "out": ["export/test_export.py::test_exports_refuse_to_replace_a_file_and_leave_nothing_behind"],
         "split": ["export/test_export.py::test_cameras_round_trip_through_nerfstudio"],
+        "poses": ["training/test_pose_refine.py::test_a_refined_run_is_seen_from_its_refined_poses"],
         "data": ["reliability/test_bad_runs.py::test_damaged_run_folders"],
         "overwrite": ["export/test_export.py::test_cameras_round_trip_through_nerfstudio"]},
     "BakeArgs": {

@@ -75,6 +75,7 @@ def alternative(name: str, cfg) -> list[str]:
         "train.adam_eps": "0.001", "train.val_max_fraction": "0.001",
         "splat.strategy": "mcmc" if v == "classic" else "classic", "splat.sh_degree": "1", "splat.init_points": "sfm",
         "splat.backend": "reference", "splat.appearance": "on", "train.pose_refine": "on",
+        "splat.pose_hold_last": "on",
         "splat.far_points": "on", "splat.random_background": "on", "splat.init": str(INIT_FILE.get("path")),
         "splat.normal_consistency": "0.05", "splat.normal_consistency_from": "0.3",
         "splat.depth_distortion": "100", "splat.colour_transform": "affine" if v == "gain" else "gain",
