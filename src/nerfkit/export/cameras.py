@@ -1,10 +1,11 @@
 """A run's cameras as nerfstudio's transforms.json: OpenGL camera-to-world matrices in the capture's
 own coordinates (where the run refined its poses, --pose-refine on, the poses it renders from:
 TrainedRun.seen_from, each training photo's refined pose and the other frames' given poses moved with
-the training rig; --poses given writes the capture's own), the lens of each photo at its size on disk (data/nerfstudio.camera_to_json),
-`file_path` / `mask_path` relative to the written file's folder when the photos lie inside it, else
-absolute, and every frame's split in the run as nerfstudio's train_filenames / val_filenames /
-test_filenames (nerfkit's nerfstudio reader and nerfstudio's both keep those splits)."""
+the training rig; --poses given writes the capture's own), the lens of each photo at its size on disk
+(data/nerfstudio.camera_to_json), `file_path` / `mask_path` relative to the written file's folder when
+the photos lie inside it, else absolute, and every frame's split in the run as nerfstudio's
+train_filenames / val_filenames / test_filenames (nerfkit's nerfstudio reader and nerfstudio's both
+keep those splits)."""
 
 from __future__ import annotations
 

@@ -41,9 +41,8 @@ HIDDEN_OPACITY = -30.0  # the logit an inactive slot is drawn with (sigmoid: 1e-
 
 def check_settings(g) -> None:
     """ConfigError for the splat settings g (config.SplatSettings) where --pose-rounds is under 1 (under 2 with
-    --pose-hold-last on), --pose-solves
-    under 0, --pose-solve-share outside (0, 1], --pose-warmup outside [0, 0.5) (the solves start at twice it), or
-    --pose-lr under 0, or 0 without solves (nothing would move the poses)."""
+    --pose-hold-last on), --pose-solves under 0, --pose-solve-share outside (0, 1], --pose-warmup outside [0, 0.5)
+    (the solves start at twice it), or --pose-lr under 0, or 0 without solves (nothing would move the poses)."""
     if g.pose_rounds < 1:
         raise ConfigError(f"--pose-rounds must be at least 1 (got {g.pose_rounds}); 1: one round")
     if g.pose_hold_last == "on" and g.pose_rounds < 2:
