@@ -50,13 +50,13 @@ def frame_splits(cap, train_spec: str, val_spec: str) -> list[tuple[object, str]
     return out
 
 
-def seen_poses(folder: RunFolder, cap, frames: list) -> np.ndarray | None:
+def seen_poses(folder: RunFolder, cfg, cap, frames: list) -> np.ndarray | None:
     """Capture-frame c2w [M, 4, 4] float64 of `frames` as the run renders them (rays/correction.run_poses, as
     TrainedRun.seen_from): each training photo at its refined pose, any other frame at its given pose moved by the
     similarity that maps the given training poses onto the refined ones; None where the run did not refine its
     poses. With the run's normalisation M, s (scene.json): undo_transform(M, s, run_poses(apply_transform(M, s,
-    c2w)))."""
-    if folder.config().train.pose_refine != "on":  # no corrections to read: no checkpoint needed
+    c2w))); cfg: the run's config."""
+    if cfg.train.pose_refine != "on":  # no corrections to read: no checkpoint needed
         return None
     try:
         run = folder.load()
@@ -65,7 +65,7 @@ def seen_poses(folder: RunFolder, cap, frames: list) -> np.ndarray | None:
     if not run.refined_poses:
         return None
     m, s = run.transform, float(run.scene["scale"])
-    train = cap.frames(run.cfg.data.train_split)
+    train = cap.frames(cfg.data.train_split)
     index = {id(f): k for k, f in enumerate(train)}
     given = apply_transform(m, s, np.stack([f.c2w for f in train]))
     try:
@@ -103,7 +103,7 @@ def export_cameras(run_dir: Path, out: Path | None = None, split: str | None = N
         chosen = {id(f) for f in cap.frames(split)}
         tagged = [(f, s) for f, s in tagged if id(f) in chosen]
     frames = [f for f, _ in tagged]
-    refined = seen_poses(folder, cap, frames) if poses == "refined" else None
+    refined = seen_poses(folder, cfg, cap, frames) if poses == "refined" else None
     c2ws = np.stack([f.c2w for f in frames]).astype(np.float64) if refined is None else refined
     rows = [{"file_path": relative_path(f.image, out.parent), "transform_matrix": c2w,
              "mask_path": relative_path(f.mask, out.parent) if f.mask is not None else None}
