@@ -62,7 +62,8 @@ def settled_render(client, c2w: np.ndarray, fov_y: float, deadline: float) -> np
     A fixed wait is a race on a loaded machine (CI once rendered viser's start-up view: 13 dB): the browser's
     first camera report can arrive after the pose was sent and overwrite it, and its sorter can lag the camera.
     So: wait for the browser's own camera report, send the pose, wait until the browser reports that pose back
-    (sending it again when it reports another), then render until two renders in a row agree.
+    (sending it again when it reports another), then render until two renders in a row agree, and start over if its
+    last report is then another pose.
     """
     reports = []
     client.camera.on_update(lambda cam: reports.append((cam.wxyz.copy(), cam.position.copy(), cam.fov)))
@@ -82,20 +83,25 @@ def settled_render(client, c2w: np.ndarray, fov_y: float, deadline: float) -> np
         return (min(np.abs(wxyz - want_wxyz).max(), np.abs(wxyz + want_wxyz).max()) < 1e-4
                 and np.abs(pos - want_pos).max() < 1e-4 and abs(fov - fov_y) < 1e-5)
 
-    while not (reports and there(reports[-1])):
-        seen = len(reports)
-        client.camera.wxyz, client.camera.position = want_wxyz, want_pos
-        client.camera.fov = fov_y
-        wait(lambda: len(reports) > seen, "the browser never reported the pose sent")
-        if reports and not there(reports[-1]):
-            time.sleep(0.2)  # let the reply settle before sending again
-    prev = None
     while True:
-        h, w = client.camera.image_height, client.camera.image_width
-        got = client.camera.get_render(height=h, width=w)[..., :3].astype(np.float32) / 255.0
-        if prev is not None and prev.shape == got.shape and np.abs(got - prev).max() <= 2 / 255:
+        while not (reports and there(reports[-1])):
+            seen = len(reports)
+            client.camera.wxyz, client.camera.position = want_wxyz, want_pos
+            client.camera.fov = fov_y
+            wait(lambda: len(reports) > seen, "the browser never reported the pose sent")
+            if reports and not there(reports[-1]):
+                time.sleep(0.2)  # let the reply settle before sending again
+        prev = None
+        while True:
+            h, w = client.camera.image_height, client.camera.image_width
+            got = client.camera.get_render(height=h, width=w)[..., :3].astype(np.float32) / 255.0
+            if prev is not None and prev.shape == got.shape and np.abs(got - prev).max() <= 2 / 255:
+                break
+            if time.time() > deadline:
+                raise RuntimeError("viser: two renders in a row never agreed, within the time allowed")
+            prev = got
+            time.sleep(0.5)
+        # Should the browser have reported another camera since (a camera message still on its way), those
+        # renders may be of another view: start over.
+        if there(reports[-1]):
             return got
-        if time.time() > deadline:
-            raise RuntimeError("viser: two renders in a row never agreed, within the time allowed")
-        prev = got
-        time.sleep(0.5)
