@@ -1530,6 +1530,17 @@ CHECKS = [
       *[((r, "runs", "exact", "eval_psnr_fitted_colour"), f2) for r in FORWARD_EXACT],
       *[((r, "runs", "both", "refined_pose_error", "degrees"), f3) for r in FORWARD_HOLD],
       *[((r, "runs", "both", "train_s"), f0) for r in FORWARD_HOLD]]),
+    ("docs/corrections.md", "All around at 256 px (20,000 Gaussians, training",
+     "All around at {} px (20,000 Gaussians, training seed {}, where two rounds came {} dB under the exact capture; "
+     "`probe_ring256_holdlast_6000steps_seed2.json`) it scores {} dB against the exact capture's {} and two rounds' {}, "
+     "the cameras {} degrees off.",
+     [(("probe_ring256_holdlast_6000steps_seed2.json", "size"), d),
+      ((lambda: _command_number("probe_ring256_holdlast_6000steps_seed2.json", "seed")), d),
+      ((lambda: mean_gap([CO("ring256_exact_seed2")], [CO("ring256_ctlr_rounds_gains_seed2")])), f2),
+      (("probe_ring256_holdlast_6000steps_seed2.json", "runs", "both", "eval_psnr_fitted_colour"), f2),
+      ((CO("ring256_exact_seed2"), "runs", "exact", "eval_psnr_fitted_colour"), f2),
+      ((CO("ring256_ctlr_rounds_gains_seed2"), "runs", "both", "eval_psnr_fitted_colour"), f2),
+      (("probe_ring256_holdlast_6000steps_seed2.json", "runs", "both", "refined_pose_error", "degrees"), f3)]),
     ("docs/corrections.md", "| procedural, all around, 320 px, at the default 50,000",
      "| procedural, all around, {} px, at the default {} Gaussians and {} steps a round, with `--pose-rounds {} "
      "--pose-hold-last on` (seeds {}, {} and {}) | not measured | **{} dB** | {} dB | {}-{} degrees, {}-{}% |",
