@@ -1413,7 +1413,7 @@ CHECKS = [
      [*[((lambda: _command_number(HOLD50[4], "seed")), d)] * 2, ((HOLD50[4], "runs", "both", "eval_psnr_fitted_colour"), f2),
       ((EXACT50[4], "runs", "exact", "eval_psnr_fitted_colour"), f2),
       ((lambda: seed_gaps(EXACT50, list(HOLD50.values()))[4]), f2), ((lambda: hold_wide(4)["psnr"]), f2),
-      ((lambda: exact_wide(4)["psnr"]), f2), ((lambda: abs(exact_wide(4)["psnr"] - hold_wide(4)["psnr"])), f2),
+      ((lambda: exact_wide(4)["psnr"]), f2), ((lambda: hold_wide(4)["psnr"] - exact_wide(4)["psnr"]), f2),
       ((HOLD50[4], "runs", "both", "refined_pose_error", "degrees"), f3),
       ((lambda: 100 * R(HOLD50[4], "runs", "both", "refined_pose_error", "radius_share")), f2),
       ((HOLD50[4], "runs", "both", "train_s"), f0)]),
