@@ -1,0 +1,136 @@
+"""Where on a held-out photo a splat run of a procedural capture loses: each photo's scored half split into the scene's
+objects (the pixels whose centre ray meets a procedural surface: the photo's exact z-depth is under OBJECT_DEPTH) and
+its far environment (every other pixel: the sphere around them), each scored as `nerfkit eval --fit-poses 10
+--fit-colour` scores the photo (pose fitted, colour fitted on the left half, the right half scored). On the
+capture's own held-out photos and on wide_holdout.py's photos midway between the ring's neighbours.
+
+    python benchmarks/region_scores.py RUN [RUN ...] --name NAME [--cache DIR]
+
+The renders are the ones `nerfkit eval` writes, 8-bit PNGs: their rounding puts each photo's PSNR 0.03-0.06 dB under
+eval's at 36-40 dB, alike for every run (both figures are in the record). Writes benchmarks/results/NAME.json: per
+run and per photo set, the mean PSNR over the photos of the whole scored half, of its objects and of its environment
+(each region's mean squared error over its pixels), and the same per photo.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from provenance import provenance
+from wide_holdout import midway_poses, photos
+
+ROOT = Path(__file__).resolve().parents[1]
+# The objects lie within SCENE_BOUNDS * sqrt(3) = 2.08 of the origin and the cameras CAMERA_RADIUS = 4 from it: z-depth
+# at most 6.08. The environment's sphere (ENV_RADIUS = 12) is at least 8 away along a ray, z-depth at least 7.1 at the
+# corner of a 40-degree view. Between the two: nothing (checked on every photo).
+OBJECT_DEPTH, GAP = 6.6, (6.1, 7.1)
+
+
+def midway_depths(cam, n: int, seed: int, supersample: int, cache: Path) -> np.ndarray:
+    """[n, H, W] exact z-depth of wide_holdout.py's midway photos, cached beside them."""
+    from nerfkit.data.procedural.captures import render_area
+
+    path = cache / f"midway_depth_{n}_{seed}_{cam.width}x{cam.height}_ss{supersample}.npy"
+    if not path.is_file():
+        cache.mkdir(parents=True, exist_ok=True)
+        np.save(path, np.stack([render_area(c2w, cam, True, supersample)[2] for c2w in midway_poses(n, seed)])
+                .astype(np.float32), allow_pickle=False)
+    return np.load(path, allow_pickle=False)
+
+
+def region_psnr(render: np.ndarray, photo: np.ndarray, objects: np.ndarray) -> dict:
+    """PSNR of render against photo ([H, W, 3] in [0, 1]) on the right half of the columns (what --fit-colour
+    scores): over all of it, over its pixels where objects [H, W] holds and over the rest (None for an empty
+    region), and the objects' share of its pixels."""
+    half = np.s_[:, photo.shape[1] // 2:]
+    err = np.mean((render[half] - photo[half]) ** 2, axis=-1)
+    obj = objects[half]
+
+    def db(sel):
+        return None if not sel.any() else round(float(-10.0 * np.log10(max(err[sel].mean(), 1e-12))), 3)
+
+    return {"all": db(np.ones_like(obj)), "objects": db(obj), "environment": db(~obj),
+            "object_share": round(float(obj.mean()), 4)}
+
+
+def score_set(renderer, trained, data, bg, fit_poses: int, depths: np.ndarray) -> dict:
+    """Score the photos of data as eval does (renders written to a scratch folder), then split each by region."""
+    import imageio.v3 as iio
+
+    from nerfkit.evaluation.evaluate import score_views
+
+    with tempfile.TemporaryDirectory() as tmp:
+        res = score_views(renderer, trained.params, trained.aux, data, 1, False, Path(tmp), bg, fit_poses, True)
+        renders = [iio.imread(Path(tmp) / f"view_{k:03d}_rgb.png")[..., :3].astype(np.float32) / 255.0
+                   for k in range(len(data))]
+    if np.any((depths > GAP[0]) & (depths < GAP[1])):
+        raise SystemExit("a photo has z-depths between the objects and the environment: not corrections.py's scene")
+    per_view = []
+    for k, (render, v) in enumerate(zip(renders, res["per_view"])):
+        per_view.append({"name": v["name"], "psnr_eval": round(v["psnr"], 3),
+                         **region_psnr(render, np.asarray(data.images[k]), depths[k] < OBJECT_DEPTH)})
+    mean = {key: round(float(np.mean([v[key] for v in per_view if v[key] is not None])), 3)
+            for key in ("psnr_eval", "all", "objects", "environment")}
+    return {**mean, "per_view": per_view}
+
+
+def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses: int) -> dict:
+    """The run's region scores on its capture's held-out photos and on the n midway photos (module docstring)."""
+    from nerfkit.core.viz import background_rgb
+    from nerfkit.data.loader import load_frames, read_capture
+    from nerfkit.data.normalize import apply_transform
+    from nerfkit.render.images import make_renderer
+    from nerfkit.run.folder import RunFolder
+
+    folder = RunFolder(run)
+    trained = folder.load(scene=False)
+    cfg, d = trained.cfg, trained.cfg.data
+    cap = read_capture(folder.data_dir(None), d.val_split, d.format, d.masks, d.holdout_every)
+    held = load_frames(cap, d.val_split, downscale=d.downscale, target_width=d.target_width, background=d.background)
+    cam = cap.frames(d.val_split)[0].camera
+    if cam.params or held.width != cam.width or len(cap.all_frames) != n:
+        raise SystemExit(f"{run}: region_scores.py scores full-size pinhole captures of --views photos "
+                         f"(corrections.py's)")
+    renderer, bg = make_renderer(trained.model, cfg.train.chunk), background_rgb(d.background)
+    root = Path(folder.data_dir(None))
+    held_depths = np.stack([np.load(root / "depth" / f"{Path(name).stem}.npy", allow_pickle=False)
+                            for name in held.names])
+    own = score_set(renderer, trained, dataclasses.replace(held, poses=trained.seen_from(d.val_split, held.poses)),
+                    bg, fit_poses, held_depths)
+    poses, images = photos(cam, n, seed, supersample, cache)
+    given = apply_transform(held.transform, held.scale, poses).astype(np.float32)
+    wide = dataclasses.replace(held, images=images, poses=trained.seen_from(d.val_split, given), cameras=[cam] * n,
+                               names=[f"wide_{k:03d}" for k in range(n)])
+    depths = midway_depths(cam, n, seed, supersample, cache)
+    return {"capture_held_out": own, "midway": score_set(renderer, trained, wide, bg, fit_poses, depths)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", nargs="+", type=Path)
+    ap.add_argument("--views", type=int, default=40, help="the capture's photos (corrections.py --views)")
+    ap.add_argument("--seed", type=int, default=3, help="the capture's ring (corrections.SEED)")
+    ap.add_argument("--supersample", type=int, default=4, help="as the capture was made (corrections.py --supersample)")
+    ap.add_argument("--fit-poses", type=int, default=10)
+    ap.add_argument("--cache", type=Path, default=Path("runs/wide_holdout"))
+    ap.add_argument("--name", default="region_scores")
+    a = ap.parse_args()
+    result = {"what": __doc__.split("\n\n")[0], "views": a.views, "ring_seed": a.seed,
+              "supersample": a.supersample, "fit_poses": a.fit_poses, "runs": {}}
+    for run in a.runs:
+        result["runs"][str(run)] = r = score(run, a.views, a.seed, a.supersample, a.cache, a.fit_poses)
+        for key in ("capture_held_out", "midway"):
+            print(run, key, {k: r[key][k] for k in ("psnr_eval", "all", "objects", "environment")}, flush=True)
+    result["provenance"] = provenance()
+    path = ROOT / "benchmarks" / "results" / f"{a.name}.json"
+    path.write_text(json.dumps(result, indent=2))
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
