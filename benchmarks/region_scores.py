@@ -6,8 +6,8 @@ capture's own held-out photos and on wide_holdout.py's photos midway between the
 
     python benchmarks/region_scores.py RUN [RUN ...] --name NAME [--cache DIR]
 
-The renders are the ones `nerfkit eval` writes, 8-bit PNGs: their rounding puts each photo's PSNR 0.03-0.06 dB under
-eval's at 36-40 dB, alike for every run (both figures are in the record). Writes benchmarks/results/NAME.json: per
+The renders are the ones `nerfkit eval` writes, 8-bit PNGs: their rounding puts a photo's PSNR 0.01-0.12 dB under
+eval's (the more, the closer the render), the photo set's mean 0.02-0.06, alike for every run (both are in the record). Writes benchmarks/results/NAME.json: per
 run and per photo set, the mean PSNR over the photos of the whole scored half, of its objects and of its environment
 (each region's mean squared error over its pixels), and the same per photo.
 """
