@@ -7,24 +7,21 @@ capture's own held-out photos and on wide_holdout.py's photos midway between the
     python benchmarks/region_scores.py RUN [RUN ...] --name NAME [--cache DIR]
 
 The renders are the ones `nerfkit eval` writes, 8-bit PNGs: their rounding puts a photo's PSNR 0.01-0.12 dB under
-eval's (the more, the closer the render), the photo set's mean 0.02-0.06, alike for every run (both are in the record). Writes benchmarks/results/NAME.json: per
-run and per photo set, the mean PSNR over the photos of the whole scored half, of its objects and of its environment
-(each region's mean squared error over its pixels), and the same per photo.
+eval's (the more, the closer the render), the photo set's mean 0.02-0.06, alike for every run (both are in the
+record). Writes benchmarks/results/NAME.json: per run and per photo set, the mean PSNR over the photos of the whole
+scored half, of its objects and of its environment (each region's mean squared error over its pixels), and the same
+per photo.
 """
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
-import json
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from provenance import provenance
-from wide_holdout import midway_poses, photos
+import wide_holdout
+from wide_holdout import load_run, midway_poses
 
-ROOT = Path(__file__).resolve().parents[1]
 # The objects lie within SCENE_BOUNDS * sqrt(3) = 2.08 of the origin and the cameras CAMERA_RADIUS = 4 from it: z-depth
 # at most 6.08. The environment's sphere (ENV_RADIUS = 12) is at least 8 away along a ray, z-depth at least 7.1 at the
 # corner of a 40-degree view. Between the two: nothing (checked on every photo).
@@ -81,56 +78,19 @@ def score_set(renderer, trained, data, bg, fit_poses: int, depths: np.ndarray) -
 
 def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses: int) -> dict:
     """The run's region scores on its capture's held-out photos and on the n midway photos (module docstring)."""
-    from nerfkit.core.viz import background_rgb
-    from nerfkit.data.loader import load_frames, read_capture
-    from nerfkit.data.normalize import apply_transform
-    from nerfkit.render.images import make_renderer
-    from nerfkit.run.folder import RunFolder
-
-    folder = RunFolder(run)
-    trained = folder.load(scene=False)
-    cfg, d = trained.cfg, trained.cfg.data
-    cap = read_capture(folder.data_dir(None), d.val_split, d.format, d.masks, d.holdout_every)
-    held = load_frames(cap, d.val_split, downscale=d.downscale, target_width=d.target_width, background=d.background)
-    cam = cap.frames(d.val_split)[0].camera
-    if cam.params or held.width != cam.width or len(cap.all_frames) != n:
-        raise SystemExit(f"{run}: region_scores.py scores full-size pinhole captures of --views photos "
-                         f"(corrections.py's)")
-    renderer, bg = make_renderer(trained.model, cfg.train.chunk), background_rgb(d.background)
-    root = Path(folder.data_dir(None))
-    held_depths = np.stack([np.load(root / "depth" / f"{Path(name).stem}.npy", allow_pickle=False)
-                            for name in held.names])
-    own = score_set(renderer, trained, dataclasses.replace(held, poses=trained.seen_from(d.val_split, held.poses)),
-                    bg, fit_poses, held_depths)
-    poses, images = photos(cam, n, seed, supersample, cache)
-    given = apply_transform(held.transform, held.scale, poses).astype(np.float32)
-    wide = dataclasses.replace(held, images=images, poses=trained.seen_from(d.val_split, given), cameras=[cam] * n,
-                               names=[f"wide_{k:03d}" for k in range(n)])
-    depths = midway_depths(cam, n, seed, supersample, cache)
-    return {"capture_held_out": own, "midway": score_set(renderer, trained, wide, bg, fit_poses, depths)}
+    r = load_run(run, n, seed, supersample, cache)
+    held_depths = np.stack([np.load(r.capture / "depth" / f"{Path(name).stem}.npy", allow_pickle=False)
+                            for name in r.held.names])
+    cam = r.midway.cameras[0]
+    return {"capture_held_out": score_set(r.renderer, r.trained, r.held, r.bg, fit_poses, held_depths),
+            "midway": score_set(r.renderer, r.trained, r.midway, r.bg, fit_poses,
+                                midway_depths(cam, n, seed, supersample, cache))}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", nargs="+", type=Path)
-    ap.add_argument("--views", type=int, default=40, help="the capture's photos (corrections.py --views)")
-    ap.add_argument("--seed", type=int, default=3, help="the capture's ring (corrections.SEED)")
-    ap.add_argument("--supersample", type=int, default=4, help="as the capture was made (corrections.py --supersample)")
-    ap.add_argument("--fit-poses", type=int, default=10)
-    ap.add_argument("--cache", type=Path, default=Path("runs/wide_holdout"))
-    ap.add_argument("--name", default="region_scores")
-    a = ap.parse_args()
-    result = {"what": __doc__.split("\n\n")[0], "views": a.views, "ring_seed": a.seed,
-              "supersample": a.supersample, "fit_poses": a.fit_poses, "runs": {}}
-    for run in a.runs:
-        result["runs"][str(run)] = r = score(run, a.views, a.seed, a.supersample, a.cache, a.fit_poses)
-        for key in ("capture_held_out", "midway"):
-            print(run, key, {k: r[key][k] for k in ("psnr_eval", "all", "objects", "environment")}, flush=True)
-    result["provenance"] = provenance()
-    path = ROOT / "benchmarks" / "results" / f"{a.name}.json"
-    path.write_text(json.dumps(result, indent=2))
-    print(f"wrote {path}")
+def show(result: dict) -> list[dict]:
+    return [{k: result[key][k] for k in ("psnr_eval", "all", "objects", "environment")}
+            for key in ("capture_held_out", "midway")]
 
 
 if __name__ == "__main__":
-    main()
+    wide_holdout.main(__doc__, score, "region_scores", show)

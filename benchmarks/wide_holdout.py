@@ -53,12 +53,25 @@ def photos(cam, n: int, seed: int, supersample: int, cache: Path) -> tuple[np.nd
     return poses, np.load(path, allow_pickle=False).astype(np.float32) / 255.0
 
 
-def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses: int) -> dict:
-    """The run's scores on the n new photos of a capture of n photos on ring_poses(n, seed) (module docstring)."""
+@dataclasses.dataclass
+class ScoredRun:
+    """A corrections.py run loaded to be scored: its trained model, renderer and background, its capture's folder, its
+    capture's own held-out photos (their poses as the run sees them) and the midway photos (as the run sees them)."""
+
+    trained: object
+    renderer: object
+    bg: object
+    capture: Path
+    held: object
+    midway: object
+
+
+def load_run(run: Path, n: int, seed: int, supersample: int, cache: Path) -> ScoredRun:
+    """Load run, a corrections.py run on a capture of n photos on ring_poses(n, seed), with its held-out photos and
+    the n midway photos (their photos rendered once into cache), given to it as the capture's held-out photos are."""
     from nerfkit.core.viz import background_rgb
     from nerfkit.data.loader import load_frames, read_capture
     from nerfkit.data.normalize import apply_transform
-    from nerfkit.evaluation.evaluate import score_views
     from nerfkit.render.images import make_renderer
     from nerfkit.run.folder import RunFolder
 
@@ -69,38 +82,49 @@ def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses
     held = load_frames(cap, d.val_split, downscale=d.downscale, target_width=d.target_width, background=d.background)
     cam = cap.frames(d.val_split)[0].camera
     if cam.params or held.width != cam.width:
-        raise SystemExit(f"{run}: wide_holdout.py scores full-size pinhole captures (corrections.py's)")
+        raise SystemExit(f"{run}: only full-size pinhole captures (corrections.py's) are scored")
     if len(cap.all_frames) != n:
         raise SystemExit(f"{run}: its capture has {len(cap.all_frames)} photos, not --views {n}")
     poses, images = photos(cam, n, seed, supersample, cache)
     given = apply_transform(held.transform, held.scale, poses).astype(np.float32)
-    data = dataclasses.replace(held, images=images, poses=trained.seen_from(d.val_split, given),
-                               cameras=[cam] * n, names=[f"wide_{k:03d}" for k in range(n)])
-    renderer, bg = make_renderer(trained.model, cfg.train.chunk), background_rgb(d.background)
-    res = score_views(renderer, trained.params, trained.aux, data, 1, False, None, bg, fit_poses, True)
+    midway = dataclasses.replace(held, images=images, poses=trained.seen_from(d.val_split, given),
+                                 cameras=[cam] * n, names=[f"wide_{k:03d}" for k in range(n)])
+    return ScoredRun(trained, make_renderer(trained.model, cfg.train.chunk), background_rgb(d.background),
+                     Path(folder.data_dir(None)),
+                     dataclasses.replace(held, poses=trained.seen_from(d.val_split, held.poses)), midway)
+
+
+def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses: int) -> dict:
+    """The run's scores on the n new photos of a capture of n photos on ring_poses(n, seed) (module docstring)."""
+    from nerfkit.evaluation.evaluate import score_views
+
+    r = load_run(run, n, seed, supersample, cache)
+    res = score_views(r.renderer, r.trained.params, r.trained.aux, r.midway, 1, False, None, r.bg, fit_poses, True)
     per_view = [round(v["psnr"], 3) for v in res["per_view"]]
-    own = score_views(renderer, trained.params, trained.aux, dataclasses.replace(
-        held, poses=trained.seen_from(d.val_split, held.poses)), 1, False, None, bg, fit_poses, True)
+    own = score_views(r.renderer, r.trained.params, r.trained.aux, r.held, 1, False, None, r.bg, fit_poses, True)
     return {"psnr": round(res["psnr"], 3), "per_view": per_view, "median": round(float(np.median(per_view)), 3),
-            "capture_held_out": {"names": held.names, "psnr": round(own["psnr"], 3),
+            "capture_held_out": {"names": r.held.names, "psnr": round(own["psnr"], 3),
                                  "per_view": [round(v["psnr"], 3) for v in own["per_view"]]}}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(doc: str = __doc__, scorer=score, name: str = "wide_holdout",
+         show=lambda r: (r["psnr"], r["per_view"])) -> None:
+    """Score each RUN of the command line with scorer (this module's score, or region_scores.py's) and write the
+    record NAME.json; show(result) is what is printed per run."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", type=Path)
     ap.add_argument("--views", type=int, default=40, help="the capture's photos (corrections.py --views)")
     ap.add_argument("--seed", type=int, default=3, help="the capture's ring (corrections.SEED)")
     ap.add_argument("--supersample", type=int, default=4, help="as the capture was made (corrections.py --supersample)")
     ap.add_argument("--fit-poses", type=int, default=10)
     ap.add_argument("--cache", type=Path, default=Path("runs/wide_holdout"))
-    ap.add_argument("--name", default="wide_holdout")
+    ap.add_argument("--name", default=name)
     a = ap.parse_args()
-    result = {"what": __doc__.split("\n\n")[0], "views": a.views, "ring_seed": a.seed,
+    result = {"what": doc.split("\n\n")[0], "views": a.views, "ring_seed": a.seed,
               "supersample": a.supersample, "fit_poses": a.fit_poses, "runs": {}}
     for run in a.runs:
-        result["runs"][str(run)] = r = score(run, a.views, a.seed, a.supersample, a.cache, a.fit_poses)
-        print(run, r["psnr"], r["per_view"], flush=True)
+        result["runs"][str(run)] = r = scorer(run, a.views, a.seed, a.supersample, a.cache, a.fit_poses)
+        print(run, *show(r), flush=True)
     result["provenance"] = provenance()
     path = ROOT / "benchmarks" / "results" / f"{a.name}.json"
     path.write_text(json.dumps(result, indent=2))
