@@ -61,12 +61,12 @@ def score_set(renderer, trained, data, bg, fit_poses: int, depths: np.ndarray) -
 
     from nerfkit.evaluation.evaluate import score_views
 
+    if np.any((depths > GAP[0]) & (depths < GAP[1])):
+        raise SystemExit("a photo has z-depths between the objects and the environment: not corrections.py's scene")
     with tempfile.TemporaryDirectory() as tmp:
         res = score_views(renderer, trained.params, trained.aux, data, 1, False, Path(tmp), bg, fit_poses, True)
         renders = [iio.imread(Path(tmp) / f"view_{k:03d}_rgb.png")[..., :3].astype(np.float32) / 255.0
                    for k in range(len(data))]
-    if np.any((depths > GAP[0]) & (depths < GAP[1])):
-        raise SystemExit("a photo has z-depths between the objects and the environment: not corrections.py's scene")
     per_view = []
     for k, (render, v) in enumerate(zip(renders, res["per_view"])):
         per_view.append({"name": v["name"], "psnr_eval": round(v["psnr"], 3),
