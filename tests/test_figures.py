@@ -6,7 +6,7 @@ longer where its check looks.
 
 A check: (page, anchor, pattern, values). The anchor picks the region: the table row holding it, else the
 paragraph (lines joined by spaces); ("text", n) picks the n-th such region. In the pattern `{}` stands for a
-number (its capture), `{h}` for a commit hash; each value is a (record, key, ...) path with a format, or a
+number (its capture), `{h}` for a commit hash, `{w}` for a count spelt out (`word`); each value is a (record, key, ...) path with a format, or a
 function of the records with a format."""
 
 from __future__ import annotations
@@ -54,6 +54,7 @@ def _command_number(name: str, flag: str = "views", default: int | None = None) 
 f0, f1, f2, f3, f4 = "{:.0f}".format, "{:.1f}".format, "{:.2f}".format, "{:.3f}".format, "{:.4f}".format
 d = "{:d}".format
 thousands = "{:,}".format
+word = ("zero one two three four five six seven eight nine ten".split()).__getitem__  # a count as the prose spells it
 
 
 def pct0(v):
@@ -394,10 +395,10 @@ PULL50 = ["pose_pull_ring320_cap50k_8000steps_seed1.json", "pose_pull_ring320_ex
 # wide_holdout.py on LONG50's exact runs (seeds 0-2), LONG50_RUNS (0-2) and LONG50's colour runs (1, 2), in that order
 WIDE50 = "wide_holdout_ring320_cap50k.json"
 HELD50 = [f"wide_holdout_ring320_cap50k_heldposes_seed{s}.json" for s in range(3)]  # LONG50_RUNS' poses, held, 4000 steps
-HOLD50 = {k: f"probe_ring320_holdlast_cap50k_12000steps_seed{k}.json" for k in range(5)}  # --pose-hold-last on, by training seed
-# wide_holdout.py on HOLD50's runs: seeds 0-2 the held run alone, seeds 3-4 their exact capture (EXACT50) and the held run
+HOLD50 = {k: f"probe_ring320_holdlast_cap50k_12000steps_seed{k}.json" for k in range(6)}  # --pose-hold-last on, by training seed
+# wide_holdout.py on HOLD50's runs: seeds 0-2 the held run alone, seeds 3-5 their exact capture (EXACT50) and the held run
 HOLD50_WIDE = {k: f"wide_holdout_ring320_holdlast_cap50k_seed{k}.json" for k in HOLD50}
-EXACT50 = [*LONG50, *[f"probe_ring320_exact_4000steps_cap50k_seed{s}.json" for s in (3, 4)]]  # the exact capture, by seed
+EXACT50 = [*LONG50, *[f"probe_ring320_exact_4000steps_cap50k_seed{s}.json" for s in (3, 4, 5)]]  # the exact capture, by seed
 # region_scores.py on EXACT50[k]'s run, then HOLD50[k]'s: each photo's objects and environment scored apart
 REGIONS50 = {k: f"region_scores_ring320_holdlast_cap50k_seed{k}.json" for k in HOLD50}
 WIDE50_RUNS = [*[(r, "exact") for r in LONG50], *[(r, "both") for r in LONG50_RUNS], *[(r, "colour") for r in LONG50[1:]]]
@@ -1451,11 +1452,35 @@ CHECKS = [
       ((HOLD50[4], "runs", "both", "refined_pose_error", "degrees"), f3),
       ((lambda: 100 * R(HOLD50[4], "runs", "both", "refined_pose_error", "radius_share")), f2),
       ((HOLD50[4], "runs", "both", "train_s"), f0)]),
+    ("docs/corrections.md", "`--pose-hold-last on` does the same in one run",
+     "s. Training seed {} the same way (the same records with `_seed{}`) scores {} dB on the five against {}, {} over, "
+     "and {} on the forty against {}, {} over, with the cameras {} degrees and {}% off, in {} s.",
+     [*[((lambda: _command_number(HOLD50[5], "seed")), d)] * 2, ((HOLD50[5], "runs", "both", "eval_psnr_fitted_colour"), f2),
+      ((EXACT50[5], "runs", "exact", "eval_psnr_fitted_colour"), f2),
+      ((lambda: -seed_gaps(EXACT50, list(HOLD50.values()))[5]), f2), ((lambda: hold_wide(5)["psnr"]), f2),
+      ((lambda: exact_wide(5)["psnr"]), f2), ((lambda: hold_wide(5)["psnr"] - exact_wide(5)["psnr"]), f2),
+      ((HOLD50[5], "runs", "both", "refined_pose_error", "degrees"), f3),
+      ((lambda: 100 * R(HOLD50[5], "runs", "both", "refined_pose_error", "radius_share")), f2),
+      ((HOLD50[5], "runs", "both", "train_s"), f0)]),
+    ("docs/corrections.md", "`--pose-hold-last on` does the same in one run",
+     "the exact capture alone scores between {} and {} on them across the {w} seeds.",
+     [((lambda: min(R(r, "runs", "exact", "eval_psnr_fitted_colour") for r in EXACT50)), f2),
+      ((lambda: max(R(r, "runs", "exact", "eval_psnr_fitted_colour") for r in EXACT50)), f2),
+      ((lambda: len(EXACT50)), word)]),
+    ("docs/corrections.md", "**Which to use.**",
+     "default {} Gaussians it brought {w} training seeds of {w} within half a dB of the exact poses on the capture's five "
+     "held-out photos ({} dB under on the mean) and all {w} on forty more,",
+     [((lambda: _command_number(HOLD50[0], "capacity")), thousands),
+      ((lambda: sum(gap < 0.5 for gap in seed_gaps(EXACT50, list(HOLD50.values())))), word),
+      ((lambda: len(HOLD50)), word), ((lambda: mean_gap(EXACT50, list(HOLD50.values()))), f2),
+      ((lambda: sum(exact_wide(k)["psnr"] - hold_wide(k)["psnr"] < 0.5 for k in HOLD50)), word)]),
     ("docs/methods.md", "grows it once more at the refined poses, held,",
-     "within half a dB on four training seeds of five ({} dB under on seed {}, whose forty photos midway between "
-     "the capture's come within {} and whose objects within {} on the five: the environment around them is what it "
-     "loses);",
-     [((lambda: max(seed_gaps(EXACT50, list(HOLD50.values())))), f2), ((lambda: _command_number(HOLD50[3], "seed")), d),
+     "within half a dB on {w} training seeds of {w} ({} dB under on the mean; {} dB under on seed {}, whose forty photos "
+     "midway between the capture's come within {} and whose objects within {} on the five: the environment around "
+     "them is what it loses);",
+     [((lambda: sum(gap < 0.5 for gap in seed_gaps(EXACT50, list(HOLD50.values())))), word),
+      ((lambda: len(HOLD50)), word), ((lambda: mean_gap(EXACT50, list(HOLD50.values()))), f2),
+      ((lambda: max(seed_gaps(EXACT50, list(HOLD50.values())))), f2), ((lambda: _command_number(HOLD50[3], "seed")), d),
       ((lambda: exact_wide(3)["psnr"] - hold_wide(3)["psnr"]), f2),
       ((lambda: region_gap(3, "capture_held_out", "objects")), f2)]),
     ("docs/corrections.md", "Solving each photo's pose against a scene that never saw it",
@@ -2397,10 +2422,11 @@ _NUMBER = r"([0-9]+(?:[.,][0-9]+)*)"
 
 
 def _regex(pattern: str) -> re.Pattern:
-    parts = re.split(r"(\{h?\})", pattern)
+    parts = re.split(r"(\{[hw]?\})", pattern)  # {} a number, {h} a commit, {w} a count spelt out (word)
     out = []
     for part in parts:
-        out.append(_NUMBER if part == "{}" else r"([0-9a-f]{7,40})" if part == "{h}" else re.escape(part))
+        out.append(_NUMBER if part == "{}" else r"([0-9a-f]{7,40})" if part == "{h}" else r"([a-z]+)" if part == "{w}"
+                   else re.escape(part))
     return re.compile("".join(out))
 
 
@@ -2487,14 +2513,15 @@ def test_the_wide_holdout_runs_are_the_quoted_runs():
 
 def test_the_held_round_is_ahead_where_the_pages_say():
     """The corrections page: facing one way, --pose-hold-last on scored above two rounds with every seed; all around at
-    50,000 Gaussians four seeds of five within half a dB of their exact capture on the five held-out photos (seed 3
-    not), and every seed on the forty midway photos."""
+    50,000 Gaussians five seeds of six within half a dB of their exact capture on the five held-out photos (seed 3
+    not) and 0.18 dB under on the mean, and every seed on the forty midway photos."""
     for held, two in zip(FORWARD_HOLD, FORWARD_FAST):
         assert _command_number(held, "seed", 0) == _command_number(two, "seed", 0)
         assert R(held, "runs", "both", "eval_psnr_fitted_colour") > R(two, "runs", "both", "eval_psnr_fitted_colour")
     assert list(HOLD50) == [_command_number(r, "seed") for r in EXACT50]
     gaps = seed_gaps(EXACT50, list(HOLD50.values()))
-    assert len(gaps) == 5 and [k for k, gap in enumerate(gaps) if gap >= 0.5] == [3], gaps
+    assert len(gaps) == 6 and [k for k, gap in enumerate(gaps) if gap >= 0.5] == [3], gaps
+    assert abs(sum(gaps) / len(gaps)) < 0.5
     assert all(exact_wide(k)["psnr"] - hold_wide(k)["psnr"] < 0.5 for k in HOLD50)
     # on the five, the objects within half a dB with every seed; seed 3's miss is its environment's
     assert all(region_gap(k, "capture_held_out", "objects") < 0.5 for k in REGIONS50)
