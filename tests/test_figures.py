@@ -6,8 +6,8 @@ longer where its check looks.
 
 A check: (page, anchor, pattern, values). The anchor picks the region: the table row holding it, else the
 paragraph (lines joined by spaces); ("text", n) picks the n-th such region. In the pattern `{}` stands for a
-number (its capture), `{h}` for a commit hash, `{w}` for a count spelt out (`word`); each value is a (record, key, ...) path with a format, or a
-function of the records with a format."""
+number (its capture), `{h}` for a commit hash, `{w}` for a count spelt out (`word`); each value is a (record,
+key, ...) path with a format, or a function of the records with a format."""
 
 from __future__ import annotations
 
