@@ -4,7 +4,9 @@ its far environment (every other pixel: the sphere around them), each scored as 
 --fit-colour` scores the photo (pose fitted, colour fitted on the left half, the right half scored). On the
 capture's own held-out photos and on wide_holdout.py's photos midway between the ring's neighbours.
 
-    python benchmarks/region_scores.py RUN [RUN ...] --name NAME [--cache DIR]
+    python benchmarks/region_scores.py RUN [RUN ...] --name NAME [--cache DIR] [--sets held midway]
+
+--sets held scores the five alone (a minute a run, where the forty take about five).
 
 The renders are the ones `nerfkit eval` writes, 8-bit PNGs: their rounding puts a photo's PSNR 0.01-0.12 dB under
 eval's (the more, the closer the render), the photo set's mean 0.02-0.06, alike for every run (both are in the
@@ -76,21 +78,31 @@ def score_set(renderer, trained, data, bg, fit_poses: int, depths: np.ndarray) -
     return {**mean, "per_view": per_view}
 
 
-def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses: int) -> dict:
-    """The run's region scores on its capture's held-out photos and on the n midway photos (module docstring)."""
+def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses: int,
+          sets: tuple = ("held", "midway")) -> dict:
+    """The run's region scores on its capture's held-out photos ("held" in sets) and on the n midway photos
+    ("midway"; module docstring)."""
     r = load_run(run, n, seed, supersample, cache)
-    held_depths = np.stack([np.load(r.capture / "depth" / f"{Path(name).stem}.npy", allow_pickle=False)
-                            for name in r.held.names])
-    cam = r.midway.cameras[0]
-    return {"capture_held_out": score_set(r.renderer, r.trained, r.held, r.bg, fit_poses, held_depths),
-            "midway": score_set(r.renderer, r.trained, r.midway, r.bg, fit_poses,
-                                midway_depths(cam, n, seed, supersample, cache))}
+    out = {}
+    if "held" in sets:
+        held_depths = np.stack([np.load(r.capture / "depth" / f"{Path(name).stem}.npy", allow_pickle=False)
+                                for name in r.held.names])
+        out["capture_held_out"] = score_set(r.renderer, r.trained, r.held, r.bg, fit_poses, held_depths)
+    if "midway" in sets:
+        out["midway"] = score_set(r.renderer, r.trained, r.midway, r.bg, fit_poses,
+                                  midway_depths(r.midway.cameras[0], n, seed, supersample, cache))
+    return out
 
 
 def show(result: dict) -> list[dict]:
-    return [{k: result[key][k] for k in ("psnr_eval", "all", "objects", "environment")}
-            for key in ("capture_held_out", "midway")]
+    return [{k: result[key][k] for k in ("psnr_eval", "all", "objects", "environment")} for key in result]
+
+
+def options(ap) -> tuple[str, ...]:
+    ap.add_argument("--sets", nargs="+", choices=("held", "midway"), default=["held", "midway"],
+                    help="the photo sets to score: the capture's own held-out photos, the midway photos")
+    return ("sets",)
 
 
 if __name__ == "__main__":
-    wide_holdout.main(__doc__, score, "region_scores", show)
+    wide_holdout.main(__doc__, score, "region_scores", show, options)

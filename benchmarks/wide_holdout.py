@@ -108,9 +108,10 @@ def score(run: Path, n: int, seed: int, supersample: int, cache: Path, fit_poses
 
 
 def main(doc: str = __doc__, scorer=score, name: str = "wide_holdout",
-         show=lambda r: (r["psnr"], r["per_view"])) -> None:
+         show=lambda r: (r["psnr"], r["per_view"]), options=lambda ap: ()) -> None:
     """Score each RUN of the command line with scorer (this module's score, or region_scores.py's) and write the
-    record NAME.json; show(result) is what is printed per run."""
+    record NAME.json; show(result) is what is printed per run. options(ap) adds the scorer's own arguments and
+    returns their names: they reach it as keywords, and the record."""
     ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", type=Path)
     ap.add_argument("--views", type=int, default=40, help="the capture's photos (corrections.py --views)")
@@ -119,11 +120,13 @@ def main(doc: str = __doc__, scorer=score, name: str = "wide_holdout",
     ap.add_argument("--fit-poses", type=int, default=10)
     ap.add_argument("--cache", type=Path, default=Path("runs/wide_holdout"))
     ap.add_argument("--name", default=name)
+    names = options(ap)
     a = ap.parse_args()
+    own = {k: getattr(a, k) for k in names}
     result = {"what": doc.split("\n\n")[0], "views": a.views, "ring_seed": a.seed,
-              "supersample": a.supersample, "fit_poses": a.fit_poses, "runs": {}}
+              "supersample": a.supersample, "fit_poses": a.fit_poses, **own, "runs": {}}
     for run in a.runs:
-        result["runs"][str(run)] = r = scorer(run, a.views, a.seed, a.supersample, a.cache, a.fit_poses)
+        result["runs"][str(run)] = r = scorer(run, a.views, a.seed, a.supersample, a.cache, a.fit_poses, **own)
         print(run, *show(r), flush=True)
     result["provenance"] = provenance()
     path = ROOT / "benchmarks" / "results" / f"{a.name}.json"
